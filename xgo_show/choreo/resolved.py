@@ -1,0 +1,122 @@
+"""The resolved show: what the loader hands to the compiler.
+
+Everything here is already validated against the device profiles, with times in seconds from
+show start (tempo, bars/beats, phrases, repeats and includes are expanded away) and values in
+physical units keyed by register name. The compiler is a pure function of this.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Literal
+
+from xgo_show.diagnostics import Origin
+from xgo_show.profiles.model import Limits
+
+__all__ = [
+    "ActionCue",
+    "ArmCue",
+    "Cue",
+    "FadeCue",
+    "MotionCue",
+    "ResolvedShow",
+    "ResolvedTrack",
+    "SetCue",
+]
+
+FailurePolicy = Literal["halt_all", "continue"]
+
+
+@dataclass(frozen=True)
+class ActionCue:
+    """Run a preset action (register 0x3E) for ``duration`` seconds."""
+
+    start: float
+    origin: Origin
+    action_id: int
+    name: str
+    duration: float
+    duration_given: bool = False  # the user gave it (e.g. Rider actions have no documented time)
+    interrupts: bool = False  # may interrupt a still-running action on purpose
+
+
+@dataclass(frozen=True)
+class MotionCue:
+    """Move registers to physical targets along one synchronised jerk-limited trajectory.
+
+    ``duration`` None means "as fast as the limits allow". ``limits`` overrides the profile's
+    per-register limits. Multi-point paths are consecutive MotionCues.
+    """
+
+    start: float
+    origin: Origin
+    targets: Mapping[str, float]
+    duration: float | None = None
+    limits: Mapping[str, Limits] = field(default_factory=dict)
+    interrupts: bool = False
+
+
+@dataclass(frozen=True)
+class SetCue:
+    """Write register values at once: settings, speeds, periodic motions, LED colours, gripper.
+
+    Values are physical numbers for linear registers, choice names or numbers for enum
+    registers, (r, g, b) tuples for RGB registers.
+    """
+
+    start: float
+    origin: Origin
+    values: Mapping[str, object]
+    interrupts: bool = False
+
+
+@dataclass(frozen=True)
+class FadeCue:
+    """Fade an RGB register from its current colour to ``to`` over ``duration`` seconds."""
+
+    start: float
+    origin: Origin
+    register: str
+    to: tuple[int, int, int]
+    duration: float
+
+
+@dataclass(frozen=True)
+class ArmCue:
+    """xArm: move servos (id -> position 0..1000) in ``duration`` seconds (one ServoMove)."""
+
+    start: float
+    origin: Origin
+    positions: Mapping[int, int]
+    duration: float
+
+
+Cue = ActionCue | MotionCue | SetCue | FadeCue | ArmCue
+
+
+@dataclass(frozen=True)
+class ResolvedTrack:
+    """One performer's cues, sorted by start time."""
+
+    performer: str
+    model: str
+    cues: tuple[Cue, ...]
+    port: str | None = None
+
+
+@dataclass(frozen=True)
+class ResolvedShow:
+    """A validated, fully expanded show."""
+
+    name: str
+    source: str  # path of the top-level file
+    tracks: tuple[ResolvedTrack, ...]
+    control_rate: float = 50.0  # Hz, trajectory sampling
+    gap: float | None = None  # s of silence between frames; None = the profile's default
+    decimate: bool = False  # allow dropping trajectory samples that do not fit the link
+    on_failure: FailurePolicy = "halt_all"
+    battery_floor: int = 20  # percent (XGO) below which pre-flight fails / telemetry faults
+    end: float | None = None  # explicit show end in seconds, else the last cue's end
+    bpm: float | None = None  # for progress display only (times are already in seconds)
+    beats_per_bar: int = 4

@@ -1,0 +1,68 @@
+"""The compiled schedule: what the compiler produces and the runtime executes.
+
+A schedule holds, per performer, the exact wire bytes of every frame and the planned time its
+first byte goes out (seconds from show start), already paced to the performer's link.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.profiles.model import Link
+
+__all__ = ["SCHEDULE_VERSION", "PerformerSchedule", "Schedule", "ScheduledFrame"]
+
+SCHEDULE_VERSION = 1
+
+
+@dataclass(frozen=True)
+class ScheduledFrame:
+    """One frame: planned send time, exact bytes, where it came from, what it says."""
+
+    t: float
+    data: bytes
+    origin: Origin | None = None
+    label: str = ""  # e.g. "body_z=98.0mm roll=5.0deg" — for transcripts and progress
+
+
+@dataclass(frozen=True)
+class PerformerSchedule:
+    """One performer's paced frames."""
+
+    name: str
+    model: str
+    link: Link
+    frames: tuple[ScheduledFrame, ...]
+    end: float  # seconds: when this performer's part is over (last cue end)
+    port: str | None = None
+
+    @property
+    def total_bytes(self) -> int:
+        return sum(len(f.data) for f in self.frames)
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """A whole show, compiled."""
+
+    name: str
+    source: str
+    performers: tuple[PerformerSchedule, ...]
+    control_rate: float
+    on_failure: str = "halt_all"
+    battery_floor: int = 20
+    warnings: tuple[Diagnostic, ...] = ()
+    version: int = SCHEDULE_VERSION
+    bpm: float | None = None
+    beats_per_bar: int = 4
+
+    @property
+    def duration(self) -> float:
+        return max((p.end for p in self.performers), default=0.0)
+
+    def performer(self, name: str) -> PerformerSchedule:
+        for p in self.performers:
+            if p.name == name:
+                return p
+        raise KeyError(name)

@@ -1,0 +1,43 @@
+"""Where things came from and what is wrong with them: shared by loader, compiler and runtime."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+__all__ = ["Diagnostic", "Origin", "Severity"]
+
+Severity = Literal["error", "warning"]
+
+
+@dataclass(frozen=True)
+class Origin:
+    """A place in a choreography file, and the cue it belongs to (for messages and transcripts)."""
+
+    file: str
+    line: int
+    column: int
+    cue: str = ""
+
+    def __str__(self) -> str:
+        where = f"{self.file}:{self.line}:{self.column}"
+        return f"{where} ({self.cue})" if self.cue else where
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    """One problem found in a routine: an error fails validation, a warning does not."""
+
+    severity: Severity
+    message: str
+    origin: Origin | None = None
+    path: str = ""  # field path inside the document, e.g. "tracks.rex[3].to.body_z"
+
+    def format(self) -> str:
+        where = f"{self.origin.file}:{self.origin.line}:{self.origin.column}: " if self.origin else ""
+        path = f"{self.path}: " if self.path else ""
+        return f"{where}{self.severity}: {path}{self.message}"
+
+    @property
+    def is_error(self) -> bool:
+        return self.severity == "error"

@@ -1,0 +1,254 @@
+"""Data types for device profiles: registers, actions, link and capabilities.
+
+A profile is data, not code: the per-model tables in this package build these objects and every
+other layer (compiler, simulator, runtime) reads them. Conversions between physical values and
+register bytes live on :class:`Register` so that there is exactly one implementation.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+import struct
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from xgo_show.errors import ProfileError, ValueRangeError
+
+__all__ = [
+    "Access",
+    "Action",
+    "Encoding",
+    "Limits",
+    "Link",
+    "Profile",
+    "Register",
+]
+
+
+class Access(enum.Enum):
+    READ = "read"
+    WRITE = "write"
+    READ_WRITE = "read-write"
+
+    @property
+    def readable(self) -> bool:
+        return self is not Access.WRITE
+
+    @property
+    def writable(self) -> bool:
+        return self is not Access.READ
+
+
+class Encoding(enum.Enum):
+    """How a register's bytes encode its value."""
+
+    U8 = "u8"  # one byte; linear physical range when Register.minimum/maximum are set
+    U8_PERIODIC = "u8-periodic"  # 0x00 = off, 0x01..0xFF linear over [minimum, maximum]
+    ENUM = "enum"  # one byte with named values (Register.choices)
+    FLOAT32 = "float32"  # 4 bytes little-endian IEEE 754
+    INT16 = "int16"  # 2 bytes signed, big-endian (as the vendor library reads 0x66..0x68)
+    RGB = "rgb"  # 3 bytes r, g, b
+    ASCII = "ascii"  # fixed-size ASCII string, NUL padded
+    BLOCK = "block"  # opaque fixed-size block (e.g. the 24-byte IMU block at 0x65)
+
+
+@dataclass(frozen=True)
+class Limits:
+    """Kinematic limits for trajectories, in the register's physical unit per second^n."""
+
+    velocity: float
+    acceleration: float
+    jerk: float
+
+
+@dataclass(frozen=True)
+class Register:
+    """One register (or multi-byte field) in a robot's memory table.
+
+    For linear ``U8`` registers, :meth:`to_byte` maps ``[minimum, maximum]`` onto 0x00..0xFF.
+    When the range straddles zero the map is piecewise linear through (0, 0x80), so that zero
+    is exactly the documented neutral 0x80 (the vendor library truncates zero speed to 0x7F and
+    its "stop" creeps). Rounding is to nearest. Values outside the range raise
+    :class:`ValueRangeError`; nothing is silently clamped.
+    """
+
+    address: int
+    name: str
+    access: Access
+    encoding: Encoding = Encoding.U8
+    size: int = 1
+    initial: bytes | None = None
+    unit: str | None = None
+    minimum: float | None = None
+    maximum: float | None = None
+    description: str = ""
+    choices: Mapping[str, int] = field(default_factory=dict)
+    unsafe: bool = False  # never touched during a show (firmware, calibration, rename, unload…)
+    limits: Limits | None = None  # default trajectory limits; None = not trajectory-capable
+    group: str = ""  # what kind of control this is: "speed", "posture", "periodic", "leg", …
+
+    @property
+    def linear(self) -> bool:
+        return self.minimum is not None and self.maximum is not None
+
+    @property
+    def end(self) -> int:
+        """First address after this register."""
+        return self.address + self.size
+
+    def check(self, value: float) -> None:
+        """Raise :class:`ValueRangeError` if ``value`` is outside the physical range."""
+        if not self.linear:
+            return
+        assert self.minimum is not None and self.maximum is not None
+        if math.isnan(value) or not self.minimum - 1e-9 <= value <= self.maximum + 1e-9:
+            unit = f" {self.unit}" if self.unit else ""
+            raise ValueRangeError(
+                f"{self.name} = {value:g}{unit} is out of range "
+                f"[{self.minimum:g}, {self.maximum:g}]{unit}"
+            )
+
+    def to_byte(self, value: float) -> int:
+        """Physical value -> register byte (linear U8 and U8_PERIODIC registers)."""
+        if self.encoding is Encoding.U8_PERIODIC and value == 0:
+            return 0
+        if not self.linear:
+            if isinstance(value, float) and not value.is_integer():
+                raise ValueRangeError(f"{self.name} takes a whole byte value, not {value:g}")
+            if not 0 <= value <= 0xFF:
+                raise ValueRangeError(f"{self.name} = {value:g} is not a byte (0..255)")
+            return int(value)
+        self.check(value)
+        lo, hi = self.minimum, self.maximum
+        assert lo is not None and hi is not None
+        value = min(max(value, lo), hi)  # absorb the 1e-9 tolerance of check()
+        if self.encoding is Encoding.U8_PERIODIC:
+            return 1 + round((value - lo) / (hi - lo) * 254)
+        if lo < 0 < hi:
+            if value >= 0:
+                return 0x80 + round(value / hi * 0x7F)
+            return 0x80 - round(value / lo * 0x80)
+        return round((value - lo) / (hi - lo) * 0xFF)
+
+    def to_physical(self, byte: int) -> float:
+        """Register byte -> physical value (inverse of :meth:`to_byte`)."""
+        if not self.linear:
+            return float(byte)
+        lo, hi = self.minimum, self.maximum
+        assert lo is not None and hi is not None
+        if self.encoding is Encoding.U8_PERIODIC:
+            return 0.0 if byte == 0 else lo + (byte - 1) / 254 * (hi - lo)
+        if lo < 0 < hi:
+            if byte >= 0x80:
+                return (byte - 0x80) / 0x7F * hi
+            return (0x80 - byte) / 0x80 * lo
+        return lo + byte / 0xFF * (hi - lo)
+
+    def encode_value(self, value: object) -> bytes:
+        """Encode a value of any encoding into this register's bytes."""
+        enc = self.encoding
+        if enc in (Encoding.U8, Encoding.U8_PERIODIC):
+            return bytes((self.to_byte(float(value)),))  # type: ignore[arg-type]
+        if enc is Encoding.ENUM:
+            if isinstance(value, str):
+                if value not in self.choices:
+                    allowed = ", ".join(self.choices)
+                    raise ValueRangeError(f"{self.name}: unknown value {value!r}; one of {allowed}")
+                return bytes((self.choices[value],))
+            if int(value) not in self.choices.values():  # type: ignore[call-overload]
+                raise ValueRangeError(f"{self.name}: {value!r} is not one of {dict(self.choices)}")
+            return bytes((int(value),))  # type: ignore[call-overload]
+        if enc is Encoding.FLOAT32:
+            return struct.pack("<f", float(value))  # type: ignore[arg-type]
+        if enc is Encoding.INT16:
+            return struct.pack(">h", int(value))  # type: ignore[call-overload]
+        if enc is Encoding.RGB:
+            rgb = tuple(value)  # type: ignore[call-overload]
+            if len(rgb) != 3 or not all(isinstance(c, int) and 0 <= c <= 255 for c in rgb):
+                raise ValueRangeError(f"{self.name} takes three bytes r, g, b in 0..255")
+            return bytes(rgb)
+        if enc is Encoding.ASCII:
+            raw = str(value).encode("ascii")
+            if len(raw) > self.size:
+                raise ValueRangeError(f"{self.name} holds at most {self.size} ASCII characters")
+            return raw.ljust(self.size, b"\0")
+        raw = bytes(value)  # type: ignore[call-overload]
+        if len(raw) != self.size:
+            raise ValueRangeError(f"{self.name} is a {self.size}-byte block")
+        return raw
+
+
+@dataclass(frozen=True)
+class Action:
+    """A preset action; ``duration`` is None where the documents do not give it."""
+
+    id: int
+    name: str
+    duration: float | None
+
+
+@dataclass(frozen=True)
+class Link:
+    """The serial link to a robot: 8N1 at ``baud``, ``gap`` seconds of silence between frames."""
+
+    baud: int
+    gap: float
+    bits_per_byte: int = 10  # start + 8 data + stop
+
+    def wire_time(self, nbytes: int) -> float:
+        """Seconds the link needs to carry ``nbytes``."""
+        return nbytes * self.bits_per_byte / self.baud
+
+
+@dataclass(frozen=True)
+class Profile:
+    """Everything the rest of the package needs to know about one robot model."""
+
+    model: str
+    family: str  # "xgo" or "xarm"
+    title: str
+    link: Link
+    registers: tuple[Register, ...] = ()
+    actions: tuple[Action, ...] = ()
+    write_type: int = 0x00
+    firmware_prefixes: tuple[str, ...] = ()
+    capabilities: frozenset[str] = frozenset()
+    # Register writes (name -> physical value or raw byte) that bring the robot to rest.
+    safe_stop: tuple[tuple[str, float], ...] = ()
+    # Registers whose values make up the default posture (restored by action 255).
+    default_posture: tuple[str, ...] = ()
+    xarm_servos: tuple[int, ...] = ()  # xArm servo ids (family "xarm")
+
+    def register(self, name: str) -> Register:
+        """Look a register up by name; the error lists the valid names."""
+        for reg in self.registers:
+            if reg.name == name:
+                return reg
+        valid = ", ".join(sorted(r.name for r in self.registers if not r.unsafe))
+        raise ProfileError(f"{self.model} has no register {name!r}; valid: {valid}")
+
+    def register_at(self, address: int) -> Register | None:
+        """The register that starts at ``address``, if any."""
+        for reg in self.registers:
+            if reg.address == address:
+                return reg
+        return None
+
+    def register_covering(self, address: int) -> Register | None:
+        """The register whose bytes include ``address``, if any."""
+        for reg in self.registers:
+            if reg.address <= address < reg.end:
+                return reg
+        return None
+
+    def action(self, key: int | str) -> Action:
+        """Look an action up by number or name; the error lists the valid ones."""
+        for act in self.actions:
+            if act.id == key or act.name == key:
+                return act
+        valid = ", ".join(f"{a.id} {a.name}" for a in self.actions)
+        raise ProfileError(f"{self.model} has no action {key!r}; valid: {valid}")
+
+    def supports(self, capability: str) -> bool:
+        return capability in self.capabilities

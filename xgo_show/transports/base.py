@@ -1,0 +1,69 @@
+"""The one small interface every transport implements.
+
+A transport is a byte pipe to one robot: open/close (also as a context manager), ``write`` bytes,
+``read`` what has arrived within a timeout. Framing is not its job (see :mod:`xgo_show.wire`).
+Transports are opened from URL strings by :func:`xgo_show.transports.open_transport`.
+"""
+
+from __future__ import annotations
+
+import abc
+from types import TracebackType
+
+__all__ = ["Transport"]
+
+
+class Transport(abc.ABC):
+    """A byte link to one robot.
+
+    ``write`` returns once the bytes are queued to the OS/device, not when they are on the wire.
+    ``read`` returns up to ``size`` bytes, waiting at most ``timeout`` seconds for the first one
+    (``0`` = only what is already there); it returns ``b""`` when nothing arrived.
+    Failures raise :class:`xgo_show.errors.TransportError` naming the port and the reason.
+    """
+
+    url: str
+
+    def __init__(self, url: str) -> None:
+        self.url = url
+
+    @abc.abstractmethod
+    def open(self) -> None:
+        """Open the link; raise TransportError naming the port and the reason on failure."""
+
+    @abc.abstractmethod
+    def close(self) -> None:
+        """Close the link; safe to call more than once."""
+
+    @property
+    @abc.abstractmethod
+    def is_open(self) -> bool:
+        """Whether the link is open."""
+
+    @abc.abstractmethod
+    def write(self, data: bytes) -> None:
+        """Queue ``data`` for sending."""
+
+    @abc.abstractmethod
+    def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+        """Return up to ``size`` received bytes, waiting at most ``timeout`` s for the first."""
+
+    def set_low_latency(self) -> bool:
+        """Ask the OS for low-latency mode (USB serial adapters); return whether it was granted."""
+        return False
+
+    def __enter__(self) -> Transport:
+        if not self.is_open:
+            self.open()
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.url}>"

@@ -1,0 +1,1 @@
+"""Wire codecs: pure functions and streaming decoders, no I/O and no clock."""
