@@ -64,7 +64,13 @@ class Limits:
 
 @dataclass(frozen=True)
 class Register:
-    """One register (or multi-byte field) in a robot's memory table.
+    """One register in a robot's memory table.
+
+    Each address names one *field* of ``size`` bytes (a float32 at 0x62 and another at 0x63; an
+    RGB triple at 0x69 and the next at 0x6A). A read or write of several bytes from a first
+    address walks fields at consecutive addresses, taking each field's ``size`` bytes in turn
+    (see :meth:`Profile.walk`); for the common one-byte registers that is plain consecutive
+    memory.
 
     For linear ``U8`` registers, :meth:`to_byte` maps ``[minimum, maximum]`` onto 0x00..0xFF.
     When the range straddles zero the map is piecewise linear through (0, 0x80), so that zero
@@ -91,11 +97,6 @@ class Register:
     @property
     def linear(self) -> bool:
         return self.minimum is not None and self.maximum is not None
-
-    @property
-    def end(self) -> int:
-        """First address after this register."""
-        return self.address + self.size
 
     def check(self, value: float) -> None:
         """Raise :class:`ValueRangeError` if ``value`` is outside the physical range."""
@@ -235,12 +236,28 @@ class Profile:
                 return reg
         return None
 
-    def register_covering(self, address: int) -> Register | None:
-        """The register whose bytes include ``address``, if any."""
-        for reg in self.registers:
-            if reg.address <= address < reg.end:
-                return reg
-        return None
+    def walk(self, address: int, nbytes: int) -> list[Register]:
+        """The fields a read/write of ``nbytes`` from ``address`` covers, in order.
+
+        Raises :class:`ProfileError` if an address on the way has no register or the last field
+        would be cut short. Shared by the simulator (to apply writes and answer reads) and the
+        compiler (to merge adjacent registers into one frame), so both agree on the layout.
+        """
+        out: list[Register] = []
+        left = nbytes
+        addr = address
+        while left > 0:
+            reg = self.register_at(addr)
+            if reg is None:
+                raise ProfileError(f"{self.model} has no register at 0x{addr:02X}")
+            if reg.size > left:
+                raise ProfileError(
+                    f"{reg.name} at 0x{addr:02X} is {reg.size} bytes; only {left} remain"
+                )
+            out.append(reg)
+            left -= reg.size
+            addr += 1
+        return out
 
     def action(self, key: int | str) -> Action:
         """Look an action up by number or name; the error lists the valid ones."""
