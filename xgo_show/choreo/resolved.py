@@ -11,7 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
-from xgo_show.diagnostics import Origin
+from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.profiles.model import Limits
 
 __all__ = [
@@ -120,3 +120,4 @@ class ResolvedShow:
     end: float | None = None  # explicit show end in seconds, else the last cue's end
     bpm: float | None = None  # for progress display only (times are already in seconds)
     beats_per_bar: int = 4
+    warnings: tuple[Diagnostic, ...] = ()  # non-fatal findings of the loader
