@@ -19,6 +19,8 @@ __all__ = [
     "Access",
     "Action",
     "Encoding",
+    "ImuField",
+    "ImuLayout",
     "Limits",
     "Link",
     "Profile",
@@ -93,6 +95,10 @@ class Register:
     unsafe: bool = False  # never touched during a show (firmware, calibration, rename, unload…)
     limits: Limits | None = None  # default trajectory limits; None = not trajectory-capable
     group: str = ""  # what kind of control this is: "speed", "posture", "periodic", "leg", …
+    # False: a range that straddles zero maps plainly linearly over [minimum, maximum] (the
+    # document states so for asymmetric ranges such as arm_x [-80, 155] mm, and the vendor
+    # library converts asymmetric servo ranges that way), so zero is *not* at 0x80.
+    zero_at_neutral: bool = True
 
     @property
     def linear(self) -> bool:
@@ -126,7 +132,7 @@ class Register:
         value = min(max(value, lo), hi)  # absorb the 1e-9 tolerance of check()
         if self.encoding is Encoding.U8_PERIODIC:
             return 1 + round((value - lo) / (hi - lo) * 254)
-        if lo < 0 < hi:
+        if lo < 0 < hi and self.zero_at_neutral:
             if value >= 0:
                 return 0x80 + round(value / hi * 0x7F)
             return 0x80 - round(value / lo * 0x80)
@@ -140,7 +146,7 @@ class Register:
         assert lo is not None and hi is not None
         if self.encoding is Encoding.U8_PERIODIC:
             return 0.0 if byte == 0 else lo + (byte - 1) / 254 * (hi - lo)
-        if lo < 0 < hi:
+        if lo < 0 < hi and self.zero_at_neutral:
             if byte >= 0x80:
                 return (byte - 0x80) / 0x7F * hi
             return (0x80 - byte) / 0x80 * lo
@@ -178,6 +184,66 @@ class Register:
         if len(raw) != self.size:
             raise ValueRangeError(f"{self.name} is a {self.size}-byte block")
         return raw
+
+
+@dataclass(frozen=True)
+class ImuField:
+    """One value in an IMU block: its struct format and the scale from raw to physical."""
+
+    name: str
+    fmt: str  # struct format of one value, byte order included: "<h", "<f"
+    scale: float = 1.0  # physical value = raw value * scale
+    unit: str = ""
+
+    @property
+    def size(self) -> int:
+        return struct.calcsize(self.fmt)
+
+
+@dataclass(frozen=True)
+class ImuLayout:
+    """The fields of an IMU block register, in byte order (see ``Profile.imu``)."""
+
+    fields: tuple[ImuField, ...]
+
+    @property
+    def size(self) -> int:
+        return sum(f.size for f in self.fields)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(f.name for f in self.fields)
+
+    def pack(self, values: Mapping[str, float]) -> bytes:
+        """Physical values (missing names = 0) -> block bytes; integers round to nearest."""
+        unknown = set(values) - set(self.names)
+        if unknown:
+            raise ValueRangeError(f"IMU block has no field {sorted(unknown)[0]!r}")
+        out = bytearray()
+        for f in self.fields:
+            raw = values.get(f.name, 0.0) / f.scale
+            if f.fmt[-1] in "fd":
+                out += struct.pack(f.fmt, raw)
+                continue
+            try:
+                out += struct.pack(f.fmt, round(raw))
+            except struct.error as exc:
+                raise ValueRangeError(
+                    f"IMU {f.name} = {values[f.name]:g} {f.unit} does not fit {f.fmt!r}"
+                ) from exc
+        return bytes(out)
+
+    def unpack(self, raw: bytes) -> dict[str, float]:
+        """Block bytes -> physical values by field name."""
+        if len(raw) != self.size:
+            raise ValueRangeError(f"IMU block is {self.size} bytes, not {len(raw)}")
+        out: dict[str, float] = {}
+        offset = 0
+        for f in self.fields:
+            (value,) = struct.unpack_from(f.fmt, raw, offset)
+            out[f.name] = float(value) * f.scale
+            offset += f.size
+        return out
 
 
 @dataclass(frozen=True)
@@ -220,6 +286,10 @@ class Profile:
     # Registers whose values make up the default posture (restored by action 255).
     default_posture: tuple[str, ...] = ()
     xarm_servos: tuple[int, ...] = ()  # xArm servo ids (family "xarm")
+    # What a simulated robot of this model reports at the firmware register (0x07).
+    firmware_default: str = ""
+    # Layout of the IMU block register (imu_block, 0x65); None where the model has none.
+    imu: ImuLayout | None = None
 
     def register(self, name: str) -> Register:
         """Look a register up by name; the error lists the valid names."""
