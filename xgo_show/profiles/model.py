@@ -10,8 +10,9 @@ from __future__ import annotations
 import enum
 import math
 import struct
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from typing import cast
 
 from xgo_show.errors import ProfileError, ValueRangeError
 
@@ -171,16 +172,16 @@ class Register:
         if enc is Encoding.INT16:
             return struct.pack(">h", int(value))  # type: ignore[call-overload]
         if enc is Encoding.RGB:
-            rgb = tuple(value)  # type: ignore[call-overload]
+            rgb = tuple(cast("Iterable[object]", value))
             if len(rgb) != 3 or not all(isinstance(c, int) and 0 <= c <= 255 for c in rgb):
                 raise ValueRangeError(f"{self.name} takes three bytes r, g, b in 0..255")
-            return bytes(rgb)
+            return bytes(cast("tuple[int, ...]", rgb))
         if enc is Encoding.ASCII:
             raw = str(value).encode("ascii")
             if len(raw) > self.size:
                 raise ValueRangeError(f"{self.name} holds at most {self.size} ASCII characters")
             return raw.ljust(self.size, b"\0")
-        raw = bytes(value)  # type: ignore[call-overload]
+        raw = bytes(cast("bytes", value))
         if len(raw) != self.size:
             raise ValueRangeError(f"{self.name} is a {self.size}-byte block")
         return raw
