@@ -1,0 +1,79 @@
+"""``hex+<url>`` (alias ``log+<url>``): log a transport's traffic as hex lines.
+
+A wrapper, not a flag inside every transport (like pyserial's ``spy://`` and flockwave's
+``serial+log:``). Each write and each non-empty read becomes one line::
+
+    sim:mini > 55 00 09 02 07 0a e3 00 aa
+    sim:mini < 55 00 12 12 07 4d 2d 31 2e 34 2e 31 00 00 00 68 00 aa
+
+Lines go to ``stream`` if given, else to ``logger`` (default
+``logging.getLogger("xgo_show.traffic")`` at DEBUG level).
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import IO
+
+from xgo_show.transports.base import Transport
+
+__all__ = ["HexLogTransport", "wrap_hex"]
+
+_DEFAULT_LOGGER = logging.getLogger("xgo_show.traffic")
+
+
+class HexLogTransport(Transport):
+    """Wraps ``inner`` and logs every byte written (``>``) and read (``<``) in hex."""
+
+    def __init__(
+        self,
+        inner: Transport,
+        *,
+        stream: IO[str] | None = None,
+        logger: logging.Logger | None = None,
+    ) -> None:
+        super().__init__(f"hex+{inner.url}")
+        self.inner = inner
+        self._stream = stream
+        self._logger = logger or _DEFAULT_LOGGER
+
+    def open(self) -> None:
+        self.inner.open()
+
+    def close(self) -> None:
+        self.inner.close()
+
+    @property
+    def is_open(self) -> bool:
+        return self.inner.is_open
+
+    def write(self, data: bytes) -> None:
+        self._log(">", data)
+        self.inner.write(data)
+
+    def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+        data = self.inner.read(size, timeout)
+        if data:
+            self._log("<", data)
+        return data
+
+    def set_low_latency(self) -> bool:
+        return self.inner.set_low_latency()
+
+    def _log(self, direction: str, data: bytes) -> None:
+        line = f"{self.inner.url} {direction} {data.hex(' ')}"
+        if self._stream is not None:
+            self._stream.write(line + "\n")
+            self._stream.flush()
+        else:
+            self._logger.debug("%s", line)
+
+
+def wrap_hex(
+    inner: Transport,
+    *,
+    stream: IO[str] | None = None,
+    logger: logging.Logger | None = None,
+) -> HexLogTransport:
+    """Wrapper factory for :func:`xgo_show.transports.open_transport`."""
+    return HexLogTransport(inner, stream=stream, logger=logger)
