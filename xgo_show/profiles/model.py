@@ -186,6 +186,34 @@ class Register:
             raise ValueRangeError(f"{self.name} is a {self.size}-byte block")
         return raw
 
+    def decode_value(self, raw: bytes) -> object:
+        """This register's bytes -> value (inverse of :meth:`encode_value`).
+
+        Linear ``U8``/``U8_PERIODIC`` give the physical float, other ``U8`` the byte as int,
+        ``ENUM`` the choice's name (the int if unnamed), ``FLOAT32`` float, ``INT16`` int,
+        ``RGB`` an ``(r, g, b)`` tuple, ``ASCII`` the string without NUL padding, ``BLOCK`` the
+        bytes. Raises :class:`ValueRangeError` if ``raw`` is not ``size`` bytes.
+        """
+        if len(raw) != self.size:
+            raise ValueRangeError(f"{self.name} is {self.size} bytes, not {len(raw)}")
+        enc = self.encoding
+        if enc in (Encoding.U8, Encoding.U8_PERIODIC):
+            return self.to_physical(raw[0]) if self.linear else raw[0]
+        if enc is Encoding.ENUM:
+            for label, code in self.choices.items():
+                if code == raw[0]:
+                    return label
+            return raw[0]
+        if enc is Encoding.FLOAT32:
+            return float(struct.unpack("<f", raw)[0])
+        if enc is Encoding.INT16:
+            return int(struct.unpack(">h", raw)[0])
+        if enc is Encoding.RGB:
+            return (raw[0], raw[1], raw[2])
+        if enc is Encoding.ASCII:
+            return raw.split(b"\0", 1)[0].decode("ascii", errors="replace")
+        return bytes(raw)
+
 
 @dataclass(frozen=True)
 class ImuField:
