@@ -1,0 +1,95 @@
+"""Clocks for the runtime: one monotonic time base, deadlines, interruptible waits.
+
+Every deadline the runtime waits for is ``start + offset`` from one monotonic start, never
+``previous + interval``, so sleep errors never add up. :class:`MonotonicClock` sleeps until a
+little before a deadline and then spins, which hits the deadline to a few microseconds on an
+idle machine and to well under a millisecond on a loaded one. :class:`FakeClock` jumps straight
+to each deadline, so tests and ``dry-run --fast`` run schedules without waiting.
+
+Waits take an optional :class:`threading.Event`: setting it wakes the waiter at once (the way a
+stop request cuts a wait short), and ``sleep_until`` then returns ``False``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import Protocol
+
+__all__ = ["Clock", "FakeClock", "MonotonicClock"]
+
+
+class Clock(Protocol):
+    """A monotonic time source with interruptible absolute waits."""
+
+    def now(self) -> float:
+        """Monotonic seconds (the same time base as :func:`time.monotonic`)."""
+        ...
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        """Wait until ``now() >= deadline``; return False early if ``interrupt`` gets set."""
+        ...
+
+
+class MonotonicClock:
+    """The real clock: ``time.monotonic`` with sleep-then-spin waits.
+
+    ``spin`` is how long before a deadline the wait stops sleeping and starts polling the clock;
+    the OS wakes a sleeping thread up to a millisecond or so late, so the last stretch is spun.
+    On Linux ``time.monotonic`` is ``CLOCK_MONOTONIC``, shared by every process on the machine,
+    which lets a simulator in another process timestamp what it receives on the same base.
+    """
+
+    def __init__(self, *, spin: float = 0.0015) -> None:
+        self.spin = spin
+
+    def now(self) -> float:
+        return time.monotonic()
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        now = time.monotonic
+        coarse = deadline - self.spin
+        while True:
+            left = coarse - now()
+            if left <= 0:
+                break
+            if interrupt is None:
+                time.sleep(left)
+            elif interrupt.wait(left):
+                return False
+        while now() < deadline:
+            if interrupt is not None and interrupt.is_set():
+                return False
+            # Yield the GIL briefly so other writer threads keep their own deadlines.
+            time.sleep(0)
+        return not (interrupt is not None and interrupt.is_set())
+
+
+class FakeClock:
+    """A clock for tests: ``sleep_until`` jumps time forward instead of waiting.
+
+    Thread-safe; time never goes backwards. ``advance`` moves it by hand (e.g. to make a frame
+    late), and every wait is recorded in ``waits`` so tests can check the deadlines asked for.
+    """
+
+    def __init__(self, start: float = 1000.0) -> None:
+        self._now = start
+        self._lock = threading.Lock()
+        self.waits: list[float] = []
+
+    def now(self) -> float:
+        with self._lock:
+            return self._now
+
+    def advance(self, seconds: float) -> None:
+        """Move time forward by ``seconds``."""
+        with self._lock:
+            self._now += seconds
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        if interrupt is not None and interrupt.is_set():
+            return False
+        with self._lock:
+            self.waits.append(deadline)
+            self._now = max(self._now, deadline)
+        return True

@@ -1,0 +1,540 @@
+"""Paced execution of one performer's schedule over one transport.
+
+:class:`PerformerExecutor` needs only a :class:`~xgo_show.compiler.schedule.PerformerSchedule`,
+a :class:`~xgo_show.transports.base.Transport`, a start time and a
+:class:`~xgo_show.runtime.clock.Clock`; it assumes nothing about where the port is, so a relay
+on another host runs it unchanged in front of its own local port.
+
+Timing. Frame ``i`` is due at ``start + (frame.t - offset) + paused``, one monotonic start for
+the whole show, so waits never accumulate error. A frame that goes out late does not make the
+following ones bunch up on the wire: each frame waits for
+``max(due, previous_actual + wire_time(previous) + gap)``, which keeps the link's silence
+between frames. Every send is recorded (planned and actual time).
+
+Threads. :meth:`start` runs the writer in its own thread (one per port, so a blocked port delays
+no one else); a reader thread parses telemetry replies when a poller is given. All writes go
+through one lock, which lets :meth:`safe_stop` (called from any thread) cut in between two
+frames: it raises the abort flag, takes the lock, and sends the stop frames itself, so pending
+schedule frames are dropped and the stop never waits behind them.
+
+Pause holds the robot: speeds go to neutral; on resume the executor first sends the frames that
+bring the robot back to the state it had at the pause (``reach``), then continues with the
+timeline shifted by the length of the pause. A start at ``offset > 0`` does the same before the
+first frame.
+"""
+
+from __future__ import annotations
+
+import enum
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+from xgo_show.compiler.schedule import PerformerSchedule
+from xgo_show.errors import TransportError, XgoShowError
+from xgo_show.profiles.model import Profile
+from xgo_show.runtime.clock import Clock
+from xgo_show.runtime.runlog import RunLog
+from xgo_show.runtime.safety import rest_frames, stop_frames
+from xgo_show.runtime.telemetry import TelemetryPoller, TelemetrySample
+from xgo_show.transports.base import Transport
+
+__all__ = [
+    "ExecutorState",
+    "FaultHandler",
+    "PerformerExecutor",
+    "Progress",
+    "ReachFn",
+    "SafeStopResult",
+    "SendRecord",
+]
+
+# Frames (bytes, label) that bring a robot to the register state it has at show time t.
+ReachFn = Callable[[float], Sequence[tuple[bytes, str]]]
+# Called (from the executor's threads) when the performer faults: (executor, reason).
+FaultHandler = Callable[["PerformerExecutor", str], None]
+
+# Extra room a telemetry request must leave before the next scheduled frame is due, beyond its
+# own wire time and gap: covers the OS write call and scheduling noise.
+_POLL_MARGIN = 0.002
+
+
+class ExecutorState(enum.Enum):
+    IDLE = "idle"
+    REACHING = "reaching"  # sending catch-up frames (mid-show start or resume)
+    RUNNING = "running"
+    PAUSED = "paused"
+    FINISHED = "finished"  # every frame sent, robot at rest
+    STOPPED = "stopped"  # safe-stopped
+    FAILED = "failed"  # port or telemetry fault
+
+
+@dataclass(frozen=True)
+class SendRecord:
+    """One frame written: kind (frame/reach/read/rest/stop), schedule index, times."""
+
+    kind: str
+    index: int | None
+    planned: float | None  # monotonic time the schedule wanted it (None: not in the schedule)
+    actual: float  # monotonic time the write call returned
+    nbytes: int
+    label: str = ""
+
+    @property
+    def error(self) -> float | None:
+        """Seconds late (negative = early) against the plan."""
+        return None if self.planned is None else self.actual - self.planned
+
+
+@dataclass(frozen=True)
+class Progress:
+    """Where a performer is: state, show time, frames sent of total, current cue."""
+
+    performer: str
+    state: ExecutorState
+    show_time: float
+    sent: int
+    total: int
+    cue: str
+    label: str
+
+
+@dataclass(frozen=True)
+class SafeStopResult:
+    """What a safe stop did on one performer."""
+
+    performer: str
+    reason: str
+    ok: bool
+    frames: tuple[str, ...] = ()  # labels of the frames written
+    error: str = ""
+    elapsed: float = 0.0  # seconds from the request to the last byte queued
+
+
+@dataclass
+class _Timeline:
+    start: float = 0.0  # monotonic time at which show time ``offset`` happens
+    offset: float = 0.0
+    paused: float = 0.0  # total seconds spent paused so far
+
+    def at(self, t: float) -> float:
+        return self.start + (t - self.offset) + self.paused
+
+    def show_time(self, now: float) -> float:
+        return now - self.start + self.offset - self.paused
+
+
+@dataclass
+class _Flags:
+    wake: threading.Event = field(default_factory=threading.Event)
+    abort: threading.Event = field(default_factory=threading.Event)
+    pause: bool = False
+    resume: bool = False
+
+
+class PerformerExecutor:
+    """Sends one performer's frames on time; stops safely on request or fault.
+
+    Parameters beyond the essential four are keyword-only:
+
+    - ``profile``: the performer's profile (stop frames, telemetry layout); looked up from the
+      schedule's model when omitted;
+    - ``telemetry``: a :class:`TelemetryPoller` to poll in spare link time (None: no polling);
+    - ``reach``: frames that bring the robot to its state at a show time (mid-show starts,
+      resume after pause); None: start from the first frame at or after the offset as is;
+    - ``linger_until``: show time to keep polling telemetry after the last frame (the whole
+      show's end, so a performer that finished early is still watched);
+    - ``log``: a :class:`RunLog`; ``on_fault``: called once on a port or telemetry fault.
+    """
+
+    def __init__(
+        self,
+        schedule: PerformerSchedule,
+        transport: Transport,
+        *,
+        clock: Clock,
+        profile: Profile | None = None,
+        telemetry: TelemetryPoller | None = None,
+        reach: ReachFn | None = None,
+        linger_until: float | None = None,
+        log: RunLog | None = None,
+        on_fault: FaultHandler | None = None,
+        rest_at_end: bool = True,
+    ) -> None:
+        if profile is None:
+            from xgo_show.profiles import get_profile
+
+            profile = get_profile(schedule.model)
+        self.schedule = schedule
+        self.transport = transport
+        self.clock = clock
+        self.profile = profile
+        self.telemetry = telemetry if telemetry is not None and telemetry.enabled else None
+        self.reach = reach
+        self.linger_until = max(schedule.end, linger_until or 0.0)
+        self.log = log
+        self.on_fault = on_fault
+        self.rest_at_end = rest_at_end
+        self.records: list[SendRecord] = []
+        self.samples: list[TelemetrySample] = []
+        self.fault: str | None = None
+        self.stop_result: SafeStopResult | None = None
+        self._state = ExecutorState.IDLE
+        self._timeline = _Timeline()
+        self._flags = _Flags()
+        self._write_lock = threading.Lock()
+        self._state_lock = threading.Lock()
+        self._ready_at = float("-inf")  # earliest time the link is free (wire time + gap)
+        self._sent_frames = 0
+        self._cue = ""
+        self._label = ""
+        self._paused_at: float | None = None
+        self._writer: threading.Thread | None = None
+        self._reader: threading.Thread | None = None
+        self._reader_stop = threading.Event()
+
+    # ------------------------------------------------------------------ public control
+
+    @property
+    def name(self) -> str:
+        return self.schedule.name
+
+    @property
+    def state(self) -> ExecutorState:
+        return self._state
+
+    @property
+    def done(self) -> bool:
+        """Whether the writer has nothing more to do (finished, stopped or failed)."""
+        return self._state in (ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED)
+
+    def start(self, start_at: float, *, offset: float = 0.0) -> None:
+        """Run in background threads; show time ``offset`` happens at monotonic ``start_at``."""
+        self._start_reader()
+        self._writer = threading.Thread(
+            target=self._run_guarded, args=(start_at, offset), name=f"xgo-show writer {self.name}"
+        )
+        self._writer.daemon = True
+        self._writer.start()
+
+    def run(self, start_at: float, *, offset: float = 0.0) -> None:
+        """Run in the calling thread until the performer's part is over or it is stopped."""
+        self._start_reader()
+        try:
+            self._run_guarded(start_at, offset)
+        finally:
+            self.close()
+
+    def join(self, timeout: float | None = None) -> bool:
+        """Wait for the writer thread; return whether it has ended."""
+        if self._writer is None:
+            return True
+        self._writer.join(timeout)
+        return not self._writer.is_alive()
+
+    def pause(self) -> None:
+        """Hold at the next frame: speeds to neutral, timeline frozen until :meth:`resume`."""
+        self._flags.pause = True
+        self._flags.wake.set()
+
+    def resume(self) -> None:
+        """Bring the robot back to where the show was and continue, shifted by the pause."""
+        self._flags.resume = True
+        self._flags.wake.set()
+
+    def abort(self) -> None:
+        """Stop sending schedule frames (no stop frames: see :meth:`safe_stop`)."""
+        self._flags.abort.set()
+        self._flags.wake.set()
+
+    def safe_stop(self, reason: str, *, timeout: float = 0.1) -> SafeStopResult:
+        """Drop pending frames and send the stop sequence now; safe to call from any thread.
+
+        Waits at most ``timeout`` for a write in progress to return. Idempotent: a second call
+        returns the first result.
+        """
+        requested = self.clock.now()
+        self.abort()
+        if not self._write_lock.acquire(timeout=timeout):
+            result = SafeStopResult(self.name, reason, False, error="port blocked: write stuck")
+            return self._finish_stop(result)
+        try:
+            if self.stop_result is not None:
+                return self.stop_result
+            sent: list[str] = []
+            try:
+                for frame in stop_frames(self.profile):
+                    self._write_locked(frame.data, "stop", None, None, frame.label)
+                    sent.append(frame.label)
+            except (TransportError, OSError) as exc:
+                result = SafeStopResult(
+                    self.name, reason, False, tuple(sent), f"{exc}", self.clock.now() - requested
+                )
+            else:
+                result = SafeStopResult(
+                    self.name, reason, True, tuple(sent), "", self.clock.now() - requested
+                )
+            return self._finish_stop(result)
+        finally:
+            self._write_lock.release()
+
+    def close(self) -> None:
+        """Stop the reader thread (the transport stays open: its owner closes it)."""
+        self._reader_stop.set()
+        if self._reader is not None and self._reader is not threading.current_thread():
+            self._reader.join(1.0)
+
+    @property
+    def progress(self) -> Progress:
+        now = self.clock.now()
+        show_time = (
+            0.0
+            if self._state is ExecutorState.IDLE
+            else self._timeline.show_time(self._paused_at if self._paused_at is not None else now)
+        )
+        return Progress(
+            self.name,
+            self._state,
+            show_time,
+            self._sent_frames,
+            len(self.schedule.frames),
+            self._cue,
+            self._label,
+        )
+
+    def show_time_of(self, monotonic: float) -> float:
+        """Convert a monotonic time to show time on this executor's timeline."""
+        return self._timeline.show_time(monotonic)
+
+    # ------------------------------------------------------------------ writer
+
+    def _set_state(self, state: ExecutorState) -> None:
+        with self._state_lock:
+            if not self.done or state in (ExecutorState.STOPPED, ExecutorState.FAILED):
+                self._state = state
+
+    def _finish_stop(self, result: SafeStopResult) -> SafeStopResult:
+        if self.stop_result is None:
+            self.stop_result = result
+            self._set_state(ExecutorState.STOPPED if self.fault is None else ExecutorState.FAILED)
+            if self.log is not None:
+                self.log.event(
+                    "safe_stop",
+                    performer=self.name,
+                    reason=result.reason,
+                    ok=result.ok,
+                    frames=list(result.frames),
+                    error=result.error,
+                    elapsed_ms=round(result.elapsed * 1000, 3),
+                )
+        return self.stop_result
+
+    def _run_guarded(self, start_at: float, offset: float) -> None:
+        try:
+            self._run(start_at, offset)
+        except (TransportError, OSError) as exc:
+            self._report_fault(f"port {self.transport.url}: {exc}")
+        except XgoShowError as exc:
+            self._report_fault(str(exc))
+        except Exception as exc:  # any writer crash must still stop the robot
+            self._report_fault(f"internal error in the executor: {exc!r}")
+
+    def _run(self, start_at: float, offset: float) -> None:
+        self._timeline = _Timeline(start_at, offset)
+        frames = self.schedule.frames
+        index = next((i for i, f in enumerate(frames) if f.t >= offset - 1e-9), len(frames))
+        if offset > 0 and self.reach is not None:
+            self._set_state(ExecutorState.REACHING)
+            self._send_reach(offset)
+        self._set_state(ExecutorState.RUNNING)
+        while index < len(frames):
+            if self._flags.abort.is_set():
+                return
+            if self._flags.pause:
+                self._hold()
+                continue
+            frame = frames[index]
+            planned = self._timeline.at(frame.t)
+            if not self._wait(max(planned, self._ready_at)):
+                continue  # woken by pause or abort: re-check the flags
+            if not self._write(frame.data, "frame", index, planned, frame.label):
+                return
+            index += 1
+            self._sent_frames = index
+            if frame.origin is not None and frame.origin.cue:
+                self._cue = frame.origin.cue
+            self._label = frame.label
+        # Keep watching (telemetry) until the whole show is over.
+        while not self._flags.abort.is_set():
+            if self._flags.pause:
+                self._hold()
+                continue
+            if self._wait(self._timeline.at(self.linger_until)):
+                break
+        if self._flags.abort.is_set():
+            return
+        if self.rest_at_end:
+            for stop in rest_frames(self.profile):
+                self._wait(self._ready_at, polls=False)
+                if not self._write(stop.data, "rest", None, None, stop.label):
+                    return
+        self._set_state(ExecutorState.FINISHED)
+
+    def _hold(self) -> None:
+        """Pause: rest the robot, wait for resume (polling telemetry), then reach back."""
+        self._flags.pause = False
+        self._flags.wake.clear()
+        self._paused_at = self.clock.now()
+        show_time = self._timeline.show_time(self._paused_at)
+        self._set_state(ExecutorState.PAUSED)
+        if self.log is not None:
+            self.log.event("pause", performer=self.name, show_time=round(show_time, 6))
+        for stop in rest_frames(self.profile):
+            self._wait(self._ready_at, polls=False)
+            if not self._write(stop.data, "rest", None, None, stop.label):
+                return
+        while not self._flags.resume and not self._flags.abort.is_set():
+            self._poll_once()
+            self._flags.wake.wait(0.02)
+        self._flags.resume = False
+        self._flags.wake.clear()
+        if self._flags.abort.is_set():
+            return
+        now = self.clock.now()
+        self._timeline.paused += now - self._paused_at
+        self._paused_at = None
+        if self.log is not None:
+            self.log.event("resume", performer=self.name, show_time=round(show_time, 6))
+        if self.reach is not None:
+            self._set_state(ExecutorState.REACHING)
+            self._send_reach(show_time)
+        self._set_state(ExecutorState.RUNNING)
+
+    def _send_reach(self, show_time: float) -> None:
+        assert self.reach is not None
+        for data, label in self.reach(show_time):
+            if self._flags.abort.is_set():
+                return
+            self._wait(self._ready_at, polls=False)
+            if not self._write(data, "reach", None, None, label):
+                return
+
+    def _wait(self, deadline: float, *, polls: bool = True) -> bool:
+        """Wait for ``deadline``, sending due telemetry requests where they fit.
+
+        Returns False when woken early by pause or abort.
+        """
+        clock = self.clock
+        gap = self.schedule.link.gap
+        while True:
+            now = clock.now()
+            if now >= deadline:
+                return True
+            target = deadline
+            item = self.telemetry.due(now) if polls and self.telemetry is not None else None
+            if item is not None:
+                room = self.schedule.link.wire_time(len(item.request)) + gap + _POLL_MARGIN
+                if now >= self._ready_at and now + room <= deadline:
+                    if not self._write(item.request, "read", None, None, item.name):
+                        return False
+                    assert self.telemetry is not None
+                    self.telemetry.sent(self.clock.now())
+                    continue
+                if self._ready_at + room <= deadline:
+                    target = max(self._ready_at, now)
+            elif polls and self.telemetry is not None:
+                target = min(deadline, max(self.telemetry.next_due, now))
+            if target <= now:
+                target = deadline
+            if not clock.sleep_until(target, self._flags.wake):
+                return False
+
+    def _poll_once(self) -> None:
+        if self.telemetry is None:
+            return
+        now = self.clock.now()
+        item = self.telemetry.due(now)
+        if (
+            item is not None
+            and now >= self._ready_at
+            and self._write(item.request, "read", None, None, item.name)
+        ):
+            self.telemetry.sent(self.clock.now())
+
+    def _write(
+        self, data: bytes, kind: str, index: int | None, planned: float | None, label: str
+    ) -> bool:
+        """Write one frame unless aborted; return False if aborted."""
+        with self._write_lock:
+            if self._flags.abort.is_set():
+                return False
+            self._write_locked(data, kind, index, planned, label)
+            return True
+
+    def _write_locked(
+        self, data: bytes, kind: str, index: int | None, planned: float | None, label: str
+    ) -> None:
+        # Keep the link's silence after whatever went before (stop frames included).
+        if self.clock.now() < self._ready_at:
+            self.clock.sleep_until(self._ready_at)
+        self.transport.write(data)
+        actual = self.clock.now()
+        link = self.schedule.link
+        self._ready_at = actual + link.wire_time(len(data)) + link.gap
+        record = SendRecord(kind, index, planned, actual, len(data), label)
+        self.records.append(record)
+        if self.log is not None:
+            tl = self._timeline
+            self.log.write(
+                "frame",
+                performer=self.name,
+                send=kind,
+                index=index,
+                planned=None if planned is None else round(tl.show_time(planned), 6),
+                actual=round(tl.show_time(actual), 6),
+                bytes=data.hex(),
+            )
+
+    # ------------------------------------------------------------------ reader and faults
+
+    def _start_reader(self) -> None:
+        if self.telemetry is None or self._reader is not None:
+            return
+        self._reader = threading.Thread(target=self._read_loop, name=f"xgo-show reader {self.name}")
+        self._reader.daemon = True
+        self._reader.start()
+
+    def _read_loop(self) -> None:
+        assert self.telemetry is not None
+        while not self._reader_stop.is_set():
+            try:
+                chunk = self.transport.read(256, timeout=0.05)
+            except (TransportError, OSError) as exc:
+                if not self._reader_stop.is_set() and not self.done:
+                    self._report_fault(f"port {self.transport.url}: {exc}")
+                return
+            if not chunk:
+                continue
+            now = self.clock.now()
+            samples = self.telemetry.feed(chunk, now)
+            self.samples.extend(samples)
+            if self.log is not None:
+                for s in samples:
+                    self.log.write(
+                        "telemetry", performer=self.name, name=s.name, value=s.value, t=s.t
+                    )
+            if self.telemetry.fault is not None and not self.done:
+                self._report_fault(self.telemetry.fault)
+                return
+
+    def _report_fault(self, reason: str) -> None:
+        with self._state_lock:
+            if self.fault is not None:
+                return
+            self.fault = reason
+        self.abort()
+        self._set_state(ExecutorState.FAILED)
+        if self.log is not None:
+            self.log.event("fault", performer=self.name, reason=reason)
+        if self.on_fault is not None:
+            self.on_fault(self, reason)
