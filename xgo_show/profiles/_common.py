@@ -12,6 +12,7 @@ from xgo_show.profiles.model import Access, Encoding, ImuField, ImuLayout, Limit
 
 __all__ = [
     "ANGLE",
+    "ARM",
     "ARM_SERVO",
     "DOG_IMU",
     "GRIPPER",

@@ -475,37 +475,30 @@ _DOG_SAFE_STOP: tuple[tuple[str, float], ...] = (
 # also stops: apply safe_stop with it.) Leg and servo registers are not listed: their initial
 # 0x80 is not the standing pose in single-leg/servo mode coordinates.
 _DOG_POSTURE = ("body_x", "body_y", "body_z", "roll", "pitch", "yaw")
-_XGO_LINK = Link(baud=XGO_BAUD, gap=XGO_GAP)
 
-MINI = Profile(
-    model="mini",
-    family="xgo",
-    title="XGO-Mini",
-    link=_XGO_LINK,
-    registers=_dog_registers(MINI_RANGES, "M-1.4.1"),
-    actions=DOG_ACTIONS,
-    write_type=0x00,
-    # The vendor's auto-detection treats "MW..." and "W..." (XGO-mini2SW) with Mini parameters.
-    firmware_prefixes=("M", "MW", "W"),
-    capabilities=_DOG_CAPABILITIES,
-    safe_stop=_DOG_SAFE_STOP,
-    default_posture=_DOG_POSTURE,
-    firmware_default="M-1.4.1",
-    imu=DOG_IMU,
-)
 
-LITE = Profile(
-    model="lite",
-    family="xgo",
-    title="XGO-Lite",
-    link=_XGO_LINK,
-    registers=_dog_registers(LITE_RANGES, "L-1.4.1"),
-    actions=DOG_ACTIONS,
-    write_type=0x00,
-    firmware_prefixes=("L",),
-    capabilities=_DOG_CAPABILITIES,
-    safe_stop=_DOG_SAFE_STOP,
-    default_posture=_DOG_POSTURE,
-    firmware_default="L-1.4.1",
-    imu=DOG_IMU,
-)
+def _dog_profile(
+    model: str, title: str, ranges: Mapping[str, Range], firmware: str, prefixes: tuple[str, ...]
+) -> Profile:
+    return Profile(
+        model=model,
+        family="xgo",
+        title=title,
+        link=Link(baud=XGO_BAUD, gap=XGO_GAP),
+        registers=_dog_registers(ranges, firmware),
+        actions=DOG_ACTIONS,
+        write_type=0x00,
+        firmware_prefixes=prefixes,
+        capabilities=_DOG_CAPABILITIES,
+        safe_stop=_DOG_SAFE_STOP,
+        default_posture=_DOG_POSTURE,
+        firmware_default=firmware,
+        imu=DOG_IMU,
+    )
+
+
+# Firmware strings follow the documented form "<model letter>-<version>" ("R-1.2.3" is the
+# document's example); the version numbers here are only illustrative. The vendor's
+# auto-detection drives "MW..." and "W..." firmware (XGO-mini2SW) with the Mini's parameters.
+MINI = _dog_profile("mini", "XGO-Mini", MINI_RANGES, "M-1.4.1", ("M", "MW", "W"))
+LITE = _dog_profile("lite", "XGO-Lite", LITE_RANGES, "L-1.4.1", ("L",))

@@ -1,0 +1,418 @@
+"""The register tables and action catalogues against the seed documents and the brief's names."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from xgo_show.errors import ProfileError
+from xgo_show.profiles import Encoding, Profile, get_profile, model_from_firmware
+from xgo_show.profiles.xgo_dog import LITE_RANGES, MINI_RANGES
+
+MINI = get_profile("mini")
+LITE = get_profile("lite")
+RIDER = get_profile("rider")
+XARM = get_profile("xarm")
+XGOS = (MINI, LITE, RIDER)
+DOGS = (MINI, LITE)
+
+# --- the seed documents (copied to seeds/), parsed ---------------------------------------------
+# The tests compare the profiles against these parses, so a table in the code that drifts from
+# the documents fails, instead of being compared with a second hand-typed copy.
+SEEDS = Path(__file__).parent / "seeds"
+MINI_LITE_DOC = SEEDS / "xgo-serial-protocol-mini-lite.txt"
+RIDER_DOC = SEEDS / "xgo-serial-protocol-rider.md"
+RIDER_ZH_DOC = SEEDS / "xgo-serial-protocol-zh.md"
+
+_ADDRESS = re.compile(r"0x([0-9A-Fa-f]{2})\b")
+_BYTE = re.compile(r"0x([0-9A-Fa-f]{2})")
+
+
+def _cells(line: str) -> list[str]:
+    return [c.strip() for c in line.strip().strip("|").split("|")]
+
+
+def memory_table(doc: Path) -> dict[int, int | None]:
+    """Address -> documented initial byte (None where the document gives none)."""
+    rows: dict[int, int | None] = {}
+    in_table = False
+    for line in doc.read_text(encoding="utf-8").splitlines():
+        if "memory table" in line.lower() or "内存表" in line:
+            in_table = True
+            continue
+        if not in_table:
+            continue
+        cells = _cells(line)
+        match = _ADDRESS.match(cells[0])
+        if match is None or len(cells) < 4:
+            continue
+        initial = _BYTE.fullmatch(cells[3])
+        rows[int(match.group(1), 16)] = int(initial.group(1), 16) if initial else None
+    return rows
+
+
+def dog_actions(doc: Path = MINI_LITE_DOC) -> dict[int, tuple[str, float]]:
+    """Action id -> (document name, seconds) from the Mini/Lite action table."""
+    out: dict[int, tuple[str, float]] = {}
+    for line in doc.read_text(encoding="utf-8").splitlines():
+        cells = _cells(line)
+        if len(cells) >= 3 and cells[0].isdigit() and re.fullmatch(r"\d+", cells[2]):
+            out[int(cells[0])] = (cells[1], float(cells[2]))
+    return out
+
+
+def rider_action_ids(doc: Path = RIDER_DOC) -> list[int]:
+    """Action ids listed in the Rider's action table."""
+    ids = []
+    for line in doc.read_text(encoding="utf-8").splitlines():
+        cells = _cells(line)
+        if len(cells) == 2 and cells[0].isdigit():
+            ids.append(int(cells[0]))
+    return ids
+
+
+# The canonical names of the team brief (address -> name), which every layer relies on.
+_DOG_CANONICAL = {
+    0x00: "status", 0x01: "battery", 0x03: "show_mode", 0x04: "calibration",
+    0x05: "firmware_update", 0x07: "firmware", 0x09: "gait", 0x13: "bt_name",
+    0x20: "servo_unload", 0x21: "servo_zero", 0x30: "vx", 0x31: "vy", 0x32: "vyaw",
+    0x33: "body_x", 0x34: "body_y", 0x35: "body_z", 0x36: "roll", 0x37: "pitch", 0x38: "yaw",
+    0x39: "periodic_roll", 0x3A: "periodic_pitch", 0x3B: "periodic_yaw", 0x3C: "mark_time",
+    0x3D: "pace", 0x3E: "action",
+    **{0x40 + 3 * (leg - 1) + i: f"leg{leg}_{axis}" for leg in range(1, 5)
+       for i, axis in enumerate("xyz")},
+    **{0x50 + 3 * (leg - 1) + (j - 1): f"servo_{leg}{j}" for leg in range(1, 5)
+       for j in range(1, 4)},
+    0x5C: "servo_speed", 0x5D: "servo_52", 0x5E: "servo_53", 0x61: "imu_mode",
+    0x62: "imu_roll", 0x63: "imu_pitch", 0x64: "imu_yaw", 0x65: "imu_block",
+    0x66: "imu_roll_i16", 0x67: "imu_pitch_i16", 0x68: "imu_yaw_i16",
+    0x71: "gripper", 0x72: "arm_mode", 0x73: "arm_x", 0x74: "arm_z",
+    0x80: "periodic_x", 0x81: "periodic_y", 0x82: "periodic_z",
+}  # fmt: skip
+_RIDER_CANONICAL = {
+    0x01: "battery", 0x02: "status", 0x03: "show_mode", 0x04: "calibration",
+    0x05: "firmware_update", 0x06: "set_origin", 0x07: "firmware", 0x08: "auto_feedback",
+    0x0A: "steering_hold", 0x13: "bt_name", 0x30: "vx", 0x32: "vyaw", 0x35: "body_z",
+    0x36: "roll", 0x39: "periodic_roll", 0x3E: "action", 0x61: "imu_mode", 0x62: "imu_roll",
+    0x63: "imu_pitch", 0x64: "imu_yaw", 0x65: "imu_block", 0x66: "imu_roll_i16",
+    0x67: "imu_pitch_i16", 0x68: "imu_yaw_i16", 0x69: "led1", 0x6A: "led2", 0x6B: "led3",
+    0x6C: "led4", 0x82: "periodic_z",
+}  # fmt: skip
+
+# The documents give battery 0xFF as initial value but a 0..100 % range: we start at 100.
+_BATTERY = 0x01
+
+
+def _doc_cases() -> list[tuple[Profile, str, int, int | None]]:
+    cases = []
+    for profile, docs in ((MINI, (MINI_LITE_DOC,)), (LITE, (MINI_LITE_DOC,)),
+                          (RIDER, (RIDER_DOC, RIDER_ZH_DOC))):  # fmt: skip
+        for doc in docs:
+            for address, initial in memory_table(doc).items():
+                cases.append((profile, doc.name, address, initial))
+    return cases
+
+
+def test_seed_parse_found_the_tables() -> None:
+    # Guards the parser: a parse that finds nothing would make the next test vacuous.
+    assert len(memory_table(MINI_LITE_DOC)) == 62
+    assert len(memory_table(RIDER_DOC)) == 28
+    assert memory_table(RIDER_ZH_DOC) == memory_table(RIDER_DOC)
+
+
+@pytest.mark.parametrize(
+    ("profile", "doc", "address", "initial"),
+    _doc_cases(),
+    ids=lambda v: v.model if isinstance(v, Profile) else str(v),
+)
+def test_every_documented_address_with_its_initial_value(
+    profile: Profile, doc: str, address: int, initial: int | None
+) -> None:
+    reg = profile.register_at(address)
+    assert reg is not None, f"{profile.model}: 0x{address:02X} from {doc} missing"
+    assert reg.initial is not None and len(reg.initial) == reg.size
+    if address == _BATTERY:
+        assert initial == 0xFF and reg.initial == bytes((100,))
+    elif initial is not None:
+        assert reg.initial == bytes((initial,)), f"{reg.name} initial"
+
+
+@pytest.mark.parametrize(
+    ("profile", "canonical"),
+    [(MINI, _DOG_CANONICAL), (LITE, _DOG_CANONICAL), (RIDER, _RIDER_CANONICAL)],
+    ids=["mini", "lite", "rider"],
+)
+def test_canonical_names_and_nothing_else(profile: Profile, canonical: dict[int, str]) -> None:
+    assert {r.address: r.name for r in profile.registers} == canonical
+
+
+@pytest.mark.parametrize("profile", XGOS, ids=lambda p: p.model)
+def test_names_and_addresses_unique(profile: Profile) -> None:
+    names = [r.name for r in profile.registers]
+    addresses = [r.address for r in profile.registers]
+    assert len(set(names)) == len(names)
+    assert len(set(addresses)) == len(addresses)
+
+
+def test_unsafe_registers() -> None:
+    dog_unsafe = {"firmware_update", "calibration", "servo_zero", "bt_name", "servo_unload"}
+    for profile in DOGS:
+        assert {r.name for r in profile.registers if r.unsafe} == dog_unsafe
+    assert {r.name for r in RIDER.registers if r.unsafe} == {
+        "firmware_update",
+        "calibration",
+        "bt_name",
+    }
+
+
+def test_unsafe_registers_are_not_offered_in_lookup_errors() -> None:
+    with pytest.raises(ProfileError) as err:
+        MINI.register("nope")
+    assert "vx" in str(err.value) and "firmware_update" not in str(err.value)
+
+
+@pytest.mark.parametrize("profile", XGOS, ids=lambda p: p.model)
+def test_every_register_is_described_and_grouped(profile: Profile) -> None:
+    for reg in profile.registers:
+        assert reg.description, reg.name
+        assert reg.group in {
+            "speed", "posture", "periodic", "leg", "servo", "arm", "gripper", "led", "setting",
+            "action", "telemetry",
+        }, reg.name  # fmt: skip
+        if reg.encoding is Encoding.ENUM:
+            assert reg.initial is not None and reg.initial[0] in reg.choices.values(), reg.name
+
+
+@pytest.mark.parametrize("profile", XGOS, ids=lambda p: p.model)
+def test_trajectory_registers_have_limits(profile: Profile) -> None:
+    moving = {"speed", "posture", "leg", "servo", "arm", "gripper"}
+    for reg in profile.registers:
+        if reg.group in moving and reg.encoding is Encoding.U8:
+            assert reg.linear and reg.limits is not None, reg.name
+            lim = reg.limits
+            assert 0 < lim.velocity < lim.acceleration < lim.jerk, reg.name
+        elif reg.limits is not None:
+            pytest.fail(f"{reg.name} ({reg.group}, {reg.encoding}) should not carry limits")
+
+
+@pytest.mark.parametrize("profile", XGOS, ids=lambda p: p.model)
+def test_initial_bytes_are_in_range(profile: Profile) -> None:
+    for reg in profile.registers:
+        assert reg.initial is not None and len(reg.initial) == reg.size, reg.name
+        if reg.linear and reg.size == 1:
+            value = reg.to_physical(reg.initial[0])
+            if not (reg.encoding is Encoding.U8_PERIODIC and value == 0):
+                reg.check(value)
+
+
+# --- ranges (vendor changePara) -------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("name", "mini", "lite"),
+    [
+        ("vx", (-25, 25), (-25, 25)),
+        ("vy", (-18, 18), (-18, 18)),
+        ("vyaw", (-100, 100), (-100, 100)),
+        ("body_x", (-35, 35), (-25, 25)),
+        ("body_y", (-19.5, 19.5), (-18, 18)),
+        ("body_z", (75, 120), (60, 110)),
+        ("roll", (-20, 20), (-20, 20)),
+        ("pitch", (-22, 22), (-10, 10)),
+        ("yaw", (-16, 16), (-12, 12)),
+        ("leg3_x", (-35, 35), (-25, 25)),
+        ("leg2_y", (-18, 18), (-18, 18)),
+        ("leg4_z", (75, 115), (60, 110)),
+        # MOTOR_LIMIT[(i - 1) % 3]: servo x1 -> [0], x2 -> [1], x3 -> [2]
+        ("servo_11", (-73, 57), (-70, 50)),
+        ("servo_32", (-66, 93), (-70, 90)),
+        ("servo_43", (-31, 31), (-30, 30)),
+        ("servo_52", (-85, 50), (-115, 70)),
+        ("servo_53", (-75, 90), (-85, 100)),
+        ("mark_time", (10, 35), (10, 25)),
+        ("periodic_pitch", (1.5, 8), (1.5, 8)),
+        ("periodic_z", (1.5, 8), (1.5, 8)),
+        ("arm_x", (-80, 155), (-80, 155)),
+        ("arm_z", (-95, 155), (-95, 155)),
+        ("gripper", (0, 100), (0, 100)),
+    ],
+)
+def test_dog_ranges(name: str, mini: tuple[float, float], lite: tuple[float, float]) -> None:
+    for profile, expected in ((MINI, mini), (LITE, lite)):
+        reg = profile.register(name)
+        assert (reg.minimum, reg.maximum) == expected, f"{profile.model} {name}"
+
+
+def test_vendor_range_tables_agree_with_the_vendor_library() -> None:
+    from xgolib import xgolib_dog
+
+    for version, ranges in (("xgomini", MINI_RANGES), ("xgolite", LITE_RANGES)):
+        xgolib_dog.changePara(version)
+        p = xgolib_dog.XGOparam
+        t, a, leg, m = (
+            p["TRANSLATION_LIMIT"],
+            p["ATTITUDE_LIMIT"],
+            p["LEG_LIMIT"],
+            p["MOTOR_LIMIT"],
+        )
+        assert ranges["body_x"] == (-t[0], t[0]) and ranges["body_y"] == (-t[1], t[1])
+        assert ranges["body_z"] == tuple(t[2])
+        assert (ranges["roll"][1], ranges["pitch"][1], ranges["yaw"][1]) == tuple(a)
+        assert ranges["leg_x"][1] == leg[0] and ranges["leg_y"][1] == leg[1]
+        assert ranges["leg_z"] == tuple(leg[2])
+        assert [ranges[f"servo_x{j}"] for j in (1, 2, 3)] == [tuple(x) for x in m[:3]]
+        assert (ranges["servo_52"], ranges["servo_53"]) == (tuple(m[4]), tuple(m[5]))
+        assert ranges["periodic"] == tuple(p["PERIOD_LIMIT"][0])
+        assert ranges["mark_time"] == tuple(p["MARK_TIME_LIMIT"])
+        assert ranges["vx"][1] == p["VX_LIMIT"] and ranges["vy"][1] == p["VY_LIMIT"]
+        assert ranges["vyaw"][1] == p["VYAW_LIMIT"]
+        assert (ranges["arm_x"], ranges["arm_z"]) == (tuple(p["ARM_LIMIT"][0]),
+                                                      tuple(p["ARM_LIMIT"][1]))  # fmt: skip
+
+
+def test_rider_ranges() -> None:
+    expected = {
+        "vx": (-1.5, 1.5, "m/s"),
+        "vyaw": (-360, 360, "deg/s"),
+        "body_z": (60, 120, "mm"),
+        "roll": (-17, 17, "deg"),
+        "periodic_roll": (1, 2, "s"),
+        "periodic_z": (1, 2, "s"),
+    }
+    for name, (lo, hi, unit) in expected.items():
+        reg = RIDER.register(name)
+        assert (reg.minimum, reg.maximum, reg.unit) == (lo, hi, unit), name
+
+
+# --- layout ---------------------------------------------------------------------------------
+
+
+def test_walk_examples() -> None:
+    def names(profile: Profile, address: int, n: int) -> list[str]:
+        return [r.name for r in profile.walk(address, n)]
+
+    assert names(MINI, 0x33, 6) == ["body_x", "body_y", "body_z", "roll", "pitch", "yaw"]
+    assert names(RIDER, 0x69, 6) == ["led1", "led2"]
+    assert names(MINI, 0x62, 12) == ["imu_roll", "imu_pitch", "imu_yaw"]
+    assert names(RIDER, 0x62, 12) == ["imu_roll", "imu_pitch", "imu_yaw"]
+    assert names(MINI, 0x07, 10) == ["firmware"]
+    assert names(LITE, 0x65, 24) == ["imu_block"]
+    assert names(MINI, 0x66, 6) == ["imu_roll_i16", "imu_pitch_i16", "imu_yaw_i16"]
+    # the document's example read: 12 servos from 0x50; the vendor's read_motor reads 15
+    assert names(MINI, 0x50, 12) == [f"servo_{leg}{j}" for leg in range(1, 5) for j in (1, 2, 3)]
+    assert names(MINI, 0x50, 15)[-3:] == ["servo_speed", "servo_52", "servo_53"]
+    assert names(LITE, 0x40, 12)[::3] == ["leg1_x", "leg2_x", "leg3_x", "leg4_x"]
+    with pytest.raises(ProfileError):
+        RIDER.walk(0x69, 4)  # led2 would be cut short
+    with pytest.raises(ProfileError):
+        MINI.walk(0x3F, 1)  # nothing documented there
+
+
+def test_safe_stop_brings_xgos_to_rest() -> None:
+    for profile in XGOS:
+        assert profile.safe_stop
+        for name, value in profile.safe_stop:
+            reg = profile.register(name)
+            assert reg.access.writable and not reg.unsafe
+            byte = reg.to_byte(value)
+            assert byte == (0x80 if reg.group == "speed" and reg.name != "mark_time" else 0x00)
+    mini_stop = {name for name, _ in MINI.safe_stop}
+    assert {"vx", "vy", "vyaw", "mark_time"} <= mini_stop
+    assert {r.name for r in MINI.registers if r.group == "periodic"} <= mini_stop
+    assert {r.name for r in RIDER.registers if r.group in ("speed", "periodic")} == {
+        name for name, _ in RIDER.safe_stop
+    }
+
+
+def test_default_posture_registers_exist_and_are_posture() -> None:
+    assert MINI.default_posture == ("body_x", "body_y", "body_z", "roll", "pitch", "yaw")
+    assert RIDER.default_posture == ("body_z", "roll")
+    for profile in XGOS:
+        for name in profile.default_posture:
+            assert profile.register(name).group == "posture"
+
+
+def test_links_and_write_types() -> None:
+    for profile in XGOS:
+        assert (profile.link.baud, profile.link.gap) == (115200, 0.001)
+    assert (MINI.write_type, LITE.write_type, RIDER.write_type) == (0x00, 0x00, 0x01)
+    assert XARM.link.baud == 9600
+    assert XARM.family == "xarm" and not XARM.registers
+    assert XARM.xarm_servos == (1, 2, 3, 4, 5, 6)
+    assert XARM.capabilities == frozenset({"servos", "gripper"})
+
+
+def test_capabilities() -> None:
+    for dog in DOGS:
+        assert {"legs", "lateral", "arm", "gripper", "actions", "periodic", "imu"} <= (
+            dog.capabilities
+        )
+        assert not dog.supports("led")
+    assert RIDER.supports("led") and RIDER.supports("actions") and RIDER.supports("imu")
+    assert not RIDER.supports("lateral") and not RIDER.supports("legs")
+
+
+@pytest.mark.parametrize("profile", XGOS, ids=lambda p: p.model)
+def test_firmware_register_reports_the_profiles_own_model(profile: Profile) -> None:
+    raw = profile.register("firmware").initial
+    assert raw is not None and len(raw) == 10
+    text = raw.rstrip(b"\0").decode("ascii")
+    assert text == profile.firmware_default
+    assert model_from_firmware(text) == profile.model
+    assert profile.register("firmware").encode_value(text) == raw
+
+
+# --- actions --------------------------------------------------------------------------------
+
+
+def test_dog_action_durations_match_the_document() -> None:
+    documented = dog_actions()
+    assert len(documented) == 27  # 1..24 without 5, 128..130, 255
+    for profile in DOGS:
+        by_id = {a.id: a for a in profile.actions}
+        assert set(by_id) == set(documented) | {5}
+        for action_id, (_name, seconds) in documented.items():
+            assert by_id[action_id].duration == seconds, action_id
+        # 5 is not in the English table; the vendor's ActionTime gives it 4 s
+        assert by_id[5].duration == 4.0
+
+
+def test_dog_action_names() -> None:
+    names = [a.name for a in MINI.actions]
+    assert len(set(names)) == len(names)
+    assert all(n.isidentifier() and n == n.lower() for n in names)
+    assert MINI.action(1).name == "get_down" and MINI.action("stand_up").id == 2
+    assert (MINI.action(13).name, MINI.action(15).name) == ("wave", "wave_2")
+    assert MINI.action(255).name == "reset"
+
+
+def test_dog_action_durations_match_the_vendor_library() -> None:
+    from xgolib import xgolib_dog
+
+    xgolib_dog.changePara("xgomini")
+    assert {a.id: a.duration for a in MINI.actions} == {
+        k: float(v) for k, v in xgolib_dog.XGOparam["ActionTime"].items()
+    }
+
+
+def test_rider_actions() -> None:
+    assert [a.id for a in RIDER.actions] == [*rider_action_ids(), 255]
+    assert [a.id for a in RIDER.actions] == [*rider_action_ids(RIDER_ZH_DOC), 255]
+    assert [a.name for a in RIDER.actions[:6]] == [
+        "swinging",
+        "ups_and_downs",
+        "forward_and_backward",
+        "four_sided_serpentine",
+        "lift_and_rotate",
+        "circular_shake",
+    ]
+    assert all(a.duration is None for a in RIDER.actions)
+
+
+def test_unknown_action_lists_valid_ones() -> None:
+    with pytest.raises(ProfileError, match="swinging"):
+        RIDER.action("moonwalk")
+    with pytest.raises(ProfileError, match="24 naughty"):
+        MINI.action(99)
