@@ -168,7 +168,8 @@ class XgoRobot(SimulatedRobot):
         self._roll = 0.0  # filtered attitude, degrees
         self._pitch = 0.0
         self._rates = (0.0, 0.0, 0.0)  # deg/s about x, y, z
-        self._next_tick: float | None = None
+        self._feedback_start: float | None = None  # Rider auto feedback: time of tick 0
+        self._feedback_k = 0  # index of the next feedback tick
         self._feedback_ticks = 0
         self._feedback_dropped = 0
         self._write_battery()
@@ -373,9 +374,9 @@ class XgoRobot(SimulatedRobot):
             self._write_imu(self._roll, self._pitch, self._physical("yaw"))
         elif reg.name == "auto_feedback":
             if first == 0:
-                self._next_tick = None
-            elif self._next_tick is None:
-                self._next_tick = now
+                self._feedback_start = None
+            elif self._feedback_start is None:
+                self._feedback_start, self._feedback_k = now, 0
 
     # ------------------------------------------------------------------ actions
     def _start_action(self, action_id: int, now: float) -> None:
@@ -434,7 +435,15 @@ class XgoRobot(SimulatedRobot):
         alpha = 1.0 if self._tau == 0 else 1.0 - math.exp(-dt / self._tau)
         roll = self._roll + (target_roll - self._roll) * alpha
         pitch = self._pitch + (target_pitch - self._pitch) * alpha
-        self._rates = ((roll - self._roll) / dt, (pitch - self._pitch) / dt, vyaw)
+        # Instantaneous rates of the first-order response at ``now`` (the gyro's reading).
+        if self._tau == 0:
+            self._rates = (0.0, 0.0, vyaw)
+        else:
+            self._rates = (
+                (target_roll - roll) / self._tau,
+                (target_pitch - pitch) / self._tau,
+                vyaw,
+            )
         self._roll, self._pitch = roll, pitch
         self._t = now
         self._write_imu(self._roll, self._pitch, _wrap(self._heading + self._physical("yaw")))
@@ -508,17 +517,19 @@ class XgoRobot(SimulatedRobot):
 
     # ------------------------------------------------------------------ feedback
     def _emit_feedback(self, now: float) -> None:
-        if self._next_tick is None:
+        start = self._feedback_start
+        if start is None:
             return
         period = 1.0 / FEEDBACK_RATE
-        if now - self._next_tick > _MAX_CATCH_UP:
-            skipped = int((now - self._next_tick - _MAX_CATCH_UP) / period) + 1
-            self._feedback_dropped += skipped
-            self._next_tick += skipped * period
-        while self._next_tick <= now + 1e-9:
+        # Tick k is due at start + k * period (no accumulated rounding).
+        first_kept = math.ceil((now - _MAX_CATCH_UP - start) / period - 1e-6)
+        if first_kept > self._feedback_k:
+            self._feedback_dropped += first_kept - self._feedback_k
+            self._feedback_k = first_kept
+        while start + self._feedback_k * period <= now + 1e-9:
             self._outbox += self._feedback_frames()
             self._feedback_ticks += 1
-            self._next_tick += period
+            self._feedback_k += 1
 
     def _feedback_frames(self) -> bytes:
         out = bytearray()
