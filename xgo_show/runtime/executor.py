@@ -465,6 +465,9 @@ class PerformerExecutor:
         self, data: bytes, kind: str, index: int | None, planned: float | None, label: str
     ) -> bool:
         """Write one frame unless aborted; return False if aborted."""
+        # Wait for the link outside the lock, so a safe stop never waits behind this frame.
+        if self.clock.now() < self._ready_at:
+            self.clock.sleep_until(self._ready_at, self._flags.abort)
         with self._write_lock:
             if self._flags.abort.is_set():
                 return False

@@ -12,15 +12,14 @@ a row (one low reading under a load spike is not a flat battery).
 
 from __future__ import annotations
 
-import struct
 from collections.abc import Mapping
 from dataclasses import dataclass
 
 from xgo_show.errors import ProfileError
-from xgo_show.profiles.model import Encoding, Profile, Register
+from xgo_show.profiles.model import Profile, Register
 from xgo_show.wire.xgo import XgoDecoder, read_frame
 
-__all__ = ["FALLEN_STATUS", "TelemetryItem", "TelemetryPoller", "TelemetrySample", "decode_field"]
+__all__ = ["FALLEN_STATUS", "TelemetryItem", "TelemetryPoller", "TelemetrySample"]
 
 # Status register values that mean the robot has fallen over, by model (from the seed docs:
 # the Rider's 0x02 "working status" reads 0x00 in the falling state).
@@ -58,13 +57,12 @@ class TelemetrySample:
     t: float
 
 
-def decode_field(reg: Register, raw: bytes) -> float:
-    """Register bytes -> a number (physical for linear registers, raw code otherwise)."""
-    if reg.encoding is Encoding.FLOAT32:
-        return float(struct.unpack("<f", raw)[0])
-    if reg.encoding is Encoding.INT16:
-        return float(struct.unpack(">h", raw)[0])
-    return reg.to_physical(raw[0])
+def _number(reg: Register, raw: bytes) -> float:
+    """Register bytes -> a number: the decoded value, or the raw code for named enums."""
+    value = reg.decode_value(raw)
+    if isinstance(value, (int, float)):
+        return float(value)
+    return float(raw[0])
 
 
 class TelemetryPoller:
@@ -142,7 +140,7 @@ class TelemetryPoller:
                 continue
             pos = 0
             for reg in item.fields:
-                value = decode_field(reg, frame.data[pos : pos + reg.size])
+                value = _number(reg, frame.data[pos : pos + reg.size])
                 pos += reg.size
                 self.last[reg.name] = value
                 out.append(TelemetrySample(reg.name, value, now))

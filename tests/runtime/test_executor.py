@@ -1,0 +1,206 @@
+"""Executor timing logic on a fake clock, against an in-process simulator stamped by that clock."""
+
+from __future__ import annotations
+
+import itertools
+import threading
+import time
+from collections.abc import Callable
+
+import pytest
+
+from xgo_show.profiles import get_profile
+from xgo_show.runtime.clock import FakeClock
+from xgo_show.runtime.executor import ExecutorState, PerformerExecutor
+from xgo_show.runtime.safety import rest_frames, stop_frames
+from xgo_show.sim import create_robot
+from xgo_show.transports.sim import SimTransport
+from xgo_show.wire.xgo import XgoDecoder, write_frame
+
+MINI = get_profile("mini")
+# 9-byte frame: 0.78 ms on the wire at 115200 baud, then 1 ms of silence.
+MIN_SPACING = MINI.link.wire_time(9) + MINI.link.gap
+
+
+class HookClock(FakeClock):
+    """A fake clock that runs ``hook(deadline)`` on each wait (to oversleep, pause, …)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.hook: Callable[[float], None] | None = None
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        ok = super().sleep_until(deadline, interrupt)
+        if ok and self.hook is not None:
+            self.hook(deadline)
+        return ok
+
+
+def sim_link(clock: FakeClock, model: str = "mini") -> SimTransport:
+    link = SimTransport(create_robot(model), clock=clock.now, sleep=clock.advance)
+    link.open()
+    return link
+
+
+def schedule_frames(link: SimTransport) -> list[bytes]:
+    """What the robot received, without the stop/rest frames after the show."""
+    rest = {f.data for f in rest_frames(MINI)}
+    return [f.data for f in link.robot.received if f.data not in rest]
+
+
+def test_frames_go_out_at_start_plus_offset(perf) -> None:
+    clock = FakeClock()
+    link = sim_link(clock)
+    schedule = perf("rex", count=8, spacing=0.1)
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI)
+    start = clock.now() + 0.5
+    ex.run(start)
+    received = link.robot.received[: len(schedule.frames)]
+    assert [f.data for f in received] == [f.data for f in schedule.frames]
+    assert [f.t for f in received] == pytest.approx([start + f.t for f in schedule.frames])
+    # Every deadline asked for is start + offset (no accumulated intervals).
+    for frame in schedule.frames:
+        assert any(abs(w - (start + frame.t)) < 1e-12 for w in clock.waits)
+    assert ex.state is ExecutorState.FINISHED
+    assert all(r.error == pytest.approx(0.0) for r in ex.records if r.kind == "frame")
+    # The normal end rests the robot (speeds to neutral), after the last frame.
+    assert [r.kind for r in ex.records[len(schedule.frames) :]] == ["rest"] * len(rest_frames(MINI))
+
+
+def test_late_frame_shifts_the_next_ones_without_bunching(perf) -> None:
+    clock = HookClock()
+    link = sim_link(clock)
+    # Frames 2.5 ms apart: only 0.5 ms more than the link needs between two 9-byte frames.
+    schedule = perf("rex", count=40, spacing=0.0025)
+    start = clock.now() + 0.1
+    late_deadline = start + schedule.frames[3].t
+
+    def oversleep(deadline: float) -> None:
+        if abs(deadline - late_deadline) < 1e-12:
+            clock.advance(0.010)  # the OS woke us 10 ms late for frame 3
+
+    clock.hook = oversleep
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI)
+    ex.run(start)
+    sent = [r.actual for r in ex.records if r.kind == "frame"]
+    assert sent[3] == pytest.approx(late_deadline + 0.010)
+    # The frames behind it follow at the link's minimum spacing (not all at once) …
+    assert sent[4] - sent[3] == pytest.approx(MIN_SPACING)
+    assert all(b - a >= MIN_SPACING - 1e-9 for a, b in itertools.pairwise(sent))
+    # … and catch up with the plan as soon as it allows: the last frames are on time again.
+    assert sent[-1] == pytest.approx(start + schedule.frames[-1].t)
+    assert [f.t for f in link.robot.received[:40]] == pytest.approx(sent)
+
+
+def test_pause_holds_the_robot_and_resume_reaches_back_then_shifts(perf) -> None:
+    clock = HookClock()
+    link = sim_link(clock)
+    schedule = perf("rex", count=10, spacing=0.1)
+    start = clock.now() + 0.1
+    reach_frame = write_frame(MINI.register("roll").address, b"\x90")
+    reached_at: list[float] = []
+
+    def reach(t: float) -> list[tuple[bytes, str]]:
+        reached_at.append(t)
+        return [(reach_frame, "roll back")]
+
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI, reach=reach)
+    pause_at = start + schedule.frames[4].t
+
+    def pause_hook(deadline: float) -> None:
+        if abs(deadline - pause_at) < 1e-12:
+            ex.pause()
+
+    clock.hook = pause_hook
+    ex.start(start)
+    deadline = time.monotonic() + 5
+    while ex.state is not ExecutorState.PAUSED and time.monotonic() < deadline:
+        time.sleep(0.001)
+    assert ex.state is ExecutorState.PAUSED
+    assert ex.progress.sent == 5
+    clock.advance(5.0)  # five seconds of pause
+    ex.resume()
+    assert ex.join(5)
+    kinds = [r.kind for r in ex.records]
+    n_rest = len(rest_frames(MINI))
+    # Five frames, then the hold (rest frames), then the reach frame, then the rest of the show.
+    assert kinds[:5] == ["frame"] * 5
+    assert kinds[5 : 5 + n_rest] == ["rest"] * n_rest
+    assert kinds[5 + n_rest] == "reach"
+    assert kinds[6 + n_rest : 11 + n_rest] == ["frame"] * 5
+    assert reached_at == [pytest.approx(schedule.frames[4].t)]
+    frames = [r for r in ex.records if r.kind == "frame"]
+    # After the pause every frame is planned and sent 5 s (plus the hold's few ms) later.
+    shift = frames[5].actual - (start + schedule.frames[5].t)
+    assert 5.0 <= shift < 5.02
+    assert all(
+        r.actual - (start + schedule.frames[r.index].t) == pytest.approx(shift)
+        for r in frames[5:]
+        if r.index is not None
+    )
+    ex.close()
+
+
+def test_start_mid_show_sends_state_reaching_frames_first(perf) -> None:
+    clock = FakeClock()
+    link = sim_link(clock)
+    schedule = perf("rex", count=10, spacing=0.1)
+    pose = write_frame(MINI.register("body_z").address, b"\x64")
+    ex = PerformerExecutor(
+        schedule, link, clock=clock, profile=MINI, reach=lambda t: [(pose, f"state at {t}")]
+    )
+    start = clock.now() + 0.2
+    ex.run(start, offset=0.5)
+    got = schedule_frames(link)
+    assert got[0] == pose
+    assert got[1:] == [f.data for f in schedule.frames[5:]]
+    # Show time 0.5 happens at ``start``.
+    assert link.robot.received[1].t == pytest.approx(start)
+    assert link.robot.received[0].t < start
+
+
+def test_safe_stop_drops_pending_frames_and_stops_the_robot(perf, walking) -> None:
+    clock = HookClock()
+    link = sim_link(clock)
+    schedule = walking("rex", seconds=1.0)
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI)
+    start = clock.now() + 0.1
+    stopped: list[object] = []
+
+    def stop_hook(deadline: float) -> None:
+        if not stopped and deadline >= start + 0.5:
+            stopped.append(deadline)
+            ex.safe_stop("test")
+
+    clock.hook = stop_hook
+    ex.run(start)
+    result = ex.stop_result
+    assert result is not None and result.ok
+    assert ex.state is ExecutorState.STOPPED
+    sent_frames = [r for r in ex.records if r.kind == "frame"]
+    assert len(sent_frames) < len(schedule.frames)
+    # Nothing from the schedule after the stop frames.
+    kinds = [r.kind for r in ex.records]
+    assert kinds[kinds.index("stop") :] == ["stop"] * len(stop_frames(MINI))
+    snap = link.robot.snapshot()
+    assert snap["registers"]["vx"] == 0.0
+    assert snap["raw"]["vx"] == "80"
+    assert snap["actions"][-1]["id"] == 255
+
+
+def test_stop_frames_decode_to_neutral_speeds_and_posture_reset() -> None:
+    for model in ("mini", "lite", "rider"):
+        profile = get_profile(model)
+        frames = [f for sf in stop_frames(profile) for f in XgoDecoder().feed(sf.data)]
+        written: dict[str, bytes] = {}
+        for frame in frames:
+            assert frame.type == profile.write_type
+            pos = 0
+            for reg in profile.walk(frame.address, len(frame.data)):
+                written[reg.name] = frame.data[pos : pos + reg.size]
+                pos += reg.size
+        for name, value in profile.safe_stop:
+            assert written[name] == profile.register(name).encode_value(value)
+        assert written["vx"] == b"\x80"
+        assert written["action"] == b"\xff"
+        assert list(written)[-1] == "action"  # posture reset after the speeds are neutral
