@@ -242,26 +242,15 @@ class XgoRobot(SimulatedRobot):
         return self._memory[self.profile.register(name).address]
 
     def value(self, name: str) -> Any:
-        """Register ``name`` as a physical value (see :meth:`snapshot` for the types)."""
+        """Register ``name`` as a JSON-able value: :meth:`Register.decode_value`, with RGB as
+        a list and blocks as hex."""
         reg = self.profile.register(name)
-        raw = self._memory[reg.address]
-        enc = reg.encoding
-        if enc in (Encoding.U8, Encoding.U8_PERIODIC):
-            return reg.to_physical(raw[0]) if reg.linear else raw[0]
-        if enc is Encoding.ENUM:
-            for label, code in reg.choices.items():
-                if code == raw[0]:
-                    return label
-            return raw[0]
-        if enc is Encoding.FLOAT32:
-            return struct.unpack("<f", raw)[0]
-        if enc is Encoding.INT16:
-            return struct.unpack(">h", raw)[0]
-        if enc is Encoding.RGB:
-            return list(raw)
-        if enc is Encoding.ASCII:
-            return raw.rstrip(b"\0").decode("ascii", errors="replace")
-        return raw.hex()
+        value = reg.decode_value(self._memory[reg.address])
+        if isinstance(value, tuple):
+            return list(value)
+        if isinstance(value, bytes):
+            return value.hex()
+        return value
 
     @property
     def battery(self) -> float:
