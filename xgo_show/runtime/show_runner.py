@@ -71,9 +71,10 @@ def default_reach(schedule: PerformerSchedule, profile: Profile) -> ReachFn | No
     """Catch-up frames from the compiler: the register state at ``t``, and frames to reach it."""
     if profile.family != "xgo":
         return None
-    from xgo_show.compiler import frames_to_reach, state_at
 
     def reach(t: float) -> list[tuple[bytes, str]]:
+        from xgo_show.compiler import frames_to_reach, state_at
+
         return [(f.data, f.label) for f in frames_to_reach(profile, state_at(schedule, t))]
 
     return reach

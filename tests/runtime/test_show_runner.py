@@ -1,0 +1,191 @@
+"""The show runner against simulators on real pseudo-terminals, through pyserial."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import pytest
+
+from xgo_show.profiles import get_profile
+from xgo_show.runtime.executor import ExecutorState
+from xgo_show.runtime.runlog import RunLog
+from xgo_show.runtime.safety import UnsafeScheduleError, check_unsafe, rest_frames
+from xgo_show.runtime.show_runner import ShowResult, ShowRunner
+from xgo_show.wire.xgo import TYPE_READ, write_frame
+
+
+def wait_for(cond, timeout: float = 3.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not cond():
+        if time.monotonic() > deadline:
+            raise AssertionError("condition not reached in time")
+        time.sleep(0.005)
+
+
+def settle(rig) -> None:
+    """Give the pty servers a moment to take in the last bytes written."""
+    time.sleep(0.05)
+
+
+def show_frames(server, model: str) -> list[bytes]:
+    """Frames the simulator received from the schedule: no telemetry reads, no rest frames."""
+    rest = {f.data for f in rest_frames(get_profile(model))}
+    return [f.data for f in server.robot.received if f.data[3] != TYPE_READ and f.data not in rest]
+
+
+def run_in_thread(runner: ShowRunner) -> tuple[threading.Thread, list[ShowResult]]:
+    out: list[ShowResult] = []
+    th = threading.Thread(target=lambda: out.append(runner.run(handle_signals=False)))
+    th.start()
+    return th, out
+
+
+def test_multi_performer_schedule_arrives_complete_and_in_order(rig, perf, sched) -> None:
+    schedule = sched(
+        perf("rex", "mini", count=30, spacing=0.01),
+        perf("rita", "rider", count=25, spacing=0.012, first_byte=0x40),
+        perf("lola", "lite", count=20, spacing=0.015, start=0.05, register="roll"),
+    )
+    rig.for_schedule(schedule)
+    log = RunLog(None)
+    result = ShowRunner(schedule, rig.transports, log=log).run(handle_signals=False)
+    settle(rig)
+    assert result.completed, result.reason
+    for p in schedule.performers:
+        server = rig.servers[p.name]
+        assert show_frames(server, p.model) == [f.data for f in p.frames]
+        assert all(f.accepted for f in server.robot.received), p.name
+        records = [r for r in result.executors[p.name].records if r.kind == "frame"]
+        assert [r.index for r in records] == list(range(len(p.frames)))
+    # Telemetry replies were parsed on the same ports.
+    assert result.executors["rex"].telemetry is not None
+    assert result.executors["rex"].telemetry.last.get("battery") == 100.0
+    assert [e["event"] for e in log.events()] == ["start", "end"]
+    frames_logged = [r for r in log.records if r["kind"] == "frame" and r["send"] == "frame"]
+    assert len(frames_logged) == sum(len(p.frames) for p in schedule.performers)
+
+
+def _walkers(sched, walking, on_failure: str):
+    return sched(
+        walking("rex", "mini", seconds=1.5),
+        walking("lola", "lite", seconds=1.5),
+        walking("rita", "rider", seconds=1.5),
+        on_failure=on_failure,
+    )
+
+
+def test_port_closed_mid_show_safe_stops_everyone(rig, sched, walking) -> None:
+    schedule = _walkers(sched, walking, "halt_all")
+    rig.for_schedule(schedule)
+    log = RunLog(None)
+    runner = ShowRunner(schedule, rig.transports, log=log)
+    th, out = run_in_thread(runner)
+    wait_for(lambda: runner.executors["lola"].progress.sent >= 5)
+    rig.servers["lola"].close()  # the cable is pulled
+    th.join(5)
+    assert out, "runner did not return"
+    result = out[0]
+    settle(rig)
+    assert not result.completed
+    assert result.reason.startswith("fault on lola")
+    assert "lola" in result.faults
+    for name in ("rex", "rita"):
+        snap = rig.servers[name].snapshot()
+        assert snap["raw"]["vx"] == "80", name  # neutral speed
+        assert snap["actions"][-1]["id"] == 255, name  # default posture restored
+        assert result.stops[name].ok
+        assert result.executors[name].state is ExecutorState.STOPPED
+        assert len(show_frames(rig.servers[name], snap["model"])) < len(
+            schedule.performer(name).frames
+        )
+    assert not result.stops["lola"].ok  # its port is gone; the report says so
+    faults = log.events("fault")
+    assert faults[0]["performer"] == "lola"
+    assert {e["performer"] for e in log.events("safe_stop")} == {"rex", "lola", "rita"}
+    assert log.events("end")[0]["completed"] is False
+
+
+def test_continue_policy_keeps_the_others_running(rig, sched, walking) -> None:
+    schedule = _walkers(sched, walking, "continue")
+    rig.for_schedule(schedule)
+    runner = ShowRunner(schedule, rig.transports)
+    th, out = run_in_thread(runner)
+    wait_for(lambda: runner.executors["lola"].progress.sent >= 5)
+    rig.servers["lola"].close()
+    th.join(5)
+    result = out[0]
+    settle(rig)
+    assert not result.completed
+    assert set(result.stops) == {"lola"}
+    for name in ("rex", "rita"):
+        assert result.executors[name].state is ExecutorState.FINISHED
+        server = rig.servers[name]
+        assert show_frames(server, server.robot.model) == [
+            f.data for f in schedule.performer(name).frames
+        ]
+        assert server.snapshot()["raw"]["vx"] == "80"  # rested at the normal end
+
+
+def test_fallen_rider_halts_the_show(rig, sched, walking) -> None:
+    schedule = sched(walking("rex", "mini", seconds=2.0), walking("rita", "rider", seconds=2.0))
+    rig.for_schedule(schedule)
+    runner = ShowRunner(schedule, rig.transports)
+    th, out = run_in_thread(runner)
+    wait_for(lambda: runner.executors["rita"].progress.sent >= 3)
+    with rig.servers["rita"].lock:
+        rig.servers["rita"].robot.fall()  # type: ignore[attr-defined]
+    th.join(5)
+    result = out[0]
+    settle(rig)
+    assert "fallen" in result.reason
+    assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
+    assert rig.servers["rex"].snapshot()["actions"][-1]["id"] == 255
+
+
+def test_low_battery_during_the_show_is_a_fault(rig, sched, walking) -> None:
+    schedule = sched(walking("rex", "mini", seconds=2.0))
+    rig.for_schedule(schedule)
+    runner = ShowRunner(schedule, rig.transports, battery_floor=30)
+    th, out = run_in_thread(runner)
+    wait_for(lambda: runner.executors["rex"].progress.sent >= 3)
+    with rig.servers["rex"].lock:
+        rig.servers["rex"].robot.set_battery(12)  # type: ignore[attr-defined]
+    th.join(5)
+    result = out[0]
+    assert "battery" in result.reason and "below the floor" in result.reason
+    assert result.stops["rex"].ok
+
+
+def test_stop_from_another_thread_is_a_safe_stop(rig, sched, walking) -> None:
+    schedule = sched(walking("rex", "mini", seconds=2.0))
+    rig.for_schedule(schedule)
+    runner = ShowRunner(schedule, rig.transports)
+    th, out = run_in_thread(runner)
+    wait_for(lambda: runner.executors["rex"].progress.sent >= 3)
+    runner.stop("operator")
+    th.join(5)
+    result = out[0]
+    settle(rig)
+    assert result.reason == "operator"
+    assert result.stops["rex"].ok and result.stops["rex"].elapsed < 0.1
+    assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
+
+
+def test_unsafe_register_is_refused_before_anything_moves(rig, perf, sched) -> None:
+    profile = get_profile("mini")
+    good = perf("rex", "mini", count=3)
+    bad_frame = write_frame(profile.register("servo_zero").address, b"\x01")
+    from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+
+    bad = PerformerSchedule(
+        "rex", "mini", good.link, (*good.frames, ScheduledFrame(0.5, bad_frame)), end=1.0
+    )
+    schedule = sched(bad)
+    rig.for_schedule(schedule)
+    with pytest.raises(UnsafeScheduleError, match="servo_zero"):
+        ShowRunner(schedule, rig.transports)
+    settle(rig)
+    assert rig.servers["rex"].robot.received == []
+    found = check_unsafe(schedule, {"rex": profile}, allow_unsafe=True)
+    assert len(found) == 1 and "servo_zero" in found[0]
