@@ -1,0 +1,103 @@
+"""The xgo-show entry point: command list, probe output and one-line errors."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+from xgo_show.cli.main import COMMANDS, main
+from xgo_show.sim import PtyServer, create_robot
+
+
+def test_help_lists_every_command(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as info:
+        main(["--help"])
+    assert info.value.code == 0
+    out = capsys.readouterr().out
+    assert "probe" in COMMANDS
+    for name in COMMANDS:
+        assert f"    {name} " in out, name
+
+
+def test_every_command_has_help(capsys: pytest.CaptureFixture[str]) -> None:
+    for name in COMMANDS:
+        with pytest.raises(SystemExit) as info:
+            main([name, "--help"])
+        assert info.value.code == 0
+        assert "usage: xgo-show " + name in capsys.readouterr().out
+
+
+def test_probe_sim_prints_firmware_model_battery(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["probe", "sim:mini"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out == [
+        "port      sim:mini",
+        "model     mini (from firmware)",
+        "firmware  M-1.4.1",
+        "battery   100 %",
+        "status    0x00",
+    ]
+
+
+def test_probe_rider_shows_named_status(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["probe", "sim:rider", "--timeout", "1"]) == 0
+    assert "status    normal (0x01)" in capsys.readouterr().out
+
+
+def test_probe_over_a_simulated_pty(capsys: pytest.CaptureFixture[str]) -> None:
+    robot = create_robot("lite", battery=42)
+    with PtyServer(robot) as server:
+        assert main(["probe", server.path]) == 0
+    out = capsys.readouterr().out
+    assert f"port      {server.path}\n" in out
+    assert "model     lite (from firmware)\n" in out
+    assert "battery   42 %\n" in out
+
+
+def test_probe_given_model_that_firmware_contradicts(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["probe", "sim:lite", "--model", "mini"]) == 0
+    assert "model     mini (given; the firmware names a lite)" in capsys.readouterr().out
+
+
+def test_probe_unopenable_port_is_one_line_exit_2(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["probe", "/dev/nonexistent"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err == (
+        "xgo-show: error: cannot open /dev/nonexistent: No such file or directory\n"
+    )
+
+
+def test_probe_bad_timeout(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["probe", "sim:mini", "--timeout", "0"]) == 2
+    assert "--timeout must be a positive" in capsys.readouterr().err
+
+
+def test_probe_error_from_a_real_process_has_no_traceback() -> None:
+    proc = subprocess.run(
+        [sys.executable, "-m", "xgo_show", "probe", "/dev/nonexistent"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    assert proc.stderr.splitlines() == [
+        "xgo-show: error: cannot open /dev/nonexistent: No such file or directory"
+    ]
+
+
+def test_probe_silent_port_is_a_one_line_timeout(capsys: pytest.CaptureFixture[str]) -> None:
+    master, slave = os.openpty()  # nobody answers on the other end
+    path = os.ttyname(slave)
+    try:
+        assert main(["probe", path, "--timeout", "0.1"]) == 2
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert capsys.readouterr().err == (
+        f"xgo-show: error: no reply from {path} to a read of firmware (0x07) within 0.1 s\n"
+    )

@@ -1,0 +1,71 @@
+"""Open a URL and get the right robot client, identifying the model when not given."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from xgo_show.client.xgo import DEFAULT_TIMEOUT, XgoClient
+from xgo_show.errors import ProfileError
+from xgo_show.profiles import get_profile, model_from_firmware
+from xgo_show.transports import open_transport, split_wrappers
+from xgo_show.transports.base import Transport
+
+__all__ = ["open_client"]
+
+# Every XGO model keeps its firmware string here (the vendor's auto-detection reads it too).
+_XGO_FIRMWARE = 0x07
+
+
+def open_client(
+    url: str,
+    model: str | None = None,
+    *,
+    timeout: float = DEFAULT_TIMEOUT,
+    baudrate: int | None = None,
+    **options: Any,
+) -> XgoClient:
+    """Open ``url`` and return a client for the robot on it (close it, or use ``with``).
+
+    ``model`` ("mini", "lite", "rider") selects the profile; when it is None a ``sim:<model>``
+    URL names it, and otherwise the robot's firmware string (register 0x07) does. The baud
+    rate defaults to the model's link rate (115200 for XGO). ``options`` go to
+    :func:`~xgo_show.transports.open_transport`.
+
+    Raises :class:`~xgo_show.errors.TransportError` (cannot open, no reply),
+    :class:`~xgo_show.errors.ProtocolError` (garbage) or
+    :class:`~xgo_show.errors.ProfileError` (unknown model or firmware).
+    """
+    if model is None:
+        model = sim_model(url)
+    profile = get_profile(model) if model is not None else None
+    if baudrate is None and profile is not None:
+        baudrate = profile.link.baud
+    transport = open_transport(url, baudrate=baudrate, **options)
+    transport.open()
+    try:
+        if profile is None:
+            profile = get_profile(_identify(transport, url, timeout))
+        return XgoClient(transport, profile, timeout=timeout)
+    except BaseException:
+        transport.close()
+        raise
+
+
+def sim_model(url: str) -> str | None:
+    """The model a ``sim:<model>`` URL (wrappers allowed) names, else None."""
+    scheme, _, rest = split_wrappers(url)[1].partition(":")
+    return (rest.strip().lower() or None) if scheme == "sim" else None
+
+
+def _identify(transport: Transport, url: str, timeout: float) -> str:
+    # Any XGO profile will do for reading the firmware register: it is 0x07 on every model.
+    reader = XgoClient(transport, get_profile("mini"), timeout=timeout)
+    raw = reader.read(_XGO_FIRMWARE, 10)
+    firmware = raw.split(b"\0", 1)[0].decode("ascii", errors="replace")
+    found = model_from_firmware(firmware)
+    if found is None:
+        raise ProfileError(
+            f"{url} reports firmware {firmware!r}, which names no supported XGO model; "
+            "give the model (mini, lite or rider)"
+        )
+    return found
