@@ -1,0 +1,52 @@
+"""Interop tests: the vendors' own client libraries talk to our simulators over a real pty.
+
+Registers the ``interop`` marker (select with ``-m interop``, skip with ``-m "not interop"``)
+and provides fixtures that serve a simulated robot on a pseudo-terminal.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator
+
+import pytest
+
+from xgo_show.sim import PtyServer, create_robot
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line(
+        "markers", "interop: a vendor client library talks to a simulated robot over a pty"
+    )
+
+
+Serve = Callable[..., PtyServer]
+
+
+@pytest.fixture
+def serve() -> Iterator[Serve]:
+    """``serve(model, **options)`` -> a started PtyServer; all are closed after the test."""
+    servers: list[PtyServer] = []
+
+    def start(model: str, **options: object) -> PtyServer:
+        server = PtyServer(create_robot(model, **options)).start()
+        servers.append(server)
+        return server
+
+    yield start
+    for server in servers:
+        server.close()
+
+
+@pytest.fixture
+def wait() -> Callable[[Callable[[], bool]], None]:
+    """``wait(predicate)``: poll for up to 2 s (the vendor libraries do not wait)."""
+
+    def poll(predicate: Callable[[], bool], timeout: float = 2.0) -> None:
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > deadline:
+                raise AssertionError("the simulator did not get there in time")
+            time.sleep(0.005)
+
+    return poll
