@@ -1,0 +1,205 @@
+"""Pre-flight: check every robot before anything moves.
+
+For each performer: its port opens; the robot answers; its firmware names the performer's model
+(:func:`~xgo_show.profiles.model_from_firmware`); its battery is above the show's floor. The
+result is a table; a show starts only when every row passes (``force`` overrides the robot
+checks with a warning, never a port that does not open). Low-latency mode is asked for on every
+port (USB serial adapters otherwise hold bytes for up to 16 ms), and :func:`request_realtime`
+asks for real-time scheduling when the operator opts in.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import TextIO
+
+from xgo_show.compiler.schedule import Schedule
+from xgo_show.errors import XgoShowError
+from xgo_show.profiles import get_profile, model_from_firmware
+from xgo_show.runtime.clock import Clock, MonotonicClock
+from xgo_show.transports.base import Transport
+
+__all__ = [
+    "PreflightError",
+    "PreflightReport",
+    "PreflightRow",
+    "countdown",
+    "open_ports",
+    "preflight",
+    "request_realtime",
+]
+
+Opener = Callable[..., Transport]
+
+
+class PreflightError(XgoShowError):
+    """A pre-flight check failed; nothing was moved."""
+
+
+@dataclass
+class PreflightRow:
+    """The checks of one performer."""
+
+    performer: str
+    model: str
+    port: str
+    opened: bool = False
+    firmware: str = ""
+    detected: str | None = None
+    battery: float | None = None
+    low_latency: bool = False
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.opened and not self.problems
+
+
+@dataclass
+class PreflightReport:
+    """Every performer's checks, plus what was granted for timing."""
+
+    rows: list[PreflightRow]
+    battery_floor: float
+    realtime: str = "not requested"
+
+    @property
+    def ok(self) -> bool:
+        return all(r.ok for r in self.rows)
+
+    @property
+    def ports_ok(self) -> bool:
+        return all(r.opened for r in self.rows)
+
+    def table(self) -> str:
+        """A plain-text table of the results (one line per performer)."""
+        head = ("performer", "model", "port", "firmware", "battery", "latency", "result")
+        lines = [head]
+        for r in self.rows:
+            battery = "-" if r.battery is None else f"{r.battery:.0f}%"
+            firmware = r.firmware or "-"
+            if r.detected and r.detected != r.model:
+                firmware += f" ({r.detected})"
+            result = "ok" if r.ok else "FAIL: " + "; ".join(r.problems)
+            if r.notes:
+                result += " (" + "; ".join(r.notes) + ")"
+            latency = "low" if r.low_latency else "default"
+            lines.append((r.performer, r.model, r.port, firmware, battery, latency, result))
+        widths = [max(len(row[i]) for row in lines) for i in range(len(head) - 1)]
+        out = []
+        for row in lines:
+            cells = [c.ljust(w) for c, w in zip(row, widths, strict=False)]
+            out.append("  ".join([*cells, row[-1]]).rstrip())
+        out.append(f"battery floor {self.battery_floor:g}%; real-time scheduling: {self.realtime}")
+        return "\n".join(out)
+
+
+def open_ports(
+    schedule: Schedule, urls: Mapping[str, str], *, opener: Opener | None = None
+) -> tuple[dict[str, Transport], dict[str, str]]:
+    """Open every performer's port at its link's baud rate.
+
+    Returns (open transports, errors by performer). Nothing is written.
+    """
+    if opener is None:
+        from xgo_show.transports import open_transport
+
+        opener = open_transport
+    transports: dict[str, Transport] = {}
+    errors: dict[str, str] = {}
+    for perf in schedule.performers:
+        url = urls.get(perf.name)
+        if url is None:
+            errors[perf.name] = "no port given (map it with --map NAME=PORT or in the show file)"
+            continue
+        try:
+            transport = opener(url, baudrate=perf.link.baud)
+            transport.open()
+        except XgoShowError as exc:
+            errors[perf.name] = str(exc)
+            continue
+        transports[perf.name] = transport
+    return transports, errors
+
+
+def preflight(
+    schedule: Schedule,
+    transports: Mapping[str, Transport],
+    *,
+    urls: Mapping[str, str] | None = None,
+    open_errors: Mapping[str, str] | None = None,
+    battery_floor: float | None = None,
+    timeout: float = 0.5,
+    low_latency: bool = True,
+) -> PreflightReport:
+    """Check each robot on its open transport (reads only: nothing moves)."""
+    floor = schedule.battery_floor if battery_floor is None else battery_floor
+    rows: list[PreflightRow] = []
+    for perf in schedule.performers:
+        port = (urls or {}).get(perf.name) or perf.port or "-"
+        row = PreflightRow(perf.name, perf.model, port)
+        rows.append(row)
+        transport = transports.get(perf.name)
+        if transport is None:
+            row.problems.append((open_errors or {}).get(perf.name, "port not open"))
+            continue
+        row.opened = True
+        if low_latency:
+            row.low_latency = transport.set_low_latency()
+        _check_robot(row, transport, floor, timeout)
+    return PreflightReport(rows, floor)
+
+
+def _check_robot(row: PreflightRow, transport: Transport, floor: float, timeout: float) -> None:
+    profile = get_profile(row.model)
+    if profile.family != "xgo":
+        # The xArm reports no firmware string or model; its controller answers no status read
+        # this runtime relies on, so only the port is checked.
+        row.notes.append("xArm: port checked only")
+        return
+    from xgo_show.client import XgoClient
+
+    client = XgoClient(transport, profile, timeout=timeout)
+    try:
+        row.firmware = client.firmware()
+        row.detected = model_from_firmware(row.firmware)
+        if row.detected != profile.model:
+            seen = row.detected or "an unknown model"
+            row.problems.append(f"firmware {row.firmware!r} is {seen}, not {profile.model}")
+        row.battery = float(client.battery())
+        if row.battery < floor:
+            row.problems.append(f"battery {row.battery:.0f}% is below the floor of {floor:g}%")
+    except XgoShowError as exc:
+        row.problems.append(str(exc))
+
+
+def request_realtime(priority: int = 10) -> str:
+    """Ask for SCHED_FIFO for this thread and the threads it starts; say what was granted."""
+    setter = getattr(os, "sched_setscheduler", None)
+    fifo = getattr(os, "SCHED_FIFO", None)
+    if setter is None or fifo is None:
+        return f"not available on {sys.platform}"
+    try:
+        setter(0, fifo, os.sched_param(priority))
+    except (PermissionError, OSError) as exc:
+        return f"SCHED_FIFO refused ({exc.strerror or exc}); running with normal priority"
+    return f"SCHED_FIFO priority {priority} granted"
+
+
+def countdown(seconds: float, *, out: TextIO | None = None, clock: Clock | None = None) -> None:
+    """Print a countdown of whole seconds, then return (0 = no countdown)."""
+    if seconds <= 0:
+        return
+    clock = clock or MonotonicClock()
+    stream = out or sys.stdout
+    start = clock.now()
+    left = seconds
+    while left > 0:
+        print(f"starting in {left:g} s", file=stream, flush=True)
+        step = min(1.0, left)
+        clock.sleep_until(start + (seconds - left) + step)
+        left = round(left - step, 6)

@@ -1,0 +1,208 @@
+"""End-of-show report per performer, and the live progress line.
+
+Send-time error is the actual send time minus the planned one, for scheduled frames only
+(telemetry reads, catch-up and stop frames are counted separately).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TextIO
+
+from xgo_show.runtime.executor import PerformerExecutor, SendRecord
+from xgo_show.runtime.show_runner import ShowProgress, ShowResult
+
+__all__ = [
+    "ErrorStats",
+    "PerformerReport",
+    "ProgressPrinter",
+    "build_report",
+    "error_stats",
+    "format_report",
+    "percentile",
+]
+
+
+def percentile(values: Sequence[float], q: float) -> float:
+    """The ``q`` quantile (0..1) of ``values`` by linear interpolation (nan when empty)."""
+    if not values:
+        return math.nan
+    ordered = sorted(values)
+    pos = (len(ordered) - 1) * q
+    lo = math.floor(pos)
+    hi = min(lo + 1, len(ordered) - 1)
+    return ordered[lo] + (ordered[hi] - ordered[lo]) * (pos - lo)
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    """Send-time error in milliseconds (late is positive)."""
+
+    count: int
+    p50: float
+    p95: float
+    p99: float
+    max: float
+
+    def format(self) -> str:
+        if not self.count:
+            return "no frames sent"
+        return (
+            f"p50 {self.p50:.3f} ms, p95 {self.p95:.3f} ms, p99 {self.p99:.3f} ms, "
+            f"max {self.max:.3f} ms"
+        )
+
+
+def error_stats(errors_s: Sequence[float]) -> ErrorStats:
+    """Statistics of send-time errors given in seconds."""
+    ms = [e * 1000.0 for e in errors_s]
+    return ErrorStats(
+        len(ms),
+        percentile(ms, 0.50),
+        percentile(ms, 0.95),
+        percentile(ms, 0.99),
+        max(ms) if ms else math.nan,
+    )
+
+
+@dataclass(frozen=True)
+class PerformerReport:
+    """What happened to one performer."""
+
+    name: str
+    model: str
+    state: str
+    frames_sent: int
+    frames_total: int
+    bytes_sent: int
+    reads: int
+    errors: ErrorStats
+    telemetry: dict[str, float]
+    ending: str
+    fault: str | None
+
+    def format(self) -> str:
+        lines = [
+            f"{self.name} ({self.model}): {self.state}; "
+            f"{self.frames_sent}/{self.frames_total} frames, {self.bytes_sent} bytes sent, "
+            f"{self.reads} telemetry reads",
+            f"  send-time error: {self.errors.format()}",
+        ]
+        if self.telemetry:
+            tele = ", ".join(f"{k} {_fmt(k, v)}" for k, v in sorted(self.telemetry.items()))
+            lines.append(f"  telemetry: {tele}")
+        if self.fault:
+            lines.append(f"  fault: {self.fault}")
+        lines.append(f"  end: {self.ending}")
+        return "\n".join(lines)
+
+
+def _fmt(name: str, value: float) -> str:
+    if name == "battery":
+        return f"{value:.0f}%"
+    if name.startswith("imu_"):
+        return f"{value:.1f} deg"
+    return f"{value:g}"
+
+
+def _ending(ex: PerformerExecutor, records: Sequence[SendRecord]) -> str:
+    stop = ex.stop_result
+    if stop is not None:
+        did = ", ".join(stop.frames) if stop.frames else "nothing sent"
+        status = "ok" if stop.ok else f"FAILED ({stop.error})"
+        return f"safe stop ({stop.reason}) {status} in {stop.elapsed * 1000:.1f} ms: {did}"
+    rest = [r.label for r in records if r.kind == "rest"]
+    if rest:
+        return "show over; rested: " + ", ".join(rest)
+    return "show over"
+
+
+def build_report(result: ShowResult) -> list[PerformerReport]:
+    """One report per performer of a finished run."""
+    out = []
+    for name, ex in result.executors.items():
+        records = list(ex.records)
+        frames = [r for r in records if r.kind == "frame"]
+        out.append(
+            PerformerReport(
+                name=name,
+                model=ex.schedule.model,
+                state=ex.state.value,
+                frames_sent=len(frames),
+                frames_total=len(ex.schedule.frames),
+                bytes_sent=sum(r.nbytes for r in records),
+                reads=sum(1 for r in records if r.kind == "read"),
+                errors=error_stats([r.error for r in frames if r.error is not None]),
+                telemetry=dict(ex.telemetry.last) if ex.telemetry is not None else {},
+                ending=_ending(ex, records),
+                fault=ex.fault,
+            )
+        )
+    return out
+
+
+def format_report(result: ShowResult) -> str:
+    """The whole end-of-show report as text."""
+    head = "show completed" if result.completed else f"show stopped: {result.reason}"
+    return "\n".join([head, *(r.format() for r in build_report(result))])
+
+
+class ProgressPrinter:
+    """The live progress line: show time, bar:beat, cue and battery per performer.
+
+    On a terminal the line is rewritten in place (call it ~4 times a second); otherwise a plain
+    line is printed every ``plain_every`` seconds of show time.
+    """
+
+    def __init__(
+        self,
+        *,
+        bpm: float | None = None,
+        beats_per_bar: int = 4,
+        out: TextIO | None = None,
+        tty: bool | None = None,
+        plain_every: float = 2.0,
+    ) -> None:
+        self.bpm = bpm
+        self.beats_per_bar = beats_per_bar
+        self.out = out or sys.stdout
+        self.tty = self.out.isatty() if tty is None else tty
+        self.plain_every = plain_every
+        self._next_plain = 0.0
+        self._width = 0
+
+    def line(self, progress: ShowProgress) -> str:
+        t = progress.show_time
+        parts = [f"{t:6.1f}/{progress.duration:.1f}s"]
+        if self.bpm:
+            beat = int(t * self.bpm / 60.0)
+            parts.append(f"bar {beat // self.beats_per_bar + 1}:{beat % self.beats_per_bar + 1}")
+        for p in progress.performers:
+            text = f"{p.performer} {p.cue or '-'}"
+            if p.state.value not in ("running",):
+                text += f" [{p.state.value}]"
+            battery = progress.telemetry.get(p.performer, {}).get("battery")
+            if battery is not None:
+                text += f" {battery:.0f}%"
+            parts.append(text)
+        return " | ".join(parts)
+
+    def __call__(self, progress: ShowProgress) -> None:
+        text = self.line(progress)
+        if self.tty:
+            pad = max(0, self._width - len(text))
+            self._width = len(text)
+            self.out.write("\r" + text + " " * pad)
+            self.out.flush()
+        elif progress.show_time >= self._next_plain:
+            self._next_plain = progress.show_time + self.plain_every
+            print(text, file=self.out, flush=True)
+
+    def finish(self) -> None:
+        """End the in-place line (call once after the show)."""
+        if self.tty and self._width:
+            self.out.write("\n")
+            self.out.flush()
