@@ -1,0 +1,289 @@
+"""Semantic checks on a resolved show: does each robot support each cue, and do cues fight?
+
+Run on the resolved cues (absolute times, physical values) with their :class:`CueSource`, so a
+problem found in a phrase or an included file still points at the line that caused it.
+Ranges are checked by the profile's own :meth:`Register.check` / ``encode_value`` (the one range
+check in the package); this module only decides *which* check applies and words the message.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+
+from xgo_show.choreo.resolve import CueSource, Resolution
+from xgo_show.choreo.resolved import ActionCue, ArmCue, Cue, FadeCue, MotionCue, SetCue
+from xgo_show.choreo.validation import did_you_mean
+from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.errors import ValueRangeError
+from xgo_show.profiles import Encoding, Profile, Register, get_profile
+from xgo_show.profiles.xarm import position_to_degrees
+
+__all__ = ["ACCESSORY_REGISTERS", "PERIODIC_PAIRS", "check_show"]
+
+# Registers that exist only with the arm/gripper accessory mounted (performer ``arm: true``).
+ACCESSORY_REGISTERS = frozenset({"gripper", "arm_x", "arm_z", "arm_mode", "servo_52", "servo_53"})
+# Periodic motion and the direct position on the same axis "cannot work at the same time".
+PERIODIC_PAIRS: Mapping[str, str] = {
+    "periodic_roll": "roll",
+    "periodic_pitch": "pitch",
+    "periodic_yaw": "yaw",
+    "periodic_x": "body_x",
+    "periodic_y": "body_y",
+    "periodic_z": "body_z",
+}
+# Writes that do not move the robot, so they do not interrupt a running preset action.
+_NON_MOTION_GROUPS = frozenset({"led", "setting"})
+_EPS = 1e-9
+
+
+@dataclass(frozen=True)
+class _Write:
+    """One cue writing one register over [start, end)."""
+
+    register: str
+    start: float
+    end: float
+    cue: Cue
+    source: CueSource
+
+
+def _fmt(t: float) -> str:
+    return f"{t:.3f} s"
+
+
+def _where(origin: Origin) -> str:
+    return f"line {origin.line}" if origin.file else str(origin)
+
+
+class _Checker:
+    def __init__(self, res: Resolution) -> None:
+        self.res = res
+        self.diags: list[Diagnostic] = []
+
+    def error(self, message: str, origin: Origin, src: CueSource, sub: str = "") -> None:
+        path = f"{src.path}.{sub}" if sub else src.path
+        self.diags.append(Diagnostic("error", message, origin, path))
+
+    def warning(self, message: str, origin: Origin, src: CueSource, sub: str = "") -> None:
+        path = f"{src.path}.{sub}" if sub else src.path
+        self.diags.append(Diagnostic("warning", message, origin, path))
+
+    def run(self) -> list[Diagnostic]:
+        show = self.res.show
+        if show is None:
+            return self.diags
+        for track in show.tracks:
+            profile = get_profile(track.model)
+            performer = self.res.performers[track.performer]
+            for cue in track.cues:
+                self.check_cue(cue, profile, performer.arm)
+            self.check_conflicts(track.cues, profile)
+        return self.diags
+
+    # -- one cue --------------------------------------------------------------------------
+
+    def register(
+        self, name: str, profile: Profile, arm: bool, src: CueSource, origin: Origin
+    ) -> Register | None:
+        reg = next((r for r in profile.registers if r.name == name), None)
+        if reg is None:
+            valid = sorted(r.name for r in profile.registers if r.access.writable and not r.unsafe)
+            self.error(f"a {profile.model} has no register {name!r}{did_you_mean(name, valid)}; "
+                       f"valid: {', '.join(valid)}", origin, src, name)
+            return None
+        if reg.unsafe:
+            self.error(f"{name} is refused in a show: it is unsafe ({reg.description})",
+                       origin, src, name)
+            return None
+        if not reg.access.writable:
+            self.error(f"{name} is read-only", origin, src, name)
+            return None
+        if reg.name == "action":
+            self.error("write preset actions with an action: cue", origin, src, name)
+            return None
+        if name in ACCESSORY_REGISTERS and profile.family == "xgo" and not arm:
+            self.error(f"{name} needs the arm accessory: set 'arm: true' on performer "
+                       f"{src.performer!r}", origin, src, name)
+            return None
+        return reg
+
+    def value(self, reg: Register, value: object, src: CueSource, origin: Origin) -> None:
+        try:
+            if reg.linear:
+                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                    unit = f" {reg.unit}" if reg.unit else ""
+                    raise ValueRangeError(
+                        f"{reg.name} takes a number in [{reg.minimum:g}, {reg.maximum:g}]{unit}, "
+                        f"not {value!r}"
+                    )
+                if reg.encoding is Encoding.U8_PERIODIC and value == 0:
+                    return  # 0 switches a periodic motion off
+                reg.check(float(value))
+            elif reg.encoding is Encoding.ENUM:
+                if isinstance(value, float) and not value.is_integer():
+                    raise ValueRangeError(f"{reg.name} takes one of {', '.join(reg.choices)}")
+                reg.encode_value(int(value) if isinstance(value, float) else value)
+            else:
+                reg.encode_value(value)
+        except ValueRangeError as exc:
+            message = str(exc)
+            if reg.encoding is Encoding.U8_PERIODIC:
+                message += " (0 = off)"
+            self.error(message, origin, src, reg.name)
+        except (TypeError, ValueError):
+            self.error(f"{reg.name} cannot take {value!r}", origin, src, reg.name)
+
+    def check_cue(self, cue: Cue, profile: Profile, arm: bool) -> None:
+        src = self.res.source(cue)
+        if isinstance(cue, ArmCue):
+            for sid, pos in cue.positions.items():
+                origin = src.values.get(str(sid), src.origin)
+                if sid not in profile.xarm_servos:
+                    ids = ", ".join(map(str, profile.xarm_servos))
+                    self.error(f"the xArm has no servo {sid}; servos: {ids}", origin, src, str(sid))
+                    continue
+                try:
+                    position_to_degrees(pos)
+                except ValueRangeError as exc:
+                    self.error(str(exc), origin, src, str(sid))
+            return
+        if isinstance(cue, ActionCue):
+            return
+        values: Mapping[str, object]
+        if isinstance(cue, FadeCue):
+            values = {cue.register: cue.to}
+        elif isinstance(cue, MotionCue):
+            values = cue.targets
+        else:
+            values = cue.values
+        for name, value in values.items():
+            origin = src.values.get(name, src.origin)
+            reg = self.register(name, profile, arm, src, origin)
+            if reg is None:
+                continue
+            if isinstance(cue, MotionCue) and reg.limits is None and name not in cue.limits:
+                self.error(f"{name} cannot be moved smoothly (it has no trajectory limits); "
+                           "write it with set:", origin, src, name)
+                continue
+            if src.kind == "walk" and reg.group != "speed":
+                speeds = [r.name for r in profile.registers if r.group == "speed"]
+                self.error(f"walk takes speeds ({', '.join(speeds)}), not {name}", origin, src,
+                           name)
+                continue
+            self.value(reg, value, src, origin)
+            if src.kind == "set" and reg.group == "speed" and value not in (0, 0.0):
+                self.warning(f"set {name} keeps the robot moving until another cue stops it; "
+                             "walk: with a length stops by itself", origin, src, name)
+
+    # -- conflicts ------------------------------------------------------------------------
+
+    def writes(self, cues: tuple[Cue, ...]) -> Iterator[_Write]:
+        for cue in cues:
+            src = self.res.source(cue)
+            if isinstance(cue, MotionCue):
+                for name in cue.targets:
+                    yield _Write(name, cue.start, src.end, cue, src)
+            elif isinstance(cue, SetCue):
+                end = src.end if src.kind == "walk" and cue.start < src.end else cue.start
+                for name in cue.values:
+                    yield _Write(name, cue.start, end, cue, src)
+            elif isinstance(cue, FadeCue):
+                yield _Write(cue.register, cue.start, cue.start + cue.duration, cue, src)
+
+    def check_conflicts(self, cues: tuple[Cue, ...], profile: Profile) -> None:
+        by_reg: dict[str, list[_Write]] = defaultdict(list)
+        for w in self.writes(cues):
+            by_reg[w.register].append(w)
+        for name, writes in by_reg.items():
+            writes.sort(key=lambda w: (w.start, w.end))
+            longest: _Write | None = None
+            for w in writes:
+                if (
+                    longest is not None
+                    and longest.cue is not w.cue
+                    and w.start < longest.end - _EPS
+                    and (w.end > w.start + _EPS or w.start > longest.start + _EPS)
+                ):
+                    self.error(
+                        f"{name} is already driven by the cue at "
+                        f"{_where(longest.source.origin)} ({_fmt(longest.start)} to "
+                        f"{_fmt(longest.end)}); this cue starts at {_fmt(w.start)}: two cues cannot drive one register at once",
+                        w.source.values.get(name, w.source.origin), w.source, name,
+                    )
+                if longest is None or w.end > longest.end:
+                    longest = w
+        self.check_actions(cues, profile)
+        self.check_periodic(cues, by_reg)
+
+    def check_actions(self, cues: tuple[Cue, ...], profile: Profile) -> None:
+        actions = [c for c in cues if isinstance(c, ActionCue)]
+        for act in actions:
+            asrc = self.res.source(act)
+            busy_until = act.start + max(asrc.running, 0.0)
+            for other in cues:
+                if other is act or other.start < act.start - _EPS:
+                    continue
+                if other.start >= busy_until - _EPS:
+                    continue
+                if not self.is_motion(other, profile):
+                    continue
+                if getattr(other, "interrupts", False):
+                    continue
+                osrc = self.res.source(other)
+                self.error(
+                    f"starts at {_fmt(other.start)} while action {act.name!r} (from "
+                    f"{_where(asrc.origin)}) runs until {_fmt(busy_until)}; any motion "
+                    "command cuts a running action: start later, or add 'interrupt: true' if "
+                    "that is what you want",
+                    osrc.origin, osrc,
+                )
+
+    def is_motion(self, cue: Cue, profile: Profile) -> bool:
+        names: list[str]
+        if isinstance(cue, FadeCue):
+            return False
+        if isinstance(cue, SetCue):
+            names = list(cue.values)
+        elif isinstance(cue, MotionCue):
+            names = list(cue.targets)
+        else:
+            return True
+        groups = {r.group for r in profile.registers if r.name in names}
+        return not groups <= _NON_MOTION_GROUPS
+
+    def check_periodic(self, cues: tuple[Cue, ...], by_reg: Mapping[str, list[_Write]]) -> None:
+        for periodic, direct in PERIODIC_PAIRS.items():
+            if periodic not in by_reg or direct not in by_reg:
+                continue
+            # Intervals during which the periodic motion is on.
+            spans: list[tuple[float, float, CueSource]] = []
+            on: tuple[float, CueSource] | None = None
+            for w in sorted(by_reg[periodic], key=lambda w: w.start):
+                value = w.cue.values.get(periodic) if isinstance(w.cue, SetCue) else None
+                running = isinstance(value, (int, float)) and value != 0
+                if running and on is None:
+                    on = (w.start, w.source)
+                elif not running and on is not None:
+                    spans.append((on[0], w.start, on[1]))
+                    on = None
+            if on is not None:
+                spans.append((on[0], float("inf"), on[1]))
+            for w in by_reg[direct]:
+                for start, end, psrc in spans:
+                    if w.start < end - _EPS and start < max(w.end, w.start + _EPS) - _EPS:
+                        until = "the end" if end == float("inf") else _fmt(end)
+                        self.error(
+                            f"{direct} is set while {periodic} (started at "
+                            f"{_where(psrc.origin)}) runs from {_fmt(start)} to {until}; the "
+                            "periodic motion and the direct position cannot work at the same "
+                            f"time: stop it first with periodic: {{{periodic[9:]}: 0}}",
+                            w.source.values.get(direct, w.source.origin), w.source, direct,
+                        )
+                        break
+
+
+def check_show(res: Resolution) -> list[Diagnostic]:
+    """Every support, range, safety and timing problem in a resolved show."""
+    return _Checker(res).run()

@@ -1,0 +1,102 @@
+"""Load a routine file: parse, validate, resolve, check. The public entry points.
+
+:func:`load_show` gives the :class:`ResolvedShow` or raises :class:`ChoreographyError` with every
+diagnostic found; :func:`validate_file` also runs the compiler and returns all diagnostics
+(errors and warnings) without raising.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from xgo_show.choreo.checks import check_show
+from xgo_show.choreo.model import ShowFile
+from xgo_show.choreo.resolve import resolve_show
+from xgo_show.choreo.resolved import ResolvedShow
+from xgo_show.choreo.source import read_yaml
+from xgo_show.choreo.validation import validate
+from xgo_show.diagnostics import Diagnostic
+from xgo_show.errors import ChoreographyError, CompileError
+
+__all__ = ["check_file", "load_show", "validate_file"]
+
+
+def _sorted(diags: list[Diagnostic]) -> list[Diagnostic]:
+    """Deduplicated (a phrase played twice reports once), in file order, errors first per line."""
+    seen: set[tuple[object, ...]] = set()
+    out: list[Diagnostic] = []
+    for d in diags:
+        key = (d.severity, d.message, d.origin and (d.origin.file, d.origin.line,
+                                                     d.origin.column), d.path)
+        if key not in seen:
+            seen.add(key)
+            out.append(d)
+    return sorted(out, key=lambda d: (
+        d.origin.file if d.origin else "", d.origin.line if d.origin else 0,
+        d.origin.column if d.origin else 0, d.severity != "error",
+    ))
+
+
+def check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]]:
+    """Parse, validate, resolve and check ``path``: the show (if no errors) and all findings."""
+    doc, diags = read_yaml(Path(path), str(path))
+    if diags:
+        return None, _sorted(diags)
+    if not isinstance(doc.data, dict):
+        kind = "a list" if isinstance(doc.data, list) else type(doc.data).__name__
+        diags = [Diagnostic("error", f"a routine is a mapping with show, performers and tracks, "
+                            f"not {kind}", doc.origin(()))]
+        return None, diags
+    model, diags = validate(ShowFile, doc, doc.data)
+    if model is None:
+        return None, _sorted(diags)
+    res = resolve_show(model, doc)
+    diags = res.diagnostics
+    if res.show is not None:
+        diags = diags + check_show(res)
+    diags = _sorted(diags)
+    if res.show is None or any(d.is_error for d in diags):
+        return None, diags
+    warnings = tuple(d for d in diags if not d.is_error)
+    return dataclasses.replace(res.show, warnings=warnings), diags
+
+
+def _summary(path: str | Path, diags: list[Diagnostic]) -> str:
+    errors = [d for d in diags if d.is_error]
+    first = errors[0].format() if errors else ""
+    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+    return f"{path}: {len(errors)} error(s): {first}{more}"
+
+
+def load_show(path: str | Path) -> ResolvedShow:
+    """Load the routine at ``path`` into a :class:`ResolvedShow`.
+
+    Raises :class:`ChoreographyError` whose ``diagnostics`` list every problem found (not just
+    the first); warnings are kept in ``ResolvedShow.warnings``.
+    """
+    show, diags = check_file(path)
+    if show is None:
+        errors = tuple(d for d in diags if d.is_error)
+        raise ChoreographyError(_summary(path, diags), errors)
+    return show
+
+
+def validate_file(path: str | Path) -> list[Diagnostic]:
+    """Every problem in the routine at ``path``, compiler findings included; never raises
+    for a user mistake. Errors fail validation, warnings do not."""
+    show, diags = check_file(path)
+    if show is None:
+        return diags
+    try:
+        from xgo_show.compiler import compile_show  # the compiler is optional for loading
+    except ImportError:
+        return diags
+    try:
+        schedule = compile_show(show)
+    except CompileError as exc:
+        extra = [d for d in exc.diagnostics if isinstance(d, Diagnostic)]
+        if not extra:
+            extra = [Diagnostic("error", str(exc))]
+        return _sorted(diags + extra)
+    return _sorted(diags + list(schedule.warnings))

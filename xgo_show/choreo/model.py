@@ -1,0 +1,562 @@
+"""The choreography language as pydantic models: what a routine file may contain.
+
+These models check the *shape* of a file (fields, types, simple bounds). What depends on the
+robot (register names, ranges, actions, capabilities) and on time (overlaps) is checked after
+resolution, in :mod:`xgo_show.choreo.resolve` and :mod:`xgo_show.choreo.checks`.
+
+A cue is a mapping with exactly one *kind* key (``action``, ``move``, ``set``, ...) plus timing
+fields. See docs/choreography.md for the language reference.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal, Union
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Discriminator,
+    Field,
+    PlainValidator,
+    StringConstraints,
+    Tag,
+    WithJsonSchema,
+    model_validator,
+)
+from pydantic_core import PydanticCustomError
+
+__all__ = [
+    "BLOCK_KINDS",
+    "CUE_KINDS",
+    "ActionCueModel",
+    "ArmCueModel",
+    "ArmTarget",
+    "CueList",
+    "CueModel",
+    "GripperCueModel",
+    "IncludeCueModel",
+    "LedCueModel",
+    "Length",
+    "LimitsOverride",
+    "MoveCueModel",
+    "PartMapping",
+    "PerformerModel",
+    "PeriodicCueModel",
+    "PhraseCueModel",
+    "PhraseModel",
+    "PoseCueModel",
+    "PoseDegCueModel",
+    "Position",
+    "RepeatCueModel",
+    "RestCueModel",
+    "SetCueModel",
+    "SettingsModel",
+    "ShowFile",
+    "TempoConstant",
+    "TempoEntry",
+    "WalkCueModel",
+    "cue_kind",
+]
+
+Number = Annotated[float, Field(allow_inf_nan=False)]
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$")]
+Scalar = Union[float, str, bool]  # noqa: UP007  (a runtime union for pydantic)
+
+_BAR_BEAT = re.compile(r"^\s*(\d+)\s*\.\s*(\d+)\s*$")
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+
+# -- time -------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Position:
+    """A point in time: ``seconds`` from the start of the enclosing block, or a bar/beat."""
+
+    seconds: float | None = None
+    bar: int | None = None
+    beat: float = 1.0
+
+    def describe(self) -> str:
+        if self.seconds is not None:
+            return f"{self.seconds:g} s"
+        return f"bar {self.bar} beat {self.beat:g}"
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _finite(value: float) -> bool:
+    return value == value and value not in (float("inf"), float("-inf"))
+
+
+def _parse_position(value: object) -> Position:
+    if _is_number(value):
+        seconds = float(value)  # type: ignore[arg-type]
+        if not _finite(seconds) or seconds < 0:
+            raise PydanticCustomError(
+                "position", "a time must be a number of seconds >= 0, not {value}", {"value": value}
+            )
+        return Position(seconds=seconds)
+    if isinstance(value, str):
+        match = _BAR_BEAT.match(value)
+        if not match:
+            raise PydanticCustomError(
+                "position",
+                "{value!r} is not a time: write seconds (12.5), \"BAR.BEAT\" (\"5.3\") or "
+                "{bar: 5, beat: 3.5}",
+                {"value": value, "value!r": repr(value)},
+            )
+        bar, beat = int(match[1]), int(match[2])
+        return _bar_beat(bar, beat)
+    if isinstance(value, dict):
+        unknown = set(value) - {"bar", "beat"}
+        if unknown or "bar" not in value:
+            raise PydanticCustomError(
+                "position",
+                "a bar/beat time is {bar: N, beat: B} (beat optional, from 1); got keys {keys}",
+                {"keys": ", ".join(map(str, value)) or "none"},
+            )
+        bar, beat = value["bar"], value.get("beat", 1)
+        if not isinstance(bar, int) or isinstance(bar, bool) or not _is_number(beat):
+            raise PydanticCustomError(
+                "position", "bar must be a whole number and beat a number", {}
+            )
+        return _bar_beat(bar, float(beat))
+    raise PydanticCustomError(
+        "position",
+        "a time is seconds (12.5), \"BAR.BEAT\" (\"5.3\") or {bar: 5, beat: 3}, not {kind}",
+        {"kind": type(value).__name__},
+    )
+
+
+def _bar_beat(bar: int, beat: float) -> Position:
+    if bar < 1 or not _finite(beat) or beat < 1:
+        raise PydanticCustomError(
+            "position", "bars and beats count from 1 (bar {bar}, beat {beat})",
+            {"bar": bar, "beat": f"{beat:g}"},
+        )
+    return Position(bar=bar, beat=beat)
+
+
+_POSITION_SCHEMA: dict[str, Any] = {
+    "description": "Seconds from the start of the block (number), \"BAR.BEAT\" (string) or "
+    "{bar, beat}; bars and beats count from 1.",
+    "anyOf": [
+        {"type": "number", "minimum": 0},
+        {"type": "string", "pattern": r"^\s*\d+\s*\.\s*\d+\s*$"},
+        {
+            "type": "object",
+            "properties": {
+                "bar": {"type": "integer", "minimum": 1},
+                "beat": {"type": "number", "minimum": 1},
+            },
+            "required": ["bar"],
+            "additionalProperties": False,
+        },
+    ],
+}
+
+PositionField = Annotated[
+    Position, PlainValidator(_parse_position), WithJsonSchema(_POSITION_SCHEMA)
+]
+
+
+@dataclass(frozen=True)
+class Length:
+    """A span of time: ``amount`` of ``unit`` (seconds, beats or bars)."""
+
+    amount: float
+    unit: Literal["seconds", "beats", "bars"] = "seconds"
+
+    def describe(self) -> str:
+        return f"{self.amount:g} {self.unit}"
+
+
+_LENGTH_UNITS = ("seconds", "beats", "bars")
+
+
+def _parse_length(value: object) -> Length:
+    if _is_number(value):
+        amount = float(value)  # type: ignore[arg-type]
+        unit = "seconds"
+    elif isinstance(value, dict) and len(value) == 1 and next(iter(value)) in _LENGTH_UNITS:
+        unit, raw = next(iter(value.items()))
+        if not _is_number(raw):
+            raise PydanticCustomError(
+                "length", "{unit} must be a number, not {value!r}", {"unit": unit, "value": raw,
+                                                                      "value!r": repr(raw)}
+            )
+        amount = float(raw)
+    else:
+        raise PydanticCustomError(
+            "length",
+            "a length is seconds (1.5) or one of {beats: N}, {bars: N}, {seconds: N}",
+            {},
+        )
+    if not _finite(amount) or amount < 0:
+        raise PydanticCustomError(
+            "length", "a length must be >= 0, not {amount}", {"amount": amount}
+        )
+    return Length(amount, unit)  # type: ignore[arg-type]
+
+
+_LENGTH_SCHEMA: dict[str, Any] = {
+    "description": "Seconds (number) or {beats: N} / {bars: N} / {seconds: N}.",
+    "anyOf": [
+        {"type": "number", "minimum": 0},
+        *(
+            {
+                "type": "object",
+                "properties": {u: {"type": "number", "minimum": 0}},
+                "required": [u],
+                "additionalProperties": False,
+            }
+            for u in _LENGTH_UNITS
+        ),
+    ],
+}
+
+LengthField = Annotated[Length, PlainValidator(_parse_length), WithJsonSchema(_LENGTH_SCHEMA)]
+
+
+# -- colours ----------------------------------------------------------------------------------
+
+Color = Annotated[
+    Union[str, list[int]],  # noqa: UP007
+    WithJsonSchema(
+        {
+            "description": "A colour name (red, warm_white, off...), \"#rrggbb\" or [r, g, b].",
+            "anyOf": [
+                {"type": "string"},
+                {
+                    "type": "array",
+                    "items": {"type": "integer", "minimum": 0, "maximum": 255},
+                    "minItems": 3,
+                    "maxItems": 3,
+                },
+            ],
+        }
+    ),
+]
+
+
+# -- cues -------------------------------------------------------------------------------------
+
+
+class _Timing(_Model):
+    """When a cue starts and how long its slot lasts."""
+
+    at: PositionField | None = Field(
+        None, description="Start time from the start of the enclosing block (track, phrase...)."
+    )
+    after: LengthField | None = Field(
+        None, description="Gap after the previous cue's end (default 0)."
+    )
+    duration: NonNegative | None = Field(None, description="Length in seconds.")
+    beats: NonNegative | None = Field(None, description="Length in beats (needs a tempo).")
+    bars: NonNegative | None = Field(None, description="Length in bars (needs a tempo).")
+    interrupt: bool = Field(
+        False, description="May cut a preset action that is still running (on purpose)."
+    )
+
+    @model_validator(mode="after")
+    def _one_timing(self) -> _Timing:
+        if self.at is not None and self.after is not None:
+            raise PydanticCustomError(
+                "timing", "give either 'at' or 'after', not both", {}
+            )
+        given = [n for n in ("duration", "beats", "bars") if getattr(self, n) is not None]
+        if len(given) > 1:
+            raise PydanticCustomError(
+                "timing", "give one length, not {given}", {"given": " and ".join(given)}
+            )
+        return self
+
+
+class _BlockTiming(_Model):
+    """Blocks (phrase, repeat, include, rest) are placed like cues but last as long as they do."""
+
+    at: PositionField | None = Field(None, description="Start time within the enclosing block.")
+    after: LengthField | None = Field(None, description="Gap after the previous cue's end.")
+
+    @model_validator(mode="after")
+    def _one_timing(self) -> _BlockTiming:
+        if self.at is not None and self.after is not None:
+            raise PydanticCustomError("timing", "give either 'at' or 'after', not both", {})
+        return self
+
+
+class ActionCueModel(_Timing):
+    """Run a preset action, by name or number."""
+
+    action: Annotated[str, Field(min_length=1)] | Annotated[int, Field(ge=0, le=255)]
+
+
+class LimitsOverride(_Model):
+    """Per-register trajectory limits that replace the profile's (any subset)."""
+
+    velocity: Positive | None = None
+    acceleration: Positive | None = None
+    jerk: Positive | None = None
+
+
+class MoveCueModel(_Timing):
+    """Move registers smoothly to targets; a list of targets is a path through each point."""
+
+    move: Annotated[dict[str, Number | Annotated[list[Number], Field(min_length=1)]],
+                    Field(min_length=1)]
+    limits: dict[str, LimitsOverride] = Field(default_factory=dict)
+
+
+class SetCueModel(_Timing):
+    """Write register values at once (settings, speeds, modes)."""
+
+    set: Annotated[dict[str, Scalar], Field(min_length=1)]
+
+
+class WalkCueModel(_Timing):
+    """Walk/drive at speeds for the cue's length, then back to standstill."""
+
+    walk: Annotated[dict[str, Number], Field(min_length=1)]
+
+
+PeriodicAxis = Literal["roll", "pitch", "yaw", "x", "y", "z"]
+
+
+class PeriodicCueModel(_Timing):
+    """Periodic body motion: axis -> period in seconds; 0 stops it."""
+
+    periodic: Annotated[dict[PeriodicAxis, NonNegative], Field(min_length=1)]
+
+
+class LedCueModel(_Timing):
+    """Set LED colours (led1..led4 or all), optionally fading."""
+
+    led: Annotated[dict[str, Color], Field(min_length=1)]
+    fade: LengthField | None = Field(None, description="Fade from the current colour this long.")
+
+
+class GripperCueModel(_Timing):
+    """Close the gripper to a percentage (0 = open, 100 = closed)."""
+
+    gripper: Number
+
+
+class ArmTarget(_Model):
+    """Dog arm end point in mm."""
+
+    x: Number | None = None
+    z: Number | None = None
+
+
+class ArmCueModel(_Timing):
+    """Move a dog's arm end point smoothly."""
+
+    arm: ArmTarget
+
+
+class PoseCueModel(_Timing):
+    """xArm: servo id -> position 0..1000."""
+
+    pose: Annotated[dict[int, int], Field(min_length=1)]
+
+
+class PoseDegCueModel(_Timing):
+    """xArm: servo id -> angle in degrees (-125..125)."""
+
+    pose_deg: Annotated[dict[int, Number], Field(min_length=1)]
+
+
+class RestCueModel(_BlockTiming):
+    """Do nothing for a while."""
+
+    rest: LengthField
+
+
+class PhraseCueModel(_BlockTiming):
+    """Play a phrase defined under ``phrases:``, with parameter values."""
+
+    phrase: Name
+    with_: dict[str, Scalar] = Field(default_factory=dict, alias="with")
+
+    model_config = ConfigDict(populate_by_name=True)
+
+
+class RepeatCueModel(_BlockTiming):
+    """Play ``cues`` ``repeat`` times in a row."""
+
+    repeat: Annotated[int, Field(ge=1, le=10000)]
+    cues: Annotated[list[CueModel], Field(min_length=1)]
+
+
+class IncludeCueModel(_BlockTiming):
+    """Play the cues of another file (path relative to this file)."""
+
+    include: Annotated[str, Field(min_length=1)]
+
+
+_CUE_CLASSES: dict[str, type[BaseModel]] = {
+    "action": ActionCueModel,
+    "move": MoveCueModel,
+    "set": SetCueModel,
+    "walk": WalkCueModel,
+    "periodic": PeriodicCueModel,
+    "led": LedCueModel,
+    "gripper": GripperCueModel,
+    "arm": ArmCueModel,
+    "pose": PoseCueModel,
+    "pose_deg": PoseDegCueModel,
+    "rest": RestCueModel,
+    "phrase": PhraseCueModel,
+    "repeat": RepeatCueModel,
+    "include": IncludeCueModel,
+}
+CUE_KINDS: tuple[str, ...] = tuple(_CUE_CLASSES)
+BLOCK_KINDS: frozenset[str] = frozenset({"rest", "phrase", "repeat", "include"})
+
+
+def cue_kind(value: object) -> str | None:
+    """The kind key of a raw cue mapping, or None if it has none or several."""
+    if isinstance(value, BaseModel):
+        for kind, cls in _CUE_CLASSES.items():
+            if isinstance(value, cls):
+                return kind
+        return None
+    if not isinstance(value, dict):
+        return None
+    kinds = [k for k in CUE_KINDS if k in value]
+    return kinds[0] if len(kinds) == 1 else None
+
+
+CueModel = Annotated[
+    Union[  # noqa: UP007
+        Annotated[ActionCueModel, Tag("action")],
+        Annotated[MoveCueModel, Tag("move")],
+        Annotated[SetCueModel, Tag("set")],
+        Annotated[WalkCueModel, Tag("walk")],
+        Annotated[PeriodicCueModel, Tag("periodic")],
+        Annotated[LedCueModel, Tag("led")],
+        Annotated[GripperCueModel, Tag("gripper")],
+        Annotated[ArmCueModel, Tag("arm")],
+        Annotated[PoseCueModel, Tag("pose")],
+        Annotated[PoseDegCueModel, Tag("pose_deg")],
+        Annotated[RestCueModel, Tag("rest")],
+        Annotated[PhraseCueModel, Tag("phrase")],
+        Annotated[RepeatCueModel, Tag("repeat")],
+        Annotated[IncludeCueModel, Tag("include")],
+    ],
+    Discriminator(
+        cue_kind,
+        custom_error_type="cue_kind",
+        custom_error_message="a cue needs exactly one kind key",
+    ),
+]
+
+RepeatCueModel.model_rebuild()
+
+
+# -- show -------------------------------------------------------------------------------------
+
+
+class TempoConstant(_Model):
+    """One tempo for the whole show."""
+
+    bpm: Positive
+    beats_per_bar: Annotated[int, Field(ge=1, le=64)] = 4
+
+
+class TempoEntry(_Model):
+    """From ``bar`` on, this tempo (and meter; default: the previous entry's)."""
+
+    bar: Annotated[int, Field(ge=1)]
+    bpm: Positive
+    beats_per_bar: Annotated[int, Field(ge=1, le=64)] | None = None
+
+
+def _tempo_kind(value: object) -> str:
+    return "map" if isinstance(value, list) else "constant"
+
+
+Tempo = Annotated[
+    Union[  # noqa: UP007
+        Annotated[TempoConstant, Tag("constant")],
+        Annotated[Annotated[list[TempoEntry], Field(min_length=1)], Tag("map")],
+    ],
+    Discriminator(_tempo_kind),
+]
+
+
+class SettingsModel(_Model):
+    """Show-wide settings for the compiler and the runtime."""
+
+    control_rate: Annotated[float, Field(gt=0, le=1000)] = Field(
+        50.0, description="Trajectory samples per second (Hz)."
+    )
+    gap_ms: Annotated[float, Field(ge=0, le=1000)] | None = Field(
+        None, description="Silence between frames in ms (default: the robot's own)."
+    )
+    decimate: bool = Field(
+        False, description="Allow dropping trajectory samples that do not fit the link."
+    )
+    on_failure: Literal["halt_all", "continue"] = "halt_all"
+    battery_floor: Annotated[int, Field(ge=0, le=100)] = Field(
+        20, description="Battery % below which the pre-flight check fails."
+    )
+    end: PositionField | None = Field(None, description="Explicit show end.")
+
+
+class PerformerModel(_Model):
+    """One robot on stage."""
+
+    model: Literal["mini", "lite", "rider", "xarm"]
+    port: Annotated[str, Field(min_length=1)] | None = Field(
+        None, description="Serial port or transport URL."
+    )
+    arm: bool = Field(False, description="Dogs: carries the arm and gripper accessory.")
+
+
+class PhraseModel(_Model):
+    """A reusable sequence of cues with parameters (``$name`` in the cues)."""
+
+    params: dict[Name, Scalar | None] = Field(
+        default_factory=dict, description="Parameter defaults; null = must be given."
+    )
+    cues: Annotated[list[Any], Field(min_length=1)] = Field(
+        json_schema_extra={"items": {"type": "object"}}
+    )
+
+
+class ShowFile(_Model):
+    """A routine file."""
+
+    show: Annotated[str, Field(min_length=1)] = Field(description="The show's name.")
+    tempo: Tempo | None = None
+    settings: SettingsModel = SettingsModel.model_validate({})
+    performers: Annotated[dict[Name, PerformerModel], Field(min_length=1)]
+    include: list[Annotated[str, Field(min_length=1)]] = Field(
+        default_factory=list, description="Files whose phrases this show may use."
+    )
+    phrases: dict[Name, PhraseModel] = Field(default_factory=dict)
+    tracks: Annotated[dict[Name, list[CueModel]], Field(min_length=1)]
+
+
+class PartMapping(_Model):
+    """An included file written as a mapping: phrases and/or cues."""
+
+    phrases: dict[Name, PhraseModel] = Field(default_factory=dict)
+    cues: list[CueModel] = Field(default_factory=list)
+
+
+class CueList(_Model):
+    """A bare list of cues (an included file, a phrase body), validated as ``{cues: [...]}``."""
+
+    cues: list[CueModel]

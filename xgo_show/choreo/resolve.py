@@ -1,0 +1,821 @@
+"""Expand a validated routine into the resolved show: absolute seconds, physical values.
+
+Tempo, bar/beat positions, phrases (with parameters), repeats and includes are expanded away.
+Every problem found on the way becomes a diagnostic; resolution carries on past it so that one
+run reports everything. Register-level checks (names, ranges, capabilities) and timing conflicts
+are left to :mod:`xgo_show.choreo.checks`, which reads the :class:`CueSource` kept per cue.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ruckig import InputParameter, Result, Ruckig, Trajectory
+
+from xgo_show.choreo.colors import parse_color
+from xgo_show.choreo.model import (
+    ActionCueModel,
+    ArmCueModel,
+    CueList,
+    GripperCueModel,
+    IncludeCueModel,
+    LedCueModel,
+    Length,
+    MoveCueModel,
+    PartMapping,
+    PerformerModel,
+    PeriodicCueModel,
+    PhraseCueModel,
+    PhraseModel,
+    PoseCueModel,
+    PoseDegCueModel,
+    Position,
+    RepeatCueModel,
+    RestCueModel,
+    SetCueModel,
+    ShowFile,
+    WalkCueModel,
+    cue_kind,
+)
+from xgo_show.choreo.resolved import (
+    ActionCue,
+    ArmCue,
+    Cue,
+    FadeCue,
+    MotionCue,
+    ResolvedShow,
+    ResolvedTrack,
+    SetCue,
+)
+from xgo_show.choreo.source import Document, Loc, format_path, parse_yaml, read_text
+from xgo_show.choreo.timebase import Segment, TempoMap
+from xgo_show.choreo.validation import did_you_mean, validate
+from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.errors import ProfileError, ValueRangeError
+from xgo_show.profiles import Encoding, Limits, Profile, get_profile
+from xgo_show.profiles.xarm import degrees_to_position
+
+__all__ = ["MAX_CUES", "CueSource", "Resolution", "resolve_show"]
+
+MAX_CUES = 100_000  # a guard against repeat blocks that expand to absurd sizes
+_PARAM = re.compile(r"^(-?)\$([A-Za-z_][A-Za-z0-9_]*)$")
+
+
+@dataclass(frozen=True)
+class CueSource:
+    """Where a resolved cue came from, for the checks and their messages."""
+
+    performer: str
+    kind: str  # the language's cue kind (move, walk, set, ...)
+    path: str  # field path of the cue, e.g. "tracks.rex[3]"
+    origin: Origin
+    values: Mapping[str, Origin] = field(default_factory=dict)  # per register / servo key
+    running: float = 0.0  # seconds the robot is busy with it (actions: their real run time)
+    end: float = 0.0  # end of the cue's slot, seconds (estimated for open-ended moves)
+
+
+@dataclass
+class Resolution:
+    """The result of :func:`resolve_show`: a show (when no errors) and every diagnostic."""
+
+    show: ResolvedShow | None
+    diagnostics: list[Diagnostic]
+    sources: dict[int, CueSource]  # id(cue) -> source
+    performers: dict[str, PerformerModel]
+
+    def source(self, cue: Cue) -> CueSource:
+        return self.sources[id(cue)]
+
+
+@dataclass(frozen=True)
+class _Phrase:
+    name: str
+    model: PhraseModel
+    doc: Document
+    loc: Loc
+
+
+@dataclass
+class _Block:
+    """Where a list of cues is being resolved."""
+
+    doc: Document
+    loc: Loc  # of the cue list
+    start: float  # seconds: the block's own zero
+    top: bool  # a performer's track itself (bar/beat are then absolute)
+    phrases: Mapping[str, _Phrase]
+    includes: tuple[Path, ...]  # files being included, for cycle detection
+    context: str = ""  # "phrase nod at 12:5", for cue descriptions
+
+
+@dataclass
+class _Performer:
+    name: str
+    model: PerformerModel
+    profile: Profile
+    state: dict[str, float]  # last known register values, for open-ended move estimates
+    cues: list[Cue] = field(default_factory=list)
+
+
+class _Resolver:
+    def __init__(self, show: ShowFile, doc: Document) -> None:
+        self.show = show
+        self.doc = doc
+        self.diags: list[Diagnostic] = []
+        self.sources: dict[int, CueSource] = {}
+        self.tempo: TempoMap | None = None
+        self.parts: dict[Path, tuple[Document | None, PartMapping | CueList | None, str]] = {}
+        self.count = 0
+        self.too_many = False
+        self.phrase_stack: list[str] = []
+
+    # -- diagnostics ----------------------------------------------------------------------
+
+    def error(self, doc: Document, loc: Loc, message: str, *, key: bool = False) -> None:
+        self.diags.append(Diagnostic("error", message, doc.origin(loc, key=key), format_path(loc)))
+
+    def warning(self, doc: Document, loc: Loc, message: str) -> None:
+        self.diags.append(Diagnostic("warning", message, doc.origin(loc), format_path(loc)))
+
+    # -- time -----------------------------------------------------------------------------
+
+    def need_tempo(self, doc: Document, loc: Loc, what: str) -> TempoMap | None:
+        if self.tempo is None:
+            self.error(doc, loc, f"{what} need a tempo: add e.g. 'tempo: {{bpm: 120}}' to the show")
+        return self.tempo
+
+    def position(self, pos: Position, block: _Block, loc: Loc) -> float | None:
+        if pos.seconds is not None:
+            return block.start + pos.seconds
+        assert pos.bar is not None
+        tempo = self.need_tempo(block.doc, loc, "bar/beat times")
+        if tempo is None:
+            return None
+        try:
+            if block.top:
+                return tempo.position(pos.bar, pos.beat)
+            # Inside a phrase, repeat or include: count bars from the block's start, in the
+            # meter in force there.
+            per_bar = tempo.beats_per_bar_at(block.start)
+            if pos.beat >= per_bar + 1:
+                raise ValueError(f"beat {pos.beat:g} is outside a bar of {per_bar} beats")
+            beats = tempo.beats(block.start) + (pos.bar - 1) * per_bar + (pos.beat - 1)
+            return tempo.seconds(beats)
+        except ValueError as exc:
+            self.error(block.doc, loc, str(exc))
+            return None
+
+    def length(self, value: Length, start: float, doc: Document, loc: Loc) -> float | None:
+        if value.unit == "seconds":
+            return value.amount
+        tempo = self.need_tempo(doc, loc, value.unit)
+        if tempo is None:
+            return None
+        beats = value.amount
+        if value.unit == "bars":
+            beats *= tempo.beats_per_bar_at(start)
+        return tempo.span(start, beats)
+
+    def cue_length(
+        self, cue: object, start: float, doc: Document, loc: Loc
+    ) -> tuple[bool, float | None]:
+        """(given, seconds) from duration / beats / bars; (False, None) when none is given."""
+        for name, unit in (("duration", "seconds"), ("beats", "beats"), ("bars", "bars")):
+            amount = getattr(cue, name, None)
+            if amount is not None:
+                return True, self.length(Length(amount, unit), start, doc, (*loc, name))  # type: ignore[arg-type]
+        return False, None
+
+    # -- entry ----------------------------------------------------------------------------
+
+    def run(self) -> Resolution:
+        show, doc = self.show, self.doc
+        self.tempo = self.build_tempo()
+        phrases = self.collect_phrases()
+        performers: dict[str, _Performer] = {}
+        for name, perf in show.performers.items():
+            profile = get_profile(perf.model)
+            if perf.arm and profile.family != "xgo":
+                self.error(doc, ("performers", name, "arm"),
+                           f"'arm: true' is for XGO dogs; a {perf.model} has no arm accessory")
+            if perf.arm and perf.model == "rider":
+                self.error(doc, ("performers", name, "arm"), "the XGO-Rider has no arm accessory")
+            performers[name] = _Performer(name, perf, profile, _initial_state(profile))
+        for name, cues in show.tracks.items():
+            if name not in performers:
+                hint = did_you_mean(name, list(performers))
+                self.error(doc, ("tracks", name),
+                           f"no performer named {name!r}{hint}; performers: "
+                           f"{', '.join(performers)}", key=True)
+                continue
+            block = _Block(doc, ("tracks", name), 0.0, True, phrases, (Path(doc.file).resolve(),))
+            self.sequence(performers[name], cues, block)
+        for name in performers:
+            if name not in show.tracks:
+                self.warning(doc, ("performers", name), f"performer {name!r} has no track")
+        end = None
+        if show.settings.end is not None:
+            top = _Block(doc, ("settings",), 0.0, True, phrases, ())
+            end = self.position(show.settings.end, top, ("settings", "end"))
+        tracks = tuple(
+            ResolvedTrack(p.name, p.model.model, tuple(sorted(p.cues, key=lambda c: c.start)),
+                          p.model.port)
+            for p in performers.values()
+            if p.name in show.tracks
+        )
+        first = self.tempo.segments[0] if self.tempo else None
+        resolved = ResolvedShow(
+            name=show.show,
+            source=doc.file,
+            tracks=tracks,
+            control_rate=show.settings.control_rate,
+            gap=None if show.settings.gap_ms is None else show.settings.gap_ms / 1000.0,
+            decimate=show.settings.decimate,
+            on_failure=show.settings.on_failure,
+            battery_floor=show.settings.battery_floor,
+            end=end,
+            bpm=first.bpm if first else None,
+            beats_per_bar=first.beats_per_bar if first else 4,
+        )
+        return Resolution(resolved, self.diags, self.sources,
+                          {n: p.model for n, p in performers.items()})
+
+    def build_tempo(self) -> TempoMap | None:
+        tempo = self.show.tempo
+        if tempo is None:
+            return None
+        if isinstance(tempo, list):
+            segments: list[Segment] = []
+            per_bar = 4
+            for entry in tempo:
+                per_bar = entry.beats_per_bar or per_bar
+                segments.append(Segment(entry.bar, entry.bpm, per_bar))
+        else:
+            segments = [Segment(1, tempo.bpm, tempo.beats_per_bar)]
+        try:
+            return TempoMap(segments)
+        except ValueError as exc:
+            self.error(self.doc, ("tempo",), str(exc))
+            return None
+
+    def collect_phrases(self) -> dict[str, _Phrase]:
+        phrases: dict[str, _Phrase] = {}
+        for i, include in enumerate(self.show.include):
+            loc: Loc = ("include", i)
+            part = self.load_part(include, self.doc, loc, (Path(self.doc.file).resolve(),))
+            if part is None:
+                continue
+            pdoc, pmodel, _ = part
+            if isinstance(pmodel, PartMapping):
+                if pmodel.cues:
+                    self.error(pdoc, ("cues",),
+                               "a phrase library (the show's 'include:') holds phrases only; "
+                               "play cues with a cue {include: FILE} in a track")
+                self.add_phrases(phrases, pmodel.phrases, pdoc, ("phrases",))
+            else:
+                self.error(self.doc, loc, f"{include} is a list of cues; the show's 'include:' "
+                           "takes phrase libraries (a file with 'phrases:')")
+        self.add_phrases(phrases, self.show.phrases, self.doc, ("phrases",))
+        return phrases
+
+    def add_phrases(
+        self, into: dict[str, _Phrase], new: Mapping[str, PhraseModel], doc: Document, loc: Loc
+    ) -> None:
+        for name, model in new.items():
+            if name in into:
+                first = into[name].doc.origin((*into[name].loc,), key=True)
+                self.error(doc, (*loc, name), f"phrase {name!r} is already defined at "
+                           f"{first.file}:{first.line}", key=True)
+                continue
+            into[name] = _Phrase(name, model, doc, (*loc, name))
+
+    # -- sequences ------------------------------------------------------------------------
+
+    def sequence(self, perf: _Performer, cues: Sequence[object], block: _Block) -> float:
+        """Resolve a list of cues one after another; returns the end of the last one."""
+        cursor = block.start
+        for i, cue in enumerate(cues):
+            if self.too_many:
+                break
+            loc: Loc = (*block.loc, i)
+            kind = cue_kind(cue) or "cue"
+            start = cursor
+            at, after = getattr(cue, "at", None), getattr(cue, "after", None)
+            if at is not None:
+                t = self.position(at, block, (*loc, "at"))
+                start = cursor if t is None else t
+            elif after is not None:
+                gap = self.length(after, cursor, block.doc, (*loc, "after"))
+                start = cursor + (gap or 0.0)
+            end = self.dispatch(perf, kind, cue, start, block, loc)
+            cursor = start if end is None else end
+        return cursor
+
+    def dispatch(
+        self, perf: _Performer, kind: str, cue: object, start: float, block: _Block, loc: Loc
+    ) -> float | None:
+        if isinstance(cue, RestCueModel):
+            return start + (self.length(cue.rest, start, block.doc, (*loc, "rest")) or 0.0)
+        if isinstance(cue, RepeatCueModel):
+            cursor = start
+            for _ in range(cue.repeat):
+                sub = _Block(block.doc, (*loc, "cues"), cursor, False, block.phrases,
+                             block.includes, block.context)
+                cursor = self.sequence(perf, cue.cues, sub)
+                if self.too_many:
+                    break
+            return cursor
+        if isinstance(cue, PhraseCueModel):
+            return self.phrase(perf, cue, start, block, loc)
+        if isinstance(cue, IncludeCueModel):
+            return self.include(perf, cue, start, block, loc)
+        self.count += 1
+        if self.count > MAX_CUES:
+            self.too_many = True
+            self.error(block.doc, loc, f"the show expands to more than {MAX_CUES} cues; "
+                       "check the repeat counts")
+            return None
+        origin = block.doc.origin(loc, _describe(perf.name, kind, cue, block.context))
+        emit = _Emitter(self, perf, kind, block, loc, origin)
+        return emit.cue(cue, start)
+
+    def phrase(
+        self, perf: _Performer, cue: PhraseCueModel, start: float, block: _Block, loc: Loc
+    ) -> float | None:
+        doc = block.doc
+        found = block.phrases.get(cue.phrase)
+        if found is None:
+            names = list(block.phrases)
+            listing = f"; phrases: {', '.join(names)}" if names else "; no phrases are defined"
+            self.error(doc, (*loc, "phrase"), f"unknown phrase {cue.phrase!r}"
+                       f"{did_you_mean(cue.phrase, names)}{listing}")
+            return None
+        if cue.phrase in self.phrase_stack:
+            chain = " -> ".join([*self.phrase_stack, cue.phrase])
+            self.error(doc, (*loc, "phrase"), f"phrase {cue.phrase!r} plays itself ({chain})")
+            return None
+        params = found.model.params
+        values: dict[str, object] = {}
+        ok = True
+        for name, value in cue.with_.items():
+            if name not in params:
+                listing = ", ".join(params) or "none"
+                self.error(doc, (*loc, "with", name), f"phrase {cue.phrase!r} has no parameter "
+                           f"{name!r}{did_you_mean(name, list(params))}; parameters: {listing}",
+                           key=True)
+                ok = False
+            values[name] = value
+        for name, default in params.items():
+            if name not in values:
+                if default is None:
+                    self.error(doc, (*loc, "phrase"), f"phrase {cue.phrase!r} needs parameter "
+                               f"{name!r} (with: {{{name}: ...}})")
+                    ok = False
+                values[name] = default
+        if not ok:
+            return None
+        body_loc: Loc = (*found.loc, "cues")
+        raw = _lookup(found.doc.data, body_loc)
+        substituted = self.substitute(raw, values, found, body_loc)
+        if substituted is None:
+            return None
+        parsed, diags = validate(CueList, found.doc, substituted, body_loc, wrap="cues")
+        self.diags.extend(diags)
+        if parsed is None:
+            return None
+        here = doc.origin(loc)
+        sub = _Block(found.doc, body_loc, start, False, block.phrases, block.includes,
+                     f"phrase {cue.phrase} at {here.file}:{here.line}:{here.column}")
+        self.phrase_stack.append(cue.phrase)
+        try:
+            return self.sequence(perf, parsed.cues, sub)
+        finally:
+            self.phrase_stack.pop()
+
+    def substitute(
+        self, raw: object, values: Mapping[str, object], phrase: _Phrase, loc: Loc
+    ) -> object | None:
+        ok = True
+
+        def walk(node: object, here: Loc) -> object:
+            nonlocal ok
+            if isinstance(node, dict):
+                return {k: walk(v, (*here, k)) for k, v in node.items()}
+            if isinstance(node, list):
+                return [walk(v, (*here, i)) for i, v in enumerate(node)]
+            if isinstance(node, str):
+                match = _PARAM.match(node)
+                if match:
+                    name = match[2]
+                    if name not in values:
+                        names = ", ".join(values) or "none"
+                        self.error(phrase.doc, here, f"unknown parameter ${name} in phrase "
+                                   f"{phrase.name!r}{did_you_mean(name, list(values))}; "
+                                   f"parameters: {names}")
+                        ok = False
+                        return node
+                    value = values[name]
+                    if match[1]:
+                        if isinstance(value, (int, float)) and not isinstance(value, bool):
+                            return -value
+                        self.error(phrase.doc, here, f"-${name} needs a number, but {name} is "
+                                   f"{value!r}")
+                        ok = False
+                    return value
+            return node
+
+        out = walk(raw, loc)
+        return out if ok else None
+
+    def include(
+        self, perf: _Performer, cue: IncludeCueModel, start: float, block: _Block, loc: Loc
+    ) -> float | None:
+        part = self.load_part(cue.include, block.doc, (*loc, "include"), block.includes)
+        if part is None:
+            return None
+        pdoc, pmodel, path = part
+        cues_loc: Loc = ()
+        if isinstance(pmodel, PartMapping):
+            phrases = dict(block.phrases)
+            self.add_phrases(phrases, pmodel.phrases, pdoc, ("phrases",))
+            cues, cues_loc = pmodel.cues, ("cues",)
+        else:
+            phrases, cues = dict(block.phrases), pmodel.cues
+        sub = _Block(pdoc, cues_loc, start, False, phrases, (*block.includes, path),
+                     block.context)
+        return self.sequence(perf, cues, sub)
+
+    def load_part(
+        self, name: str, doc: Document, loc: Loc, stack: tuple[Path, ...]
+    ) -> tuple[Document, PartMapping | CueList, Path] | None:
+        """Read, parse and validate an included file (once; later uses hit the cache)."""
+        path = (Path(doc.file).parent / name).resolve()
+        if path in stack:
+            chain = " -> ".join(p.name for p in (*stack, path))
+            self.error(doc, loc, f"include cycle: {chain}")
+            return None
+        if path not in self.parts:
+            self.parts[path] = self.parse_part(path, str(Path(doc.file).parent / name))
+        pdoc, model, problem = self.parts[path]
+        if problem:
+            self.error(doc, loc, f"cannot include {name!r}: {problem}")
+            return None
+        assert pdoc is not None and model is not None
+        return pdoc, model, path
+
+    def parse_part(
+        self, path: Path, shown: str
+    ) -> tuple[Document | None, PartMapping | CueList | None, str]:
+        text = read_text(path)
+        if isinstance(text, tuple):
+            return None, None, text[0]
+        pdoc, errors = parse_yaml(text, shown)
+        model: PartMapping | CueList | None = None
+        if not errors:
+            if isinstance(pdoc.data, list):
+                model, errors = validate(CueList, pdoc, pdoc.data, (), wrap="cues")
+            elif isinstance(pdoc.data, dict):
+                model, errors = validate(PartMapping, pdoc, pdoc.data)
+            else:
+                return None, None, "it must hold a list of cues or a mapping with phrases/cues"
+        self.diags.extend(errors)
+        if errors:
+            return None, None, f"it has {len(errors)} error(s)"
+        return pdoc, model, ""
+
+
+def _lookup(data: object, loc: Loc) -> object:
+    node = data
+    for part in loc:
+        node = node[part]  # type: ignore[index]
+    return node
+
+
+def _describe(performer: str, kind: str, cue: object, context: str) -> str:
+    what = getattr(cue, kind, None)
+    if isinstance(what, dict):
+        detail = ", ".join(str(k) for k in what)
+    elif what is None or isinstance(what, (Length,)):
+        detail = ""
+    else:
+        detail = str(what) if not hasattr(what, "model_dump") else ""
+    text = f"{performer}: {kind} {detail}".rstrip()
+    return f"{text} ({context})" if context else text
+
+
+def _initial_state(profile: Profile) -> dict[str, float]:
+    state: dict[str, float] = {}
+    for reg in profile.registers:
+        if reg.limits is not None and reg.linear and reg.initial:
+            state[reg.name] = reg.to_physical(reg.initial[0])
+    return state
+
+
+def min_duration(
+    start: Mapping[str, float], targets: Mapping[str, float], limits: Mapping[str, Limits]
+) -> float:
+    """Shortest rest-to-rest time of a synchronised jerk-limited move (ruckig), seconds."""
+    names = [n for n in targets if n in limits and n in start]
+    if not names:
+        return 0.0
+    otg = Ruckig(len(names))
+    inp = InputParameter(len(names))
+    inp.current_position = [start[n] for n in names]
+    inp.target_position = [targets[n] for n in names]
+    inp.max_velocity = [limits[n].velocity for n in names]
+    inp.max_acceleration = [limits[n].acceleration for n in names]
+    inp.max_jerk = [limits[n].jerk for n in names]
+    traj = Trajectory(len(names))
+    result = otg.calculate(inp, traj)
+    if result not in (Result.Working, Result.Finished):
+        return 0.0
+    return float(traj.duration)
+
+
+class _Emitter:
+    """Turns one leaf cue into IR cues on its performer."""
+
+    def __init__(
+        self, res: _Resolver, perf: _Performer, kind: str, block: _Block, loc: Loc,
+        origin: Origin,
+    ) -> None:
+        self.res, self.perf, self.kind, self.block, self.loc = res, perf, kind, block, loc
+        self.origin = origin
+        self.doc = block.doc
+        self.profile = perf.profile
+
+    def at(self, *parts: str | int) -> Origin:
+        return self.doc.origin((*self.loc, *parts), self.origin.cue)
+
+    def error(self, message: str, *parts: str | int, key: bool = False) -> None:
+        self.res.error(self.doc, (*self.loc, *parts), message, key=key)
+
+    def add(
+        self, cue: Cue, end: float, values: Mapping[str, Origin] | None = None,
+        running: float = 0.0,
+    ) -> None:
+        self.perf.cues.append(cue)
+        self.res.sources[id(cue)] = CueSource(
+            self.perf.name, self.kind, format_path(self.loc), self.origin, dict(values or {}),
+            running, end,
+        )
+
+    def cue(self, cue: object, start: float) -> float | None:
+        given, length = self.res.cue_length(cue, start, self.doc, self.loc)
+        if given and length is None:
+            return None
+        handler = getattr(self, f"on_{self.kind}")
+        end: float | None = handler(cue, start, length)
+        return end
+
+    # -- kinds ----------------------------------------------------------------------------
+
+    def on_action(self, cue: ActionCueModel, start: float, length: float | None) -> float | None:
+        if not self.profile.actions:
+            self.error(f"a {self.profile.model} has no preset actions", "action", key=True)
+            return None
+        try:
+            act = self.profile.action(cue.action)
+        except ProfileError:
+            names = [a.name for a in self.profile.actions]
+            hint = did_you_mean(str(cue.action), names)
+            valid = ", ".join(f"{a.name} ({a.id})" for a in self.profile.actions)
+            self.error(f"{self.profile.model} has no action {cue.action!r}{hint}; valid: {valid}",
+                       "action")
+            return None
+        if act.duration is None and length is None:
+            self.error(f"the documents give no duration for {self.profile.model} action "
+                       f"{act.name!r}: give duration, beats or bars", "action")
+            return None
+        if act.duration is None:
+            self.res.warning(self.doc, self.loc, f"action {act.name!r} lasts {length:g} s as "
+                             "given by hand (the documents give no duration)")
+        slot = length if length is not None else act.duration
+        assert slot is not None
+        running = act.duration if act.duration is not None else slot
+        self.add(
+            ActionCue(start, self.origin, act.id, act.name, slot, length is not None,
+                      cue.interrupt),
+            start + slot, {"action": self.at("action")}, running,
+        )
+        for name in self.profile.default_posture:  # actions end in the default posture
+            reg = next((r for r in self.profile.registers if r.name == name), None)
+            if reg is not None and reg.linear and reg.initial:
+                self.perf.state[name] = reg.to_physical(reg.initial[0])
+        return start + slot
+
+    def limits_for(self, names: Sequence[str], cue: MoveCueModel | None) -> dict[str, Limits]:
+        out: dict[str, Limits] = {}
+        for name in names:
+            reg = next((r for r in self.profile.registers if r.name == name), None)
+            base = reg.limits if reg is not None else None
+            over = cue.limits.get(name) if cue is not None else None
+            if over is None:
+                if base is not None:
+                    out[name] = base
+                continue
+            velocity = over.velocity or (base.velocity if base else None)
+            acceleration = over.acceleration or (base.acceleration if base else None)
+            jerk = over.jerk or (base.jerk if base else None)
+            if velocity is None or acceleration is None or jerk is None:
+                continue  # the checks report a register that cannot be moved
+            out[name] = Limits(velocity, acceleration, jerk)
+        return out
+
+    def motion(
+        self, points: Mapping[str, Sequence[float]], origins: Mapping[str, Sequence[Origin]],
+        start: float, length: float | None, cue: MoveCueModel | None,
+    ) -> float | None:
+        counts = {len(v) for v in points.values() if len(v) > 1}
+        if len(counts) > 1:
+            self.error("every register in a multi-point move needs the same number of points "
+                       f"(got {', '.join(f'{k}: {len(v)}' for k, v in points.items())})",
+                       self.kind)
+            return None
+        segments = counts.pop() if counts else 1
+        limits = self.limits_for(list(points), cue)
+        if cue is not None:
+            for name in cue.limits:
+                if name not in points:
+                    self.error(f"limits given for {name!r}, which this move does not move",
+                               "limits", name, key=True)
+        overrides = {n: lim for n, lim in limits.items() if cue is not None and n in cue.limits}
+        t = start
+        for k in range(segments):
+            targets: dict[str, float] = {}
+            values: dict[str, Origin] = {}
+            for name, seq in points.items():
+                if len(seq) > 1 or k == 0:
+                    targets[name] = seq[k] if len(seq) > 1 else seq[0]
+                    values[name] = origins[name][k] if len(seq) > 1 else origins[name][0]
+            if length is not None:
+                seg = length / segments
+                self.add(MotionCue(t, self.origin, targets, seg, overrides, cue is not None
+                                   and cue.interrupt), t + seg, values)
+                t += seg
+            else:
+                seg = min_duration(self.perf.state, targets, limits)
+                self.add(MotionCue(t, self.origin, targets, None, overrides,
+                                   cue is not None and cue.interrupt), t + seg, values)
+                t += seg
+            self.perf.state.update(targets)
+        return t
+
+    def on_move(self, cue: MoveCueModel, start: float, length: float | None) -> float | None:
+        points: dict[str, list[float]] = {}
+        origins: dict[str, list[Origin]] = {}
+        for name, value in cue.move.items():
+            if isinstance(value, list):
+                points[name] = list(value)
+                origins[name] = [self.at("move", name, i) for i in range(len(value))]
+            else:
+                points[name] = [value]
+                origins[name] = [self.at("move", name)]
+        return self.motion(points, origins, start, length, cue)
+
+    def on_gripper(self, cue: GripperCueModel, start: float, length: float | None) -> float | None:
+        if self.profile.family == "xarm":
+            self.error("on the xArm the gripper is servo 1: use pose: {1: POSITION}", "gripper",
+                       key=True)
+            return None
+        return self.motion({"gripper": [cue.gripper]}, {"gripper": [self.at("gripper")]},
+                           start, length, None)
+
+    def on_arm(self, cue: ArmCueModel, start: float, length: float | None) -> float | None:
+        points: dict[str, list[float]] = {}
+        origins: dict[str, list[Origin]] = {}
+        for axis in ("x", "z"):
+            value = getattr(cue.arm, axis)
+            if value is not None:
+                points[f"arm_{axis}"] = [value]
+                origins[f"arm_{axis}"] = [self.at("arm", axis)]
+        if not points:
+            self.error("arm needs x and/or z (mm)", "arm")
+            return None
+        return self.motion(points, origins, start, length, None)
+
+    def on_set(self, cue: SetCueModel, start: float, length: float | None) -> float | None:
+        values: dict[str, object] = {}
+        for name, value in cue.set.items():
+            reg = next((r for r in self.profile.registers if r.name == name), None)
+            if isinstance(value, bool) and reg is not None and reg.encoding is Encoding.ENUM:
+                # YAML reads on/off/yes/no as booleans.
+                value = "on" if value else "off"
+            if isinstance(value, float) and reg is not None and reg.encoding is Encoding.ENUM \
+                    and value.is_integer():
+                value = int(value)
+            values[name] = value
+            if isinstance(value, float) and reg is not None and reg.limits is not None:
+                self.perf.state[name] = value
+        end = start + (length or 0.0)
+        self.add(SetCue(start, self.origin, values, cue.interrupt), end,
+                 {n: self.at("set", n) for n in values})
+        return end
+
+    def on_walk(self, cue: WalkCueModel, start: float, length: float | None) -> float | None:
+        if length is None:
+            self.error("walk needs duration, beats or bars, so that the robot stops again",
+                       "walk", key=True)
+            return None
+        origins = {n: self.at("walk", n) for n in cue.walk}
+        end = start + length
+        self.add(SetCue(start, self.origin, dict(cue.walk), cue.interrupt), end, origins)
+        stop = SetCue(end, self.origin, {n: 0.0 for n in cue.walk})
+        self.add(stop, end, origins)
+        return end
+
+    def on_periodic(
+        self, cue: PeriodicCueModel, start: float, length: float | None
+    ) -> float | None:
+        values = {f"periodic_{axis}": period for axis, period in cue.periodic.items()}
+        origins = {f"periodic_{axis}": self.at("periodic", axis) for axis in cue.periodic}
+        end = start + (length or 0.0)
+        self.add(SetCue(start, self.origin, values, cue.interrupt), end, origins)
+        if length is not None:
+            self.add(SetCue(end, self.origin, {n: 0.0 for n in values}), end, origins)
+        return end
+
+    def on_led(self, cue: LedCueModel, start: float, length: float | None) -> float | None:
+        leds = [r.name for r in self.profile.registers if r.encoding is Encoding.RGB]
+        if not leds:
+            self.error(f"a {self.profile.model} has no LEDs", "led", key=True)
+            return None
+        colors: dict[str, tuple[int, int, int]] = {}
+        origins: dict[str, Origin] = {}
+        ok = True
+        for key, value in cue.led.items():
+            targets = leds if key == "all" else [key]
+            if key != "all" and key not in leds:
+                self.error(f"no LED {key!r}{did_you_mean(key, leds)}; "
+                           f"LEDs: {', '.join(leds)} or all", "led", key, key=True)
+                ok = False
+                continue
+            try:
+                rgb = parse_color(value)
+            except ValueError as exc:
+                self.error(str(exc), "led", key)
+                ok = False
+                continue
+            for name in targets:
+                colors[name] = rgb
+                origins[name] = self.at("led", key)
+        if not ok:
+            return None
+        fade = 0.0
+        if cue.fade is not None:
+            fade = self.res.length(cue.fade, start, self.doc, (*self.loc, "fade")) or 0.0
+        end = start + (length if length is not None else fade)
+        if fade > 0:
+            for name, rgb in colors.items():
+                self.add(FadeCue(start, self.origin, name, rgb, fade), start + fade,
+                         {name: origins[name]})
+        else:
+            self.add(SetCue(start, self.origin, colors, cue.interrupt), end, origins)
+        return end
+
+    def pose(
+        self, positions: dict[int, int], origins: dict[int, Origin], start: float,
+        length: float | None,
+    ) -> float | None:
+        if self.profile.family != "xarm":
+            self.error(f"{self.kind} is for the xArm; a {self.profile.model} moves with "
+                       "move: (registers) or arm: / gripper:", self.kind, key=True)
+            return None
+        if length is None:
+            self.error(f"{self.kind} needs duration, beats or bars (the xArm moves every servo "
+                       "in a given time)", self.kind, key=True)
+            return None
+        if length > 65.535:
+            self.error(f"an xArm move lasts at most 65.535 s, not {length:g} s", self.kind,
+                       key=True)
+            return None
+        self.add(ArmCue(start, self.origin, positions, length), start + length,
+                 {str(k): v for k, v in origins.items()})
+        return start + length
+
+    def on_pose(self, cue: PoseCueModel, start: float, length: float | None) -> float | None:
+        origins = {sid: self.at("pose", sid) for sid in cue.pose}
+        return self.pose(dict(cue.pose), origins, start, length)
+
+    def on_pose_deg(
+        self, cue: PoseDegCueModel, start: float, length: float | None
+    ) -> float | None:
+        positions: dict[int, int] = {}
+        for sid, degrees in cue.pose_deg.items():
+            try:
+                positions[sid] = degrees_to_position(degrees)
+            except ValueRangeError as exc:
+                self.error(str(exc), "pose_deg", sid)
+        if len(positions) != len(cue.pose_deg):
+            return None
+        origins = {sid: self.at("pose_deg", sid) for sid in cue.pose_deg}
+        return self.pose(positions, origins, start, length)
+
+
+def resolve_show(show: ShowFile, doc: Document) -> Resolution:
+    """Expand ``show`` (validated from ``doc``) into a :class:`ResolvedShow` with sources."""
+    return _Resolver(show, doc).run()
+

@@ -1,0 +1,200 @@
+"""Read a YAML file into plain data plus the line:column of every node.
+
+PyYAML's ``safe_load`` forgets where values came from and silently keeps the last of two equal
+keys. We compose the node tree with the safe loader instead and build the data ourselves, so
+that every error (from pydantic or from our own checks) can name the exact ``file:line:col``,
+and a duplicate key is an error. Only the safe YAML subset is understood (no Python tags).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+from yaml.constructor import SafeConstructor
+from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
+
+from xgo_show.diagnostics import Diagnostic, Origin
+
+__all__ = ["Document", "Loc", "format_path", "parse_yaml", "read_text", "read_yaml"]
+
+Loc = tuple[str | int, ...]
+
+_MERGE_TAG = "tag:yaml.org,2002:merge"
+
+
+@dataclass
+class Document:
+    """A parsed YAML file: its data and where each value (and each mapping key) starts."""
+
+    file: str
+    data: object
+    marks: dict[Loc, tuple[int, int]] = field(default_factory=dict)  # value node, 1-based
+    key_marks: dict[Loc, tuple[int, int]] = field(default_factory=dict)  # key of that value
+
+    def origin(self, loc: Sequence[str | int], cue: str = "", *, key: bool = False) -> Origin:
+        """Where ``loc`` is in the file; the nearest enclosing node if ``loc`` is not there.
+
+        ``key=True`` points at the mapping key rather than its value (for unknown fields).
+        """
+        path = tuple(loc)
+        while path:
+            table = self.key_marks if key else self.marks
+            if path in table:
+                line, col = table[path]
+                return Origin(self.file, line, col, cue)
+            path = path[:-1]
+            key = False
+        line, col = self.marks.get((), (1, 1))
+        return Origin(self.file, line, col, cue)
+
+
+def format_path(loc: Sequence[str | int]) -> str:
+    """``("tracks", "rex", 3, "move")`` -> ``tracks.rex[3].move``."""
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += f".{part}" if out else str(part)
+    return out
+
+
+class _Builder:
+    def __init__(self, doc: Document) -> None:
+        self.doc = doc
+        self.constructor = SafeConstructor()
+        self.errors: list[Diagnostic] = []
+        self._active: set[int] = set()
+
+    def error(self, node: Node, loc: Loc, message: str) -> None:
+        mark = node.start_mark
+        origin = Origin(self.doc.file, mark.line + 1, mark.column + 1)
+        self.errors.append(Diagnostic("error", message, origin, format_path(loc)))
+
+    def build(self, node: Node, loc: Loc) -> object:
+        self.doc.marks[loc] = (node.start_mark.line + 1, node.start_mark.column + 1)
+        if id(node) in self._active:  # an alias that contains itself
+            self.error(node, loc, "recursive YAML alias")
+            return None
+        if isinstance(node, ScalarNode):
+            try:
+                return self.constructor.construct_object(node, deep=True)
+            except yaml.YAMLError as exc:
+                self.error(node, loc, _problem(exc))
+                return None
+        self._active.add(id(node))
+        try:
+            if isinstance(node, SequenceNode):
+                return [self.build(item, (*loc, i)) for i, item in enumerate(node.value)]
+            if isinstance(node, MappingNode):
+                return self.build_mapping(node, loc)
+        finally:
+            self._active.discard(id(node))
+        self.error(node, loc, f"unsupported YAML node {node.tag}")
+        return None
+
+    def build_mapping(self, node: MappingNode, loc: Loc) -> dict[str | int, object]:
+        if node.tag not in ("tag:yaml.org,2002:map",):
+            self.error(node, loc, f"unsupported YAML tag {node.tag}")
+        out: dict[str | int, object] = {}
+        merges: list[Node] = []
+        for key_node, value_node in node.value:
+            if key_node.tag == _MERGE_TAG:
+                merges.append(value_node)
+                continue
+            if not isinstance(key_node, ScalarNode):
+                self.error(key_node, loc, "a mapping key must be a plain value, not a list or map")
+                continue
+            key = self.build_key(key_node, loc)
+            if key is None:
+                continue
+            if key in out:
+                here: Loc = (*loc, key)
+                first = self.doc.key_marks.get(here)
+                where = f" (first at line {first[0]})" if first else ""
+                self.error(key_node, here, f"duplicate key {key!r}{where}")
+                continue
+            here = (*loc, key)
+            self.doc.key_marks[here] = (
+                key_node.start_mark.line + 1,
+                key_node.start_mark.column + 1,
+            )
+            out[key] = self.build(value_node, here)
+        # "<<: *anchor" merges: explicit keys win, as in YAML 1.1.
+        for merge in merges:
+            sources = merge.value if isinstance(merge, SequenceNode) else [merge]
+            for src in sources:
+                if not isinstance(src, MappingNode):
+                    self.error(src, loc, "'<<' merges mappings only")
+                    continue
+                merged = self.build_mapping(src, loc)
+                for key, value in merged.items():
+                    out.setdefault(key, value)
+        return out
+
+    def build_key(self, node: ScalarNode, loc: Loc) -> str | int | None:
+        try:
+            key = self.constructor.construct_object(node, deep=True)
+        except yaml.YAMLError as exc:
+            self.error(node, loc, _problem(exc))
+            return None
+        if isinstance(key, bool) or not isinstance(key, (str, int)):
+            # Booleans as keys ("on:", "yes:") are a classic YAML trap; make them explicit.
+            self.error(node, loc, f"key {node.value!r} must be a name or a whole number")
+            return None
+        return key
+
+
+def _problem(exc: yaml.YAMLError) -> str:
+    problem = getattr(exc, "problem", None) or str(exc)
+    context = getattr(exc, "context", None)
+    return f"{context}, {problem}" if context else str(problem)
+
+
+def parse_yaml(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
+    """Parse ``text`` (named ``file`` in messages): the document and any errors found."""
+    doc = Document(file, None)
+    try:
+        nodes = list(yaml.compose_all(text, Loader=yaml.SafeLoader))
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+        msg = f"YAML syntax: {_problem(exc)}"
+        return doc, [Diagnostic("error", msg, Origin(file, line, col))]
+    except yaml.YAMLError as exc:  # e.g. a reader error on a control character
+        return doc, [Diagnostic("error", f"YAML: {exc}", Origin(file, 1, 1))]
+    if not nodes:
+        return doc, [Diagnostic("error", "the file is empty", Origin(file, 1, 1))]
+    if len(nodes) > 1:
+        mark = nodes[1].start_mark
+        origin = Origin(file, mark.line + 1, mark.column + 1)
+        return doc, [Diagnostic("error", "one YAML document per file, found several", origin)]
+    builder = _Builder(doc)
+    doc.data = builder.build(nodes[0], ())
+    return doc, builder.errors
+
+
+def read_text(path: Path) -> str | tuple[str]:
+    """The file's text, or ``(reason,)`` when it cannot be read (missing, not UTF-8, ...)."""
+    try:
+        return path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return ("no such file",)
+    except IsADirectoryError:
+        return ("is a directory",)
+    except UnicodeDecodeError as exc:
+        return (f"not UTF-8 text (byte {exc.start})",)
+    except OSError as exc:
+        return (f"cannot read: {exc.strerror or exc}",)
+
+
+def read_yaml(path: Path, file: str | None = None) -> tuple[Document, list[Diagnostic]]:
+    """Read and parse ``path``; an unreadable file is one diagnostic, never an exception."""
+    name = file if file is not None else str(path)
+    text = read_text(path)
+    if isinstance(text, tuple):
+        return Document(name, None), [Diagnostic("error", text[0], Origin(name, 1, 1))]
+    return parse_yaml(text, name)

@@ -1,0 +1,178 @@
+"""Turn pydantic validation errors into diagnostics a choreographer can act on.
+
+Each error gets the ``file:line:col`` of the offending node (via :class:`Document` marks), the
+field path (``tracks.rex[3].move``) and a message saying what is wrong and what is allowed;
+unknown fields get a "did you mean" suggestion.
+"""
+
+from __future__ import annotations
+
+import difflib
+import types
+import typing
+from collections.abc import Sequence
+from typing import Any, TypeVar
+
+from pydantic import BaseModel, Tag, ValidationError
+
+from xgo_show.choreo.model import CUE_KINDS
+from xgo_show.choreo.source import Document, Loc, format_path
+from xgo_show.diagnostics import Diagnostic
+
+__all__ = ["data_loc", "did_you_mean", "validate"]
+
+M = TypeVar("M", bound=BaseModel)
+
+
+def did_you_mean(word: str, choices: Sequence[str]) -> str:
+    """``"; did you mean 'duration'?"`` or ``""``."""
+    close = difflib.get_close_matches(word, list(choices), n=2, cutoff=0.6)
+    if not close:
+        return ""
+    return "; did you mean " + " or ".join(repr(c) for c in close) + "?"
+
+
+def data_loc(data: object, loc: Sequence[str | int]) -> Loc:
+    """The part of a pydantic ``loc`` that addresses real data (union tags are dropped)."""
+    out: list[str | int] = []
+    node = data
+    for part in loc:
+        in_list = isinstance(node, list) and isinstance(part, int) and 0 <= part < len(node)
+        if (isinstance(node, dict) and part in node) or in_list:
+            out.append(part)
+            node = node[part]  # type: ignore[index]
+        elif isinstance(node, dict) and str(part).isdigit() and int(part) in node:
+            out.append(int(part))
+            node = node[int(part)]
+        elif part == loc[-1] and isinstance(node, dict) and not _is_tag(part):
+            out.append(part)  # a missing or unknown key: keep it for the message
+            break
+    return tuple(out)
+
+
+def _is_tag(part: str | int) -> bool:
+    return isinstance(part, str) and part in {*CUE_KINDS, "constant", "map", "cues", "part"}
+
+
+def _unwrap(tp: Any) -> tuple[Any, list[Any]]:
+    meta: list[Any] = []
+    while typing.get_origin(tp) is typing.Annotated:
+        args = typing.get_args(tp)
+        tp, meta = args[0], meta + list(args[1:])
+    return tp, meta
+
+
+def _model_fields_at(root: type[BaseModel], loc: Sequence[str | int]) -> list[str] | None:
+    """Field names (aliases) of the model that ``loc`` (a pydantic loc) lands in."""
+    tp: Any = root
+    for part in loc:
+        tp, _ = _unwrap(tp)
+        origin = typing.get_origin(tp)
+        if isinstance(tp, type) and issubclass(tp, BaseModel):
+            found = None
+            for name, info in tp.model_fields.items():
+                if part in (name, info.alias):
+                    found = info.annotation
+                    break
+            if found is None:
+                return None
+            tp = found
+        elif origin is dict:
+            tp = typing.get_args(tp)[1]
+        elif origin is list:
+            tp = typing.get_args(tp)[0]
+        elif origin in (typing.Union, types.UnionType):
+            chosen = None
+            for member in typing.get_args(tp):
+                inner, meta = _unwrap(member)
+                if any(isinstance(m, Tag) and m.tag == part for m in meta):
+                    chosen = inner
+                    break
+            if chosen is None:
+                return None
+            tp = chosen
+        else:
+            return None
+    tp, _ = _unwrap(tp)
+    if isinstance(tp, type) and issubclass(tp, BaseModel):
+        return [info.alias or name for name, info in tp.model_fields.items()]
+    return None
+
+
+def _describe(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _message(err: Any, root: type[BaseModel]) -> str:
+    kind = err["type"]
+    raw_loc = err["loc"]
+    if kind == "extra_forbidden":
+        name = str(raw_loc[-1])
+        allowed = _model_fields_at(root, raw_loc[:-1]) or []
+        hint = did_you_mean(name, allowed)
+        if not hint:
+            kinds = did_you_mean(name, CUE_KINDS)
+            hint = kinds.replace("did you mean", "a cue kind is one key; did you mean", 1)
+        listing = f" (allowed: {', '.join(allowed)})" if allowed else ""
+        return f"unknown field {name!r}{hint}{listing}"
+    if kind == "missing":
+        return f"missing required field {raw_loc[-1]!r}"
+    if kind == "cue_kind":
+        value = err["input"]
+        if not isinstance(value, dict):
+            return f"a cue is a mapping such as {{action: stand_up}}, not {_describe(value)}"
+        present = [k for k in CUE_KINDS if k in value]
+        if len(present) > 1:
+            return (
+                f"one cue, one kind: this cue has {', '.join(present)}; "
+                "split it into separate cues (use 'at' to start them together)"
+            )
+        unknown = [str(k) for k in value if k not in _COMMON_FIELDS]
+        hints = "".join(did_you_mean(k, CUE_KINDS) for k in unknown[:1])
+        return f"a cue needs one kind key: {', '.join(CUE_KINDS)}{hints}"
+    msg = str(err["msg"])
+    if kind.startswith(("position", "length", "timing")):
+        return msg
+    msg = msg[:1].lower() + msg[1:]
+    if kind in ("literal_error", "enum", "greater_than", "greater_than_equal", "less_than",
+                "less_than_equal", "too_short", "too_long", "string_pattern_mismatch"):
+        return f"{msg}, not {_describe(err['input'])}"
+    if kind.endswith("_type") or kind.endswith("_parsing"):
+        return f"{msg}, not {_describe(err['input'])}"
+    return msg
+
+
+_COMMON_FIELDS = frozenset(
+    {"at", "after", "duration", "beats", "bars", "interrupt", "limits", "fade", "with", "cues"}
+)
+
+
+def validate(
+    cls: type[M], doc: Document, data: object, base: Loc = (), *, wrap: str | None = None
+) -> tuple[M | None, list[Diagnostic]]:
+    """Validate ``data`` (found at ``base`` in ``doc``) as ``cls``; every error is reported.
+
+    ``wrap`` validates ``{wrap: data}`` instead (a bare list as a one-field model); locations
+    still point into ``data``.
+    """
+    payload = {wrap: data} if wrap is not None else data
+    try:
+        return cls.model_validate(payload), []
+    except ValidationError as exc:
+        errors = exc.errors(include_url=False)
+    diags: list[Diagnostic] = []
+    seen: set[tuple[Loc, str]] = set()
+    for err in errors:
+        loc = data_loc(payload, err["loc"])
+        if wrap is not None:
+            loc = loc[1:]
+        msg = _message(err, cls)
+        full = (*base, *loc)
+        if (full, msg) in seen:
+            continue
+        seen.add((full, msg))
+        key = err["type"] == "extra_forbidden"
+        origin = doc.origin(full, key=key)
+        diags.append(Diagnostic("error", msg, origin, format_path(full)))
+    return None, diags
