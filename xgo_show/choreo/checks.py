@@ -209,7 +209,8 @@ class _Checker:
                     self.error(
                         f"{name} is already driven by the cue at "
                         f"{_where(longest.source.origin)} ({_fmt(longest.start)} to "
-                        f"{_fmt(longest.end)}); this cue starts at {_fmt(w.start)}: two cues cannot drive one register at once",
+                        f"{_fmt(longest.end)}); this cue starts at {_fmt(w.start)}: two cues "
+                        "cannot drive one register at once",
                         w.source.values.get(name, w.source.origin), w.source, name,
                     )
                 if longest is None or w.end > longest.end:

@@ -1,0 +1,62 @@
+"""``xgo-show validate FILE...``: check routines and print every problem found.
+
+Each problem is one line, ``file:line:col: error: path: message`` (warnings likewise), then a
+summary line per file. Exit status 1 when any file has an error, 0 otherwise (warnings do not
+fail). The compiler runs too, so an infeasible trajectory or a schedule that does not fit the
+link is reported here, before any robot moves.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any, TextIO
+
+from xgo_show.choreo import validate_file
+from xgo_show.diagnostics import Diagnostic
+
+__all__ = ["add_parser", "report", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register the ``validate`` subcommand on the CLI's subparsers."""
+    parser = sub.add_parser(
+        "validate",
+        help="check routine files and list every problem",
+        description=(
+            "Load, check and compile each routine FILE and print every problem found as "
+            "file:line:col: severity: path: message, then a summary per file. Exits 1 when "
+            "any file has an error, 0 otherwise (warnings are shown but do not fail)."
+        ),
+    )
+    parser.add_argument("files", nargs="+", metavar="FILE", help="routine YAML file(s)")
+    parser.add_argument(
+        "-q", "--quiet", action="store_true", help="print only errors and the summaries"
+    )
+    parser.set_defaults(func=run)
+
+
+def report(path: str, diags: list[Diagnostic], out: TextIO, *, quiet: bool = False) -> bool:
+    """Print ``diags`` for ``path`` and its summary line; True when there is no error."""
+    errors = sum(1 for d in diags if d.is_error)
+    warnings = len(diags) - errors
+    for d in diags:
+        if d.is_error or not quiet:
+            print(d.format(), file=out)
+    status = "ok" if errors == 0 else "FAILED"
+    print(f"{path}: {status}: {errors} error(s), {warnings} warning(s)", file=out)
+    return errors == 0
+
+
+def run(args: argparse.Namespace) -> int:
+    ok = True
+    for name in args.files:
+        path = Path(name)
+        if not path.is_file():
+            reason = "is a directory" if path.is_dir() else "no such file"
+            print(f"{name}: error: {reason}", file=sys.stdout)
+            ok = False
+            continue
+        ok = report(name, validate_file(path), sys.stdout, quiet=args.quiet) and ok
+    return 0 if ok else 1
