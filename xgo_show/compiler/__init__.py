@@ -1,1 +1,43 @@
-"""compiler layer."""
+"""The compiler: a pure, deterministic function from a validated routine to paced frame schedules.
+
+- :func:`compile_show` turns a :class:`~xgo_show.choreo.resolved.ResolvedShow` into a
+  :class:`~xgo_show.compiler.schedule.Schedule`;
+- :func:`save_schedule` / :func:`load_schedule` write and read the versioned JSON artifact;
+- :func:`describe_frame`, :func:`state_at`, :func:`frames_to_reach` read schedules back;
+- :func:`plot_schedule` draws one (needs the optional ``plot`` extra, matplotlib).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from xgo_show.compiler.artifact import load_schedule, save_schedule
+from xgo_show.compiler.build import compile_show
+from xgo_show.compiler.schedule import (
+    SCHEDULE_VERSION,
+    PerformerSchedule,
+    Schedule,
+    ScheduledFrame,
+)
+from xgo_show.compiler.state import describe_frame, frames_to_reach, state_at
+
+__all__ = [
+    "SCHEDULE_VERSION",
+    "PerformerSchedule",
+    "Schedule",
+    "ScheduledFrame",
+    "compile_show",
+    "describe_frame",
+    "frames_to_reach",
+    "load_schedule",
+    "plot_schedule",
+    "save_schedule",
+    "state_at",
+]
+
+
+def plot_schedule(schedule: Schedule, path: str | Path) -> Path:
+    """Draw ``schedule`` into a PNG at ``path`` (see :mod:`xgo_show.compiler.plot`)."""
+    from xgo_show.compiler.plot import plot_schedule as _plot
+
+    return _plot(schedule, path)

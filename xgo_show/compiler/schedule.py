@@ -24,6 +24,8 @@ class ScheduledFrame:
     data: bytes
     origin: Origin | None = None
     label: str = ""  # e.g. "body_z=98.0mm roll=5.0deg" — for transcripts and progress
+    # Seconds the frame's effect runs on its own: a preset action, an xArm move; 0 otherwise.
+    duration: float = 0.0
 
 
 @dataclass(frozen=True)

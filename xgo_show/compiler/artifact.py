@@ -1,0 +1,301 @@
+"""The compiled schedule as a file: versioned, deterministic JSON (``*.xshow.json``).
+
+Format (version 1)::
+
+    {
+     "format": "xgo-show-schedule",
+     "version": 1,
+     "show": {"name": str, "source": str, "control_rate": float (Hz),
+              "on_failure": "halt_all" | "continue", "battery_floor": int (%),
+              "bpm": float | null, "beats_per_bar": int},
+     "origins": [{"file": str, "line": int, "column": int, "cue": str}, ...],
+     "warnings": [{"severity": "warning", "message": str, "origin": int | null,
+                   "path": str}, ...],
+     "performers": [
+      {"name": str, "model": str, "port": str | null,
+       "link": {"baud": int, "gap_us": int, "bits_per_byte": int},
+       "end_us": int,
+       "frames": [
+        {"t_us": int, "hex": "5500...", "origin": int | null, "label": str,
+         "duration_us": int},
+        ...]}, ...]
+    }
+
+- Every time is an integer number of microseconds from show start (``t_us``, ``end_us``,
+  ``duration_us``, ``gap_us``): no float formatting in the file, and a frame time read back is
+  exactly the one written.
+- ``origin`` fields index the ``origins`` table (first-use order), so a cue's file position is
+  stored once, not once per frame; ``null`` means no origin.
+- ``hex`` is the frame's exact wire bytes, lowercase hex without separators.
+- Keys are sorted, one frame per line: the same schedule always gives the same bytes, and two
+  compiled shows diff line by line.
+
+:func:`load_schedule` checks the format name and version (a newer version is refused with a
+message saying so) and every field's type, and re-decodes every XGO frame (checksum included);
+anything wrong is a :class:`XgoShowError` naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from xgo_show.compiler.schedule import (
+    SCHEDULE_VERSION,
+    PerformerSchedule,
+    Schedule,
+    ScheduledFrame,
+)
+from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.errors import XgoShowError
+from xgo_show.profiles.model import Link
+from xgo_show.profiles.registry import get_profile
+from xgo_show.wire.xgo import decode_one
+
+__all__ = ["FORMAT", "dumps_schedule", "load_schedule", "loads_schedule", "save_schedule"]
+
+FORMAT = "xgo-show-schedule"
+
+
+def _us(seconds: float) -> int:
+    return round(seconds * 1_000_000)
+
+
+def _dump(value: object) -> str:
+    return json.dumps(value, sort_keys=True, ensure_ascii=False, separators=(", ", ": "))
+
+
+def dumps_schedule(schedule: Schedule) -> str:
+    """The artifact text of ``schedule`` (deterministic)."""
+    origins: list[Origin] = []
+    index: dict[Origin, int] = {}
+
+    def ref(origin: Origin | None) -> int | None:
+        if origin is None:
+            return None
+        if origin not in index:
+            index[origin] = len(origins)
+            origins.append(origin)
+        return index[origin]
+
+    warnings = [
+        {"severity": d.severity, "message": d.message, "origin": ref(d.origin), "path": d.path}
+        for d in schedule.warnings
+    ]
+    performers: list[str] = []
+    for p in schedule.performers:
+        frames = [
+            _dump({
+                "t_us": _us(f.t), "hex": f.data.hex(), "origin": ref(f.origin),
+                "label": f.label, "duration_us": _us(f.duration),
+            })
+            for f in p.frames
+        ]
+        head = {
+            "end_us": _us(p.end),
+            "link": {"baud": p.link.baud, "bits_per_byte": p.link.bits_per_byte,
+                     "gap_us": _us(p.link.gap)},
+            "model": p.model,
+            "name": p.name,
+            "port": p.port,
+        }
+        body = ",\n    ".join(frames)
+        items = ",\n   ".join(f"{_dump(k)}: {_dump(v)}" for k, v in head.items())
+        frames_text = f"[\n    {body}\n   ]" if frames else "[]"
+        performers.append(f"  {{\n   {items},\n   \"frames\": {frames_text}\n  }}")
+    show = {
+        "battery_floor": schedule.battery_floor,
+        "beats_per_bar": schedule.beats_per_bar,
+        "bpm": schedule.bpm,
+        "control_rate": schedule.control_rate,
+        "name": schedule.name,
+        "on_failure": schedule.on_failure,
+        "source": schedule.source,
+    }
+    origin_rows = [
+        _dump({"file": o.file, "line": o.line, "column": o.column, "cue": o.cue}) for o in origins
+    ]
+    parts = [
+        f' "format": {_dump(FORMAT)}',
+        ' "origins": ' + ("[\n  " + ",\n  ".join(origin_rows) + "\n ]" if origin_rows else "[]"),
+        ' "performers": ' + ("[\n" + ",\n".join(performers) + "\n ]" if performers else "[]"),
+        f' "show": {_dump(show)}',
+        f' "version": {schedule.version}',
+        ' "warnings": ' + (
+            "[\n  " + ",\n  ".join(_dump(w) for w in warnings) + "\n ]" if warnings else "[]"
+        ),
+    ]
+    return "{\n" + ",\n".join(parts) + "\n}\n"
+
+
+def save_schedule(schedule: Schedule, path: str | Path) -> Path:
+    """Write ``schedule`` to ``path`` (UTF-8, LF line ends); returns the path."""
+    target = Path(path)
+    try:
+        with target.open("w", encoding="utf-8", newline="\n") as fh:
+            fh.write(dumps_schedule(schedule))
+    except OSError as exc:
+        raise XgoShowError(f"cannot write schedule {target}: {exc.strerror or exc}") from exc
+    return target
+
+
+def load_schedule(path: str | Path) -> Schedule:
+    """Read a schedule written by :func:`save_schedule` (see the module docstring)."""
+    source = Path(path)
+    try:
+        text = source.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise XgoShowError(f"cannot read schedule {source}: {reason}") from exc
+    return loads_schedule(text, name=str(source))
+
+
+class _Reader:
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def fail(self, where: str, message: str) -> XgoShowError:
+        return XgoShowError(f"{self.name}: {where}: {message}")
+
+    def get(self, obj: Mapping[str, Any], key: str, kind: type | tuple[type, ...], where: str,
+            *, optional: bool = False) -> Any:
+        if key not in obj:
+            raise self.fail(f"{where}.{key}" if where else key, "missing")
+        value = obj[key]
+        if value is None and optional:
+            return None
+        if (isinstance(value, bool) and kind is not bool) or not isinstance(value, kind):
+            names = kind.__name__ if isinstance(kind, type) else " or ".join(
+                k.__name__ for k in kind)
+            raise self.fail(f"{where}.{key}" if where else key,
+                            f"expected {names}, not {type(value).__name__}")
+        return value
+
+    def obj(self, value: Any, where: str) -> Mapping[str, Any]:
+        if not isinstance(value, dict):
+            raise self.fail(where, f"expected an object, not {type(value).__name__}")
+        return value
+
+    def us(self, obj: Mapping[str, Any], key: str, where: str) -> float:
+        value = self.get(obj, key, int, where)
+        if value < 0:
+            raise self.fail(f"{where}.{key}", "must not be negative")
+        return float(value) / 1_000_000
+
+
+def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
+    """Parse artifact text (``name`` is used in error messages)."""
+    r = _Reader(name)
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise XgoShowError(
+            f"{name}: not a schedule file (invalid JSON at line {exc.lineno} column {exc.colno}: "
+            f"{exc.msg})"
+        ) from exc
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+        raise XgoShowError(f"{name}: not an xgo-show schedule (no \"format\": \"{FORMAT}\")")
+    version = doc.get("version")
+    if not isinstance(version, int) or isinstance(version, bool):
+        raise r.fail("version", "missing or not an integer")
+    if version > SCHEDULE_VERSION:
+        raise XgoShowError(
+            f"{name}: schedule format version {version} was written by a newer xgo-show; this "
+            f"one reads version {SCHEDULE_VERSION}: upgrade xgo-show or compile the show again"
+        )
+    if version < 1:
+        raise r.fail("version", f"unknown schedule format version {version}")
+    origins_raw = r.get(doc, "origins", list, "")
+    origins: list[Origin] = []
+    for i, raw in enumerate(origins_raw):
+        where = f"origins[{i}]"
+        o = r.obj(raw, where)
+        origins.append(Origin(
+            r.get(o, "file", str, where), r.get(o, "line", int, where),
+            r.get(o, "column", int, where), r.get(o, "cue", str, where),
+        ))
+
+    def origin(obj: Mapping[str, Any], where: str) -> Origin | None:
+        idx = r.get(obj, "origin", int, where, optional=True)
+        if idx is None:
+            return None
+        if not 0 <= idx < len(origins):
+            raise r.fail(f"{where}.origin", f"no origin #{idx} (the table has {len(origins)})")
+        found: Origin = origins[idx]
+        return found
+
+    show = r.obj(r.get(doc, "show", dict, ""), "show")
+    warnings: list[Diagnostic] = []
+    for i, raw in enumerate(r.get(doc, "warnings", list, "")):
+        where = f"warnings[{i}]"
+        w = r.obj(raw, where)
+        severity = r.get(w, "severity", str, where)
+        if severity not in ("error", "warning"):
+            raise r.fail(f"{where}.severity", f"unknown severity {severity!r}")
+        warnings.append(Diagnostic(
+            "error" if severity == "error" else "warning", r.get(w, "message", str, where),
+            origin(w, where), r.get(w, "path", str, where),
+        ))
+    performers: list[PerformerSchedule] = []
+    for i, raw in enumerate(r.get(doc, "performers", list, "")):
+        where = f"performers[{i}]"
+        p = r.obj(raw, where)
+        model = r.get(p, "model", str, where)
+        try:
+            profile = get_profile(model)
+        except XgoShowError as exc:
+            raise r.fail(f"{where}.model", str(exc)) from exc
+        link_raw = r.obj(r.get(p, "link", dict, where), f"{where}.link")
+        baud = r.get(link_raw, "baud", int, f"{where}.link")
+        if baud <= 0:
+            raise r.fail(f"{where}.link.baud", "must be positive")
+        link = Link(baud, r.us(link_raw, "gap_us", f"{where}.link"),
+                    r.get(link_raw, "bits_per_byte", int, f"{where}.link"))
+        frames: list[ScheduledFrame] = []
+        last = 0.0
+        for j, fraw in enumerate(r.get(p, "frames", list, where)):
+            fw = f"{where}.frames[{j}]"
+            f = r.obj(fraw, fw)
+            t = r.us(f, "t_us", fw)
+            if t < last:
+                raise r.fail(f"{fw}.t_us", "frames must be in time order")
+            last = t
+            try:
+                data = bytes.fromhex(r.get(f, "hex", str, fw))
+            except ValueError as exc:
+                raise r.fail(f"{fw}.hex", "not hexadecimal") from exc
+            if profile.family == "xgo":
+                used, frame = decode_one(data)
+                if frame is None or used != len(data):
+                    raise r.fail(f"{fw}.hex", "not one valid XGO frame (bad length or checksum)")
+            elif not data:
+                raise r.fail(f"{fw}.hex", "empty frame")
+            frames.append(ScheduledFrame(
+                t, data, origin(f, fw), r.get(f, "label", str, fw), r.us(f, "duration_us", fw)
+            ))
+        performers.append(PerformerSchedule(
+            name=r.get(p, "name", str, where), model=profile.model, link=link,
+            frames=tuple(frames), end=r.us(p, "end_us", where),
+            port=r.get(p, "port", str, where, optional=True),
+        ))
+    on_failure = r.get(show, "on_failure", str, "show")
+    if on_failure not in ("halt_all", "continue"):
+        raise r.fail("show.on_failure", f"unknown policy {on_failure!r}")
+    rate = r.get(show, "control_rate", (int, float), "show")
+    if rate <= 0:
+        raise r.fail("show.control_rate", "must be positive")
+    bpm = r.get(show, "bpm", (int, float), "show", optional=True)
+    return Schedule(
+        name=r.get(show, "name", str, "show"),
+        source=r.get(show, "source", str, "show"),
+        performers=tuple(performers),
+        control_rate=float(rate),
+        on_failure=on_failure,
+        battery_floor=r.get(show, "battery_floor", int, "show"),
+        warnings=tuple(warnings),
+        version=SCHEDULE_VERSION,
+        bpm=None if bpm is None else float(bpm),
+        beats_per_bar=r.get(show, "beats_per_bar", int, "show"),
+    )

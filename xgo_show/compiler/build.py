@@ -1,0 +1,143 @@
+"""compile_show: a validated, resolved show -> a paced frame schedule per performer.
+
+A pure function: no clock, no randomness, no I/O; the same input gives the same schedule, frame
+for frame and byte for byte. Errors are collected over the whole show and raised together.
+"""
+
+from __future__ import annotations
+
+from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
+from xgo_show.compiler.frames import (
+    PlannedFrame,
+    TrackPlan,
+    Write,
+    cue_label,
+    merge_writes,
+    plan_xgo_track,
+    to_us,
+)
+from xgo_show.compiler.pacing import PaceResult, pace
+from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
+from xgo_show.compiler.state import describe_frame, format_fields, layout_of
+from xgo_show.diagnostics import Diagnostic
+from xgo_show.errors import CompileError, ProfileError
+from xgo_show.profiles.model import Link, Profile
+from xgo_show.profiles.registry import get_profile
+
+__all__ = ["compile_show"]
+
+
+def compile_show(show: ResolvedShow) -> Schedule:
+    """Compile ``show`` into a :class:`Schedule`.
+
+    Raises :class:`CompileError` carrying every error found (infeasible trajectories, tracks
+    that do not fit their link, ...), each with the cue's origin. Non-fatal findings (the
+    loader's, and decimation) are in ``Schedule.warnings``.
+    """
+    if show.control_rate <= 0:
+        raise CompileError(f"control_rate must be positive, not {show.control_rate:g} Hz")
+    errors: list[Diagnostic] = []
+    warnings: list[Diagnostic] = list(show.warnings)
+    performers: list[PerformerSchedule] = []
+    for track in show.tracks:
+        try:
+            profile = get_profile(track.model)
+        except ProfileError as exc:
+            errors.append(Diagnostic("error", f"{track.performer}: {exc}", None,
+                                     f"tracks.{track.performer}"))
+            continue
+        performer, errs, warns = _compile_track(show, track, profile)
+        errors.extend(errs)
+        warnings.extend(warns)
+        performers.append(performer)
+    if errors:
+        lines = "\n".join(d.format() for d in errors)
+        count = f"{len(errors)} error{'s' if len(errors) != 1 else ''}"
+        raise CompileError(f"show {show.name!r} cannot be compiled ({count}):\n{lines}",
+                           tuple(errors))
+    return Schedule(
+        name=show.name,
+        source=show.source,
+        performers=tuple(performers),
+        control_rate=show.control_rate,
+        on_failure=show.on_failure,
+        battery_floor=show.battery_floor,
+        warnings=tuple(warnings),
+        bpm=show.bpm,
+        beats_per_bar=show.beats_per_bar,
+    )
+
+
+def _compile_track(
+    show: ResolvedShow, track: ResolvedTrack, profile: Profile
+) -> tuple[PerformerSchedule, list[Diagnostic], list[Diagnostic]]:
+    gap = profile.link.gap if show.gap is None else show.gap
+    link = Link(profile.link.baud, gap, profile.link.bits_per_byte)
+    period_us = to_us(1.0 / show.control_rate)
+    path = f"tracks.{track.performer}"
+    plan: TrackPlan
+    if profile.family == "xarm":
+        from xgo_show.compiler.xarm import plan_xarm_track
+
+        plan = plan_xarm_track(profile, track)
+        remerge = None
+    else:
+        layout = layout_of(profile)
+        plan = plan_xgo_track(layout, track, rate=show.control_rate, link=link, gap=gap)
+
+        def remerge(t_us: int, writes: list[Write]) -> list[PlannedFrame]:
+            action = layout.by_name.get("action")
+            return merge_writes(layout, link, gap, t_us, writes, {},
+                                action_address=action.address if action else None)
+
+    errors = list(plan.diagnostics)
+    warnings: list[Diagnostic] = []
+    paced: PaceResult = pace(
+        plan.frames, link=link, gap_us=to_us(gap), period_us=period_us,
+        decimate=show.decimate, remerge=remerge,
+    )
+    seen: set[object] = set()
+    for late in paced.late:
+        f = late.frame
+        key = f.origin if f.origin is not None else f.order
+        if key in seen:
+            continue
+        seen.add(key)
+        where = cue_label(f.origin) if f.origin is not None else "a frame"
+        hint = "" if show.decimate else ", or set decimate: true"
+        errors.append(Diagnostic(
+            "error",
+            f"{track.performer}: the link does not fit {where}: its frame planned at "
+            f"{f.t_us / 1e6:.3f} s could only start at {late.start_us / 1e6:.3f} s, more than one "
+            f"control period ({period_us / 1000:g} ms) late at {link.baud} baud with "
+            f"{gap * 1000:g} ms between frames; write fewer registers at once or lower "
+            f"control_rate{hint}",
+            f.origin, path,
+        ))
+    if paced.dropped:
+        assert paced.first_drop_us is not None
+        warnings.append(Diagnostic(
+            "warning",
+            f"{track.performer}: decimated {paced.dropped} of {plan.samples} trajectory sample "
+            f"frames to fit the link (first at {paced.first_drop_us / 1e6:.3f} s); their values "
+            "went out with later frames",
+            None, path,
+        ))
+    frames = tuple(
+        ScheduledFrame(
+            t=p.start_us / 1_000_000,
+            data=p.frame.data,
+            origin=p.frame.origin,
+            label=format_fields(profile, describe_frame(profile, p.frame.data)),
+            duration=p.frame.duration,
+        )
+        for p in paced.frames
+    )
+    end = plan.end if show.end is None else show.end
+    if frames:
+        end = max(end, frames[-1].t)
+    performer = PerformerSchedule(
+        name=track.performer, model=profile.model, link=link, frames=frames, end=end,
+        port=track.port,
+    )
+    return performer, errors, warnings

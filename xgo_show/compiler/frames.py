@@ -1,0 +1,473 @@
+"""From cues to planned write frames: sampling, byte conversion, de-duplication, merging.
+
+Everything runs on integer microseconds from show start, so equal times compare equal and the
+output does not depend on float formatting. Trajectory and fade samples sit on a fixed tick grid
+(tick ``k`` at ``k / control_rate`` seconds); actions and settings go out at their own start.
+
+Per tick, each register's physical value becomes its byte through :meth:`Register.to_byte` (or
+:meth:`Register.encode_value` for settings); a *sample* whose bytes equal what was last sent is
+dropped (settings and actions are always sent: the user asked for them). The registers left at
+one tick are merged into as few frames as possible: registers at consecutive addresses share one
+write frame (the layout is :meth:`Profile.walk`'s), and two runs separated by a small gap are
+joined by re-sending the bytes the gap registers already hold, when that costs less link time
+than a separate frame would (8 bytes of frame overhead plus the silence between frames).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+
+from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
+from xgo_show.compiler.layout import Layout
+from xgo_show.compiler.trajectory import (
+    DofState,
+    InfeasibleMotion,
+    MotionPlan,
+    TrajectoryError,
+    plan_motion,
+)
+from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.errors import ProfileError, ProtocolError
+from xgo_show.profiles.model import Encoding, Limits, Link, Register
+from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, write_frame
+
+__all__ = [
+    "PlannedFrame",
+    "TrackPlan",
+    "Write",
+    "merge_writes",
+    "plan_xgo_track",
+    "tick_us",
+    "to_us",
+]
+
+ACTION_REGISTER = "action"
+RESET_ACTION = 255  # restores the default posture (Profile.default_posture)
+_EPS = 1e-9
+
+
+def to_us(seconds: float) -> int:
+    """Seconds -> integer microseconds (round half to even, deterministic)."""
+    return round(seconds * 1_000_000)
+
+
+def tick_us(k: int, rate: float) -> int:
+    """Time of control tick ``k`` in integer microseconds."""
+    return round(k * 1_000_000 / rate)
+
+
+def first_tick(t: float, rate: float) -> int:
+    """Index of the first tick at or after ``t`` seconds."""
+    return math.ceil(t * rate - _EPS)
+
+
+@dataclass(frozen=True)
+class Write:
+    """One register's bytes to send at ``t_us``."""
+
+    t_us: int
+    address: int
+    data: bytes
+    origin: Origin | None
+    order: int  # index of the cue in its track: authoring order breaks ties within a tick
+    sample: bool  # a trajectory/fade sample: de-duplicated, and droppable when decimating
+    duration: float = 0.0  # seconds a preset action runs
+
+
+@dataclass(frozen=True)
+class PlannedFrame:
+    """A frame at its planned time, before pacing."""
+
+    t_us: int
+    data: bytes  # complete wire bytes
+    fields: tuple[tuple[int, bytes], ...]  # every field in the frame: (address, bytes)
+    written: tuple[Write, ...]  # what the plan asked for (the gap fillers are not here)
+    origin: Origin | None
+    order: int
+    droppable: bool  # only samples in it
+    action: bool  # starts a preset action
+    duration: float = 0.0
+
+
+@dataclass
+class TrackPlan:
+    """A performer's planned frames, the end of its part, and what went wrong."""
+
+    frames: list[PlannedFrame]
+    end: float
+    diagnostics: list[Diagnostic]
+    samples: int = 0  # planned frames that hold only samples
+
+
+def _link_cost_us(link: Link, nbytes: int) -> float:
+    return link.wire_time(nbytes) * 1_000_000
+
+
+def merge_writes(
+    layout: Layout,
+    link: Link,
+    gap: float,
+    t_us: int,
+    writes: Iterable[Write],
+    known: Mapping[int, bytes],
+    *,
+    action_address: int | None = None,
+) -> list[PlannedFrame]:
+    """Merge one tick's writes (at most one per address) into as few write frames as pays.
+
+    ``known`` holds the bytes each register was last sent; registers that may be re-sent
+    (:meth:`Layout.can_fill`) and are known can fill a gap between two runs. Filling ``n``
+    bytes is chosen when it takes less link time than a separate frame (8 bytes + ``gap``).
+    """
+    ordered = sorted(writes, key=lambda w: w.address)
+    if not ordered:
+        return []
+    frame_cost = _link_cost_us(link, MIN_LENGTH) + gap * 1_000_000
+    runs: list[list[tuple[int, bytes, Write | None]]] = [[(ordered[0].address, ordered[0].data,
+                                                           ordered[0])]]
+    run_len = len(ordered[0].data)
+    for w in ordered[1:]:
+        run = runs[-1]
+        last_addr = run[-1][0]
+        filler = _filler(layout, last_addr, w.address, known)
+        if filler is not None:
+            extra = sum(len(d) for _, d in filler)
+            fits = run_len + extra + len(w.data) <= MAX_DATA
+            if fits and (not filler or _link_cost_us(link, extra) < frame_cost):
+                run.extend((a, d, None) for a, d in filler)
+                run.append((w.address, w.data, w))
+                run_len += extra + len(w.data)
+                continue
+        runs.append([(w.address, w.data, w)])
+        run_len = len(w.data)
+    frames: list[PlannedFrame] = []
+    for run in runs:
+        address = run[0][0]
+        data = b"".join(d for _, d, _ in run)
+        if layout.walk(address, len(data)) is None:
+            raise ProfileError(
+                f"{layout.profile.model}: {len(data)} bytes at 0x{address:02X} do not match the "
+                "register layout"
+            )
+        written = tuple(w for _, _, w in run if w is not None)
+        first = min(written, key=lambda w: (w.order, w.address))
+        frames.append(
+            PlannedFrame(
+                t_us=t_us,
+                data=write_frame(address, data, write_type=layout.profile.write_type),
+                fields=tuple((a, d) for a, d, _ in run),
+                written=written,
+                origin=first.origin,
+                order=first.order,
+                droppable=all(w.sample for w in written),
+                action=action_address is not None
+                and any(w.address == action_address for w in written),
+                duration=max(w.duration for w in written),
+            )
+        )
+    frames.sort(key=lambda f: (f.order, f.fields[0][0]))
+    return frames
+
+
+def _filler(
+    layout: Layout, last: int, nxt: int, known: Mapping[int, bytes]
+) -> list[tuple[int, bytes]] | None:
+    """The known fields strictly between ``last`` and ``nxt``, or None if the gap can't be filled.
+
+    An empty list means the two are adjacent.
+    """
+    out: list[tuple[int, bytes]] = []
+    for addr in range(last + 1, nxt):
+        reg = layout.by_address.get(addr)
+        if reg is None or not layout.can_fill(reg) or addr not in known:
+            return None
+        out.append((addr, known[addr]))
+    return out
+
+
+class _Diag:
+    def __init__(self, performer: str) -> None:
+        self.performer = performer
+        self.items: list[Diagnostic] = []
+
+    def error(self, origin: Origin | None, message: str) -> None:
+        self.items.append(
+            Diagnostic("error", f"{self.performer}: {message}", origin, f"tracks.{self.performer}")
+        )
+
+
+@dataclass(eq=False)
+class _Run:
+    """A planned trajectory: its plan, its registers, and when each DoF's sampling stops."""
+
+    plan: MotionPlan
+    regs: tuple[Register, ...]
+    origin: Origin
+    order: int
+    cuts: list[float | None]  # per DoF: show time another cue took the register over
+
+
+def cue_label(origin: Origin) -> str:
+    """How messages name a cue: by its name, else by its line."""
+    return f"cue {origin.cue!r}" if origin.cue else f"the cue at line {origin.line}"
+
+
+def _limits_text(reg: Register, lim: Limits) -> str:
+    u = reg.unit or "units"
+    return (
+        f"velocity {lim.velocity:g} {u}/s, acceleration {lim.acceleration:g} {u}/s², "
+        f"jerk {lim.jerk:g} {u}/s³"
+    )
+
+
+class _XgoPlanner:
+    """Walks one XGO performer's cues in order, keeping the commanded state as it goes."""
+
+    def __init__(self, layout: Layout, track: ResolvedTrack, rate: float) -> None:
+        self.layout = layout
+        self.profile = layout.profile
+        self.track = track
+        self.rate = rate
+        self.diag = _Diag(track.performer)
+        self.commanded: dict[str, float] = {}  # last commanded physical value (linear regs)
+        self.colours: dict[str, tuple[int, int, int]] = {}
+        for reg in self.profile.registers:
+            if reg.initial is None:
+                continue
+            if reg.linear and reg.size == 1:
+                self.commanded[reg.name] = reg.to_physical(reg.initial[0])
+            elif reg.encoding is Encoding.RGB:
+                self.colours[reg.name] = (reg.initial[0], reg.initial[1], reg.initial[2])
+        self.active: dict[str, tuple[_Run, int]] = {}  # register -> latest run and its DoF
+        self.runs: list[_Run] = []
+        self.ticks: dict[int, list[Write]] = {}
+        self.action_reg = layout.by_name.get(ACTION_REGISTER)
+        self.end = 0.0
+
+    # -- cues -------------------------------------------------------------------------------
+
+    def plan(self) -> None:
+        for order, cue in enumerate(self.track.cues):
+            try:
+                if isinstance(cue, MotionCue):
+                    self._motion(cue, order)
+                elif isinstance(cue, SetCue):
+                    self._set(cue, order)
+                elif isinstance(cue, ActionCue):
+                    self._action(cue, order)
+                elif isinstance(cue, FadeCue):
+                    self._fade(cue, order)
+                else:
+                    self.diag.error(
+                        cue.origin, f"{self.profile.model} is not an xArm; it takes no arm cue"
+                    )
+            except (ProfileError, ProtocolError) as exc:
+                self.diag.error(cue.origin, f"{cue_label(cue.origin)}: {exc}")
+        for run in self.runs:
+            self._sample_run(run)
+
+    def _emit(self, w: Write) -> None:
+        self.ticks.setdefault(w.t_us, []).append(w)
+
+    def _take_over(self, name: str, t: float) -> DofState | None:
+        """A cue writes ``name`` at ``t``: stop sampling a move still running on it.
+
+        Returns the state the move had reached, or None if no move was running.
+        """
+        entry = self.active.get(name)
+        if entry is None:
+            return None
+        run, dof = entry
+        if run.cuts[dof] is not None or t >= run.plan.end - _EPS:
+            return None
+        run.cuts[dof] = t
+        return run.plan.state_at(t)[dof]
+
+    def _set(self, cue: SetCue, order: int) -> None:
+        regs = sorted(
+            ((self.layout.register(n), v) for n, v in cue.values.items()),
+            key=lambda rv: rv[0].address,
+        )
+        for reg, value in regs:
+            data = reg.encode_value(value)
+            self._emit(Write(to_us(cue.start), reg.address, data, cue.origin, order, False))
+            self._take_over(reg.name, cue.start)
+            if reg.linear and reg.size == 1 and isinstance(value, (int, float)):
+                self.commanded[reg.name] = float(value)
+            elif reg.encoding is Encoding.RGB:
+                self.colours[reg.name] = (data[0], data[1], data[2])
+        self.end = max(self.end, cue.start)
+
+    def _action(self, cue: ActionCue, order: int) -> None:
+        if self.action_reg is None:
+            self.diag.error(cue.origin, f"{self.profile.model} has no action register")
+            return
+        data = self.action_reg.encode_value(cue.action_id)
+        self._emit(
+            Write(to_us(cue.start), self.action_reg.address, data, cue.origin, order, False,
+                  cue.duration)
+        )
+        if cue.action_id == RESET_ACTION:
+            # The reset action restores the default posture: later moves start from there.
+            for name in self.profile.default_posture:
+                reg = self.layout.register(name)
+                if reg.initial is not None:
+                    self.commanded[name] = reg.to_physical(reg.initial[0])
+        self.end = max(self.end, cue.start + cue.duration)
+
+    def _fade(self, cue: FadeCue, order: int) -> None:
+        reg = self.layout.register(cue.register)
+        if reg.encoding is not Encoding.RGB:
+            self.diag.error(cue.origin, f"{cue.register} is not an RGB register; it cannot fade")
+            return
+        reg.encode_value(cue.to)
+        start = self.colours.get(cue.register, (0, 0, 0))
+        self.colours[cue.register] = cue.to
+        self.end = max(self.end, cue.start + cue.duration)
+        k0 = first_tick(cue.start, self.rate)
+        k1 = first_tick(cue.start + cue.duration, self.rate)
+        for k in range(k0, k1 + 1):
+            if k == k1 or cue.duration <= 0:
+                frac = 1.0
+            else:
+                frac = min(max((k / self.rate - cue.start) / cue.duration, 0.0), 1.0)
+            rgb = bytes(round(a + (b - a) * frac) for a, b in zip(start, cue.to, strict=True))
+            self._emit(Write(tick_us(k, self.rate), reg.address, rgb, cue.origin, order, True))
+
+    def _motion(self, cue: MotionCue, order: int) -> None:
+        diag = self.diag
+        pairs: list[tuple[Register, Limits]] = []
+        for name in cue.targets:
+            reg = self.layout.register(name)
+            lim = cue.limits.get(name, reg.limits)
+            if lim is None or not reg.linear or reg.size != 1:
+                diag.error(
+                    cue.origin, f"{cue_label(cue.origin)}: {name} cannot follow a trajectory"
+                )
+                return
+            pairs.append((reg, lim))
+        pairs.sort(key=lambda p: p[0].address)
+        regs = tuple(r for r, _ in pairs)
+        limits = [lim for _, lim in pairs]
+        current: list[DofState] = []
+        for reg in regs:
+            # Interrupting a move still under way starts from where it is, moving as it moves;
+            # otherwise from the last commanded value, at rest.
+            reached = self._take_over(reg.name, cue.start)
+            current.append(reached if reached is not None else DofState(self.commanded[reg.name]))
+        names = [r.name for r in regs]
+        targets = [float(cue.targets[n]) for n in names]
+        try:
+            plan = plan_motion(names, cue.start, current, targets, limits, cue.duration)
+        except InfeasibleMotion as exc:
+            reg = regs[exc.dof]
+            diag.error(
+                cue.origin,
+                f"{cue_label(cue.origin)} needs at least {exc.minimum:.2f} s under its limits "
+                f"({reg.name}: {_limits_text(reg, limits[exc.dof])}) but is given "
+                f"{exc.requested:.2f} s",
+            )
+            return
+        except TrajectoryError as exc:
+            diag.error(cue.origin, f"{cue_label(cue.origin)}: {exc}")
+            return
+        for reg, (lo, hi) in zip(regs, plan.extrema(), strict=True):
+            assert reg.minimum is not None and reg.maximum is not None
+            if lo < reg.minimum - 1e-6 or hi > reg.maximum + 1e-6:
+                worst = lo if lo < reg.minimum - 1e-6 else hi
+                diag.error(
+                    cue.origin,
+                    f"{cue_label(cue.origin)}: {reg.name} would overshoot to {worst:.1f}"
+                    f"{reg.unit or ''} (range {reg.minimum:g}..{reg.maximum:g}) because it "
+                    "interrupts the move before it",
+                )
+                return
+        run = _Run(plan, regs, cue.origin, order, [None] * len(regs))
+        self.runs.append(run)
+        for i, (reg, target) in enumerate(zip(regs, targets, strict=True)):
+            self.commanded[reg.name] = target
+            self.active[reg.name] = (run, i)
+        self.end = max(self.end, plan.end)
+
+    # -- sampling ---------------------------------------------------------------------------
+
+    def _sample_run(self, run: _Run) -> None:
+        """Sample a trajectory on the tick grid, from its start to the first tick at its end.
+
+        A DoF another cue took over stops before that cue's start; otherwise its last sample is
+        the exact target, so rounding never leaves a register one byte short.
+        """
+        plan, rate = run.plan, self.rate
+        k0 = first_tick(plan.start, rate)
+        k_end = first_tick(plan.end, rate)
+        stops = [
+            (k_end if cut is None else first_tick(cut, rate) - 1) for cut in run.cuts
+        ]
+        targets = plan.targets
+        last = max(stops, default=k0 - 1)
+        traj = plan.trajectory
+        regs = run.regs
+        dofs = range(len(regs))
+        for k in range(k0, last + 1):
+            pos = targets if k >= k_end else traj.at_time(max(k / rate - plan.start, 0.0))[0]
+            t_us = tick_us(k, rate)
+            for i in dofs:
+                if k > stops[i]:
+                    continue
+                reg = regs[i]
+                byte = reg.to_byte(pos[i])
+                self._emit(
+                    Write(t_us, reg.address, bytes((byte,)), run.origin, run.order, True)
+                )
+
+
+def _frames_from_ticks(
+    layout: Layout,
+    link: Link,
+    gap: float,
+    ticks: Mapping[int, Sequence[Write]],
+    action_reg: Register | None,
+) -> tuple[list[PlannedFrame], int]:
+    """Tick by tick: keep the last write per register, drop unchanged samples, merge."""
+    action_addr = action_reg.address if action_reg is not None else None
+    sent: dict[int, bytes] = {}  # what each register was last sent: unchanged samples drop
+    # What each register holds, as far as we know: gap fillers re-send these bytes. A show
+    # starts from the initial values (trajectories start there too), and a preset action makes
+    # everything unknown until it is sent again.
+    known: dict[int, bytes] = {
+        r.address: r.initial for r in layout.profile.registers if r.initial is not None
+    }
+    frames: list[PlannedFrame] = []
+    samples = 0
+    for t_us in sorted(ticks):
+        chosen: dict[int, Write] = {}
+        for w in sorted(ticks[t_us], key=lambda w: w.order):  # stable: emit order breaks ties
+            chosen[w.address] = w
+        keep = [w for a, w in chosen.items() if not (w.sample and sent.get(a) == w.data)]
+        if not keep:
+            continue
+        tick_frames = merge_writes(layout, link, gap, t_us, keep, known,
+                                   action_address=action_addr)
+        frames.extend(tick_frames)
+        samples += sum(1 for f in tick_frames if f.droppable)
+        for w in keep:
+            sent[w.address] = w.data
+            known[w.address] = w.data
+        if any(f.action for f in tick_frames):
+            # A preset action moves the robot on its own: what it holds afterwards is unknown,
+            # so nothing counts as already sent (and nothing is re-sent as a gap filler).
+            sent.clear()
+            known.clear()
+    return frames, samples
+
+
+def plan_xgo_track(
+    layout: Layout, track: ResolvedTrack, *, rate: float, link: Link, gap: float
+) -> TrackPlan:
+    """Plan every frame of one XGO performer (unpaced), with its diagnostics."""
+    planner = _XgoPlanner(layout, track, rate)
+    planner.plan()
+    frames, samples = _frames_from_ticks(layout, link, gap, planner.ticks, planner.action_reg)
+    return TrackPlan(frames, planner.end, planner.diag.items, samples)

@@ -1,0 +1,123 @@
+"""Pace a performer's planned frames onto its serial link.
+
+Frames go out in planned order. A frame starts no earlier than its planned time, and no earlier
+than the previous frame's start plus that frame's wire time (``Link.wire_time``: 10 bits a byte,
+86.8 µs a byte at 115200 baud) plus the silence between frames (the show's ``gap`` or the
+profile's ``Link.gap``; the XGO document asks for "at least 1 ms between instructions" and we
+read it the safe way: 1 ms of silence after the last byte). A frame that cannot start on time
+moves later; gaps never shrink. All arithmetic is in integer microseconds, wire times rounded up.
+
+**Link fit.** A track fits its link when every frame starts at most one control period
+(``1 / control_rate``) after its planned time. Beyond that, the frame would land on or after the
+next tick's frames, so the backlog is no longer a momentary burst but the link falling behind
+the choreography. Every cue with a frame later than that is an error (the first late frame of
+each cue is named), unless the show allows ``decimate``:
+
+**Decimation.** A frame holding only trajectory or fade samples that would start more than
+*half* a period late is dropped instead (actions and settings are never dropped, and keep the
+other half period as headroom). The values it carried are not lost: they stay pending and go out
+at the next tick when the link has room, unless a later frame overwrites the same registers
+first. A preset action clears what is pending (the action takes the robot over). Settings and
+actions that are still more than a period late are errors even with ``decimate``.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+from xgo_show.compiler.frames import PlannedFrame, Write
+from xgo_show.profiles.model import Link
+
+__all__ = ["PaceResult", "Paced", "pace", "wire_us"]
+
+
+def wire_us(link: Link, nbytes: int) -> int:
+    """Wire time of ``nbytes`` in whole microseconds, rounded up (integer arithmetic)."""
+    num = nbytes * link.bits_per_byte * 1_000_000
+    return -(-num // link.baud)
+
+
+@dataclass(frozen=True)
+class Paced:
+    """A frame and the microsecond it starts on the wire."""
+
+    start_us: int
+    frame: PlannedFrame
+
+
+@dataclass
+class PaceResult:
+    """Paced frames, frames later than a period (errors), and decimation counts."""
+
+    frames: list[Paced]
+    late: list[Paced] = field(default_factory=list)
+    dropped: int = 0  # planned sample frames dropped
+    first_drop_us: int | None = None
+
+
+def pace(
+    frames: Sequence[PlannedFrame],
+    *,
+    link: Link,
+    gap_us: int,
+    period_us: int,
+    decimate: bool = False,
+    remerge: Callable[[int, list[Write]], list[PlannedFrame]] | None = None,
+) -> PaceResult:
+    """Give every frame a start time on ``link`` (see the module docstring for the rules).
+
+    ``frames`` must be in planned order. ``remerge(t_us, writes)`` builds frames for pending
+    sample values when decimating (the compiler passes its frame merger); without it dropped
+    values are simply superseded by later samples.
+    """
+    result = PaceResult([])
+    # Heap of (planned us, class, sequence, frame); class 1 = re-sent pending values, after the
+    # planned frames of the same microsecond.
+    heap: list[tuple[int, int, int, PlannedFrame | None]] = [
+        (f.t_us, 0, i, f) for i, f in enumerate(frames)
+    ]
+    heapq.heapify(heap)
+    seq = len(frames)
+    pending: dict[int, Write] = {}
+    flush_queued = False
+    free_us: int | None = None  # when the link may start the next frame
+    half = period_us // 2
+    while heap:
+        t_us, klass, _, frame = heapq.heappop(heap)
+        batch: list[PlannedFrame]
+        if frame is None:
+            flush_queued = False
+            if not pending or remerge is None:
+                continue
+            batch = remerge(t_us, [pending[a] for a in sorted(pending)])
+            pending.clear()
+        else:
+            batch = [frame]
+        for f in batch:
+            start = t_us if free_us is None else max(t_us, free_us)
+            late_by = start - t_us
+            if decimate and f.droppable and late_by > half:
+                if klass == 0:
+                    result.dropped += 1
+                    if result.first_drop_us is None:
+                        result.first_drop_us = t_us
+                for w in f.written:
+                    pending[w.address] = w
+                continue
+            paced = Paced(start, f)
+            result.frames.append(paced)
+            if late_by > period_us:
+                result.late.append(paced)
+            free_us = start + wire_us(link, len(f.data)) + gap_us
+            if f.action:
+                pending.clear()
+            else:
+                for address, _ in f.fields:
+                    pending.pop(address, None)
+        if pending and not flush_queued and remerge is not None:
+            heapq.heappush(heap, (t_us + period_us, 1, seq, None))
+            seq += 1
+            flush_queued = True
+    return result

@@ -1,0 +1,266 @@
+"""Read schedules back: decode frames, replay register state, catch up mid-show.
+
+- :func:`describe_frame` turns one scheduled frame back into register names and physical values
+  (transcripts, plots, progress). The compiler labels every frame with :func:`format_fields`
+  of it, so a label always says what the bytes say.
+- :func:`state_at` replays a performer's writes up to a time: the bytes each register would hold.
+- :func:`frames_to_reach` builds the few frames that bring a robot from its initial values to
+  such a state (to start or resume a show in the middle).
+
+xArm performers have no register table; their state is one entry per servo, ``servo_<id>``, the
+position as two bytes little-endian, as a ServoMove carries it.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Mapping, Sequence
+
+from xgo_show.compiler.layout import Layout
+from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+from xgo_show.errors import ProtocolError
+from xgo_show.profiles.model import Encoding, Link, Profile, Register
+from xgo_show.profiles.registry import get_profile
+from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, decode_one, write_frame
+
+__all__ = [
+    "ACTION_KEY",
+    "decode_value",
+    "describe_frame",
+    "format_fields",
+    "format_value",
+    "frames_to_reach",
+    "state_at",
+]
+
+ACTION_KEY = "action"
+_LAYOUTS: dict[str, Layout] = {}
+
+
+def layout_of(profile: Profile) -> Layout:
+    """A cached :class:`Layout` per model (profiles are immutable tables)."""
+    cached = _LAYOUTS.get(profile.model)
+    if cached is None or cached.profile is not profile:
+        cached = Layout(profile)
+        _LAYOUTS[profile.model] = cached
+    return cached
+
+
+def decode_value(reg: Register, raw: bytes) -> object:
+    """A register's bytes -> its physical value (inverse of :meth:`Register.encode_value`).
+
+    Linear registers give floats, enums their choice name, RGB an (r, g, b) tuple, ASCII a
+    string, anything else the integer byte or the raw bytes.
+    """
+    enc = reg.encoding
+    if enc in (Encoding.U8, Encoding.U8_PERIODIC):
+        return reg.to_physical(raw[0]) if reg.linear else raw[0]
+    if enc is Encoding.ENUM:
+        for name, number in reg.choices.items():
+            if number == raw[0]:
+                return name
+        return raw[0]
+    if enc is Encoding.RGB:
+        return (raw[0], raw[1], raw[2])
+    if enc is Encoding.FLOAT32:
+        return float(struct.unpack("<f", raw)[0])
+    if enc is Encoding.INT16:
+        return int(struct.unpack(">h", raw)[0])
+    if enc is Encoding.ASCII:
+        return raw.rstrip(b"\0").decode("ascii", "replace")
+    return bytes(raw)
+
+
+def _fields(layout: Layout, address: int, data: bytes) -> list[tuple[Register, bytes]]:
+    regs = layout.walk(address, len(data))
+    if regs is None:
+        raise ProtocolError(
+            f"{len(data)} bytes at 0x{address:02X} do not match the {layout.profile.model} "
+            "register layout"
+        )
+    out: list[tuple[Register, bytes]] = []
+    offset = 0
+    for reg in regs:
+        out.append((reg, data[offset : offset + reg.size]))
+        offset += reg.size
+    return out
+
+
+def _xgo_write(data: bytes) -> tuple[int, bytes]:
+    used, frame = decode_one(data)
+    if frame is None or used != len(data) or not frame.is_write:
+        raise ProtocolError(f"not a single XGO write frame: {data.hex(' ')}")
+    return frame.address, frame.data
+
+
+def describe_frame(profile: Profile, data: bytes) -> list[tuple[str, object]]:
+    """Decode a scheduled frame's wire bytes into (register name, physical value) pairs.
+
+    XGO: one pair per field the write covers, in address order. xArm ServoMove: ``("time_ms",
+    n)`` then ``("servo_<id>", position)`` per servo. Raises :class:`ProtocolError` for bytes
+    that are not such a frame.
+    """
+    if profile.family == "xarm":
+        time_ms, positions = _xarm_move(data)
+        return [("time_ms", time_ms), *((f"servo_{i}", p) for i, p in positions)]
+    address, payload = _xgo_write(data)
+    fields = _fields(layout_of(profile), address, payload)
+    return [(reg.name, decode_value(reg, raw)) for reg, raw in fields]
+
+
+def format_value(profile: Profile, name: str, value: object) -> str:
+    """One value as a transcript shows it: 1 decimal and the unit, colours as #RRGGBB."""
+    if isinstance(value, float):
+        unit = ""
+        reg = layout_of(profile).by_name.get(name)
+        if reg is not None and reg.unit:
+            unit = reg.unit
+        text = f"{value:.1f}"
+        return ("0.0" if text == "-0.0" else text) + unit
+    if isinstance(value, tuple):
+        return "#" + "".join(f"{int(c):02X}" for c in value)
+    if isinstance(value, bytes):
+        return value.hex()
+    if name == ACTION_KEY and isinstance(value, int):
+        for act in profile.actions:
+            if act.id == value:
+                return f"{value}({act.name})"
+    return str(value)
+
+
+def format_fields(profile: Profile, fields: Sequence[tuple[str, object]]) -> str:
+    """``name=value`` pairs joined by spaces, e.g. ``body_z=98.0mm pitch=5.0deg``."""
+    return " ".join(f"{name}={format_value(profile, name, value)}" for name, value in fields)
+
+
+def state_at(performer: PerformerSchedule, t: float) -> dict[str, bytes]:
+    """The bytes each register holds at show time ``t`` after replaying the writes up to ``t``.
+
+    Only registers the schedule wrote appear. The ``action`` entry is present only while a
+    preset action started by the schedule is still running at ``t`` (a finished action is not
+    state to restore). For the xArm: ``servo_<id>`` -> 2-byte little-endian target position of
+    the last move started at or before ``t``.
+    """
+    profile = get_profile(performer.model)
+    state: dict[str, bytes] = {}
+    action_until: float | None = None
+    for frame in performer.frames:
+        if frame.t > t:
+            break
+        if profile.family == "xarm":
+            for servo, pos in _xarm_move(frame.data)[1]:
+                state[f"servo_{servo}"] = pos.to_bytes(2, "little")
+            continue
+        address, payload = _xgo_write(frame.data)
+        for reg, raw in _fields(layout_of(profile), address, payload):
+            state[reg.name] = bytes(raw)
+            if reg.name == ACTION_KEY:
+                action_until = frame.t + frame.duration
+    if ACTION_KEY in state and (action_until is None or t >= action_until):
+        del state[ACTION_KEY]
+    return state
+
+
+def frames_to_reach(
+    profile: Profile, state: Mapping[str, bytes], *, move_time: float = 1.0
+) -> list[ScheduledFrame]:
+    """The fewest write frames that bring a robot at its initial values to ``state``.
+
+    Registers already at their initial value are skipped; consecutive registers share a frame
+    (gaps are bridged with the initial bytes, which a robot at its initial values holds). A
+    running action is started last, once the rest is in place. xArm: one ServoMove taking
+    ``move_time`` seconds. Frames carry ``t = 0`` and a label; pace them like any other.
+    """
+    if profile.family == "xarm":
+        positions = {
+            int(name.removeprefix("servo_")): int.from_bytes(raw, "little")
+            for name, raw in state.items()
+            if name.startswith("servo_")
+        }
+        if not positions:
+            return []
+        from xgo_show.wire.xarm import servo_move
+
+        data = servo_move(round(move_time * 1000), dict(sorted(positions.items())))
+        return [_reach_frame(profile, data, move_time)]
+    layout = layout_of(profile)
+    wanted: dict[int, bytes] = {}
+    action: bytes | None = None
+    for name in sorted(state, key=lambda n: layout.register(n).address):
+        reg = layout.register(name)
+        raw = bytes(state[name])
+        if name == ACTION_KEY:
+            action = raw
+            continue
+        if not reg.access.writable or reg.unsafe or raw == reg.initial:
+            continue
+        wanted[reg.address] = raw
+    frames: list[ScheduledFrame] = []
+    for address, data in _runs(layout, wanted):
+        wire = write_frame(address, data, write_type=profile.write_type)
+        frames.append(_reach_frame(profile, wire))
+    if action is not None and ACTION_KEY in layout.by_name:
+        reg = layout.by_name[ACTION_KEY]
+        wire = write_frame(reg.address, action, write_type=profile.write_type)
+        frames.append(_reach_frame(profile, wire))
+    return frames
+
+
+def _reach_frame(profile: Profile, wire: bytes, duration: float = 0.0) -> ScheduledFrame:
+    label = format_fields(profile, describe_frame(profile, wire))
+    return ScheduledFrame(0.0, wire, None, label, duration)
+
+
+def _runs(layout: Layout, wanted: Mapping[int, bytes]) -> list[tuple[int, bytes]]:
+    """Consecutive fields, bridging gaps with initial bytes where that is shorter on the wire.
+
+    With every robot link we know, a frame costs 8 bytes of overhead plus the silence between
+    frames, so bridging pays while the gap is shorter than 8 bytes (the gap's silence is a bonus).
+    """
+    runs: list[tuple[int, bytearray]] = []
+    last: int | None = None
+    for address in sorted(wanted):
+        if last is not None and runs:
+            bridge = _initial_bridge(layout, last, address)
+            _, buf = runs[-1]
+            if (
+                bridge is not None
+                and len(bridge) < MIN_LENGTH
+                and len(buf) + len(bridge) + len(wanted[address]) <= MAX_DATA
+            ):
+                buf += bridge + wanted[address]
+                last = address
+                continue
+        runs.append((address, bytearray(wanted[address])))
+        last = address
+    return [(a, bytes(b)) for a, b in runs]
+
+
+def _initial_bridge(layout: Layout, last: int, nxt: int) -> bytes | None:
+    out = bytearray()
+    for addr in range(last + 1, nxt):
+        reg = layout.by_address.get(addr)
+        if reg is None or not layout.can_fill(reg) or reg.initial is None:
+            return None
+        out += reg.initial
+    return bytes(out)
+
+
+def _xarm_move(data: bytes) -> tuple[int, list[tuple[int, int]]]:
+    """(time ms, [(servo id, position)]) of one ServoMove packet."""
+    from xgo_show.wire.xarm import ServoMove, decode_one, parse_request
+
+    used, packet = decode_one(data)
+    if packet is None or used != len(data):
+        raise ProtocolError(f"not a single xArm packet: {data.hex(' ')}")
+    request = parse_request(packet)
+    if not isinstance(request, ServoMove):
+        raise ProtocolError(f"not an xArm ServoMove: {data.hex(' ')}")
+    return request.time_ms, sorted(request.positions.items())
+
+
+def link_use(link: Link, frames: Sequence[ScheduledFrame], duration: float) -> float:
+    """Fraction of ``duration`` the link spends carrying ``frames`` (wire time only)."""
+    if duration <= 0:
+        return 0.0
+    return sum(link.wire_time(len(f.data)) for f in frames) / duration
