@@ -16,7 +16,7 @@ from types import FrameType
 from typing import Any
 
 from xgo_show.errors import XgoShowError
-from xgo_show.profiles import MODELS
+from xgo_show.profiles import MODELS, get_profile
 from xgo_show.sim import PtyServer, create_robot
 
 __all__ = ["add_parser", "run"]
@@ -50,21 +50,26 @@ def add_parser(sub: Any) -> None:
         "--battery",
         metavar="PCT",
         type=float,
-        help="starting battery level in percent (XGO models, 0..100; default 100)",
+        help="starting battery level in percent (XGO models only, 0..100; default 100)",
     )
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed for the simulated sensor noise (default 0)"
+        "--seed", type=int, default=0, help="seed for the simulated IMU noise (XGO; default 0)"
     )
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Serve until SIGINT/SIGTERM; 0 on a clean stop."""
-    options: dict[str, Any] = {"seed": args.seed}
-    if args.battery is not None:
-        if args.model == "xarm":
-            raise XgoShowError("--battery is a percentage for XGO models; the xArm has none")
-        options["battery"] = args.battery
+    options: dict[str, Any] = {}
+    if get_profile(args.model).family == "xgo":
+        options["seed"] = args.seed
+        if args.battery is not None:
+            options["battery"] = args.battery
+    elif args.battery is not None:
+        raise XgoShowError(
+            "--battery is a percentage for XGO robots; the xArm reports millivolts "
+            "(its simulator starts at 7600 mV)"
+        )
     robot = create_robot(args.model, **options)
     stop = threading.Event()
 

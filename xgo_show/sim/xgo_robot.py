@@ -159,7 +159,6 @@ class XgoRobot(SimulatedRobot):
             self._memory[reg.address] = self._initial(reg)
 
         self._t: float | None = None
-        self._t0: float | None = None
         self._actions: list[_ActionRun] = []
         self._running: _ActionRun | None = None
         self._fallen = False
@@ -407,7 +406,7 @@ class XgoRobot(SimulatedRobot):
     # ------------------------------------------------------------------ time
     def _advance(self, now: float) -> None:
         if self._t is None:
-            self._t = self._t0 = now
+            self._t = now
             return
         dt = now - self._t
         if dt <= 0:
