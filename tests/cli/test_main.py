@@ -47,6 +47,15 @@ def test_probe_rider_shows_named_status(capsys: pytest.CaptureFixture[str]) -> N
     assert "status    normal (0x01)" in capsys.readouterr().out
 
 
+def test_probe_xarm_shows_voltage_and_servos(capsys: pytest.CaptureFixture[str]) -> None:
+    robot = create_robot("xarm", battery_mv=7450, drain_mv_per_minute=0, positions={1: 0})
+    with PtyServer(robot) as server:
+        assert main(["probe", server.path, "--model", "xarm"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[1:4] == ["model    xarm", "battery  7.45 V", "servo 1     0  (-125.0 deg)"]
+    assert out[4:] == [f"servo {n}   500  (+0.0 deg)" for n in range(2, 7)]
+
+
 def test_probe_over_a_simulated_pty(capsys: pytest.CaptureFixture[str]) -> None:
     robot = create_robot("lite", battery=42)
     with PtyServer(robot) as server:

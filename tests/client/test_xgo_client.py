@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import os
 import select
-import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
+from typing import Any
 
 import pytest
 
@@ -15,7 +15,7 @@ from xgo_show.profiles import get_profile
 from xgo_show.sim import PtyServer, create_robot
 from xgo_show.transports import open_transport
 from xgo_show.transports.sim import SimTransport
-from xgo_show.wire.xgo import XgoDecoder, XgoFrame, read_frame, reply_frame, write_frame
+from xgo_show.wire.xgo import XgoFrame, read_frame, reply_frame, write_frame
 
 
 @pytest.fixture
@@ -141,56 +141,13 @@ def test_open_client_takes_the_model_from_a_sim_url() -> None:
 
 
 # ---------------------------------------------------------------- scripted peer on a pty
-class Peer:
-    """The robot end of a real pty, answering each request frame with scripted bytes."""
-
-    def __init__(self, answer: Callable[[XgoFrame], bytes]) -> None:
-        self.master, slave = os.openpty()
-        self.path = os.ttyname(slave)
-        self._slave = slave  # held open so the master never sees EOF between clients
-        self._answer = answer
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._serve, name="test-peer")
-        self._thread.start()
-
-    def _serve(self) -> None:
-        decoder = XgoDecoder()
-        while not self._stop.is_set():
-            ready, _, _ = select.select([self.master], [], [], 0.02)
-            if ready:
-                for frame in decoder.feed(os.read(self.master, 4096)):
-                    os.write(self.master, self._answer(frame))
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join()
-        os.close(self.master)
-        os.close(self._slave)
-
-
-@pytest.fixture
-def peer_factory() -> Iterator[Callable[[Callable[[XgoFrame], bytes]], Peer]]:
-    peers: list[Peer] = []
-
-    def make(answer: Callable[[XgoFrame], bytes]) -> Peer:
-        peers.append(Peer(answer))
-        return peers[-1]
-
-    yield make
-    for peer in peers:
-        peer.close()
-
-
-PeerFactory = Callable[[Callable[[XgoFrame], bytes]], Peer]
-
-
-def client_on(peer: Peer, link_timeout: float = 0.2) -> XgoClient:
+def client_on(peer: Any, link_timeout: float = 0.2) -> XgoClient:
     link = open_transport(peer.path)
     link.open()
     return XgoClient(link, get_profile("mini"), timeout=link_timeout)
 
 
-def test_unsolicited_frames_and_junk_are_skipped(peer_factory: PeerFactory) -> None:
+def test_unsolicited_frames_and_junk_are_skipped(xgo_peer: Any) -> None:
     def answer(frame: XgoFrame) -> bytes:
         return b"".join(
             (
@@ -202,12 +159,12 @@ def test_unsolicited_frames_and_junk_are_skipped(peer_factory: PeerFactory) -> N
             )
         )
 
-    with client_on(peer_factory(answer)) as client:
+    with client_on(xgo_peer(answer)) as client:
         assert client.firmware() == "M-2.0.0"
 
 
-def test_silence_is_a_timeout_naming_port_and_register(peer_factory: PeerFactory) -> None:
-    peer = peer_factory(lambda frame: b"")
+def test_silence_is_a_timeout_naming_port_and_register(xgo_peer: Any) -> None:
+    peer = xgo_peer(lambda frame: b"")
     with client_on(peer, 0.1) as client, pytest.raises(TransportTimeout) as info:
         client.firmware()
     assert str(info.value) == (
@@ -215,8 +172,8 @@ def test_silence_is_a_timeout_naming_port_and_register(peer_factory: PeerFactory
     )
 
 
-def test_garbage_is_a_protocol_error(peer_factory: PeerFactory) -> None:
-    peer = peer_factory(lambda frame: b"\x13\x37\xfe" * 10)
+def test_garbage_is_a_protocol_error(xgo_peer: Any) -> None:
+    peer = xgo_peer(lambda frame: b"\x13\x37\xfe" * 10)
     with client_on(peer, 0.1) as client, pytest.raises(ProtocolError) as info:
         client.battery()
     assert str(info.value) == (
@@ -225,8 +182,8 @@ def test_garbage_is_a_protocol_error(peer_factory: PeerFactory) -> None:
     )
 
 
-def test_reply_of_the_wrong_size_is_a_protocol_error(peer_factory: PeerFactory) -> None:
-    peer = peer_factory(lambda frame: reply_frame(frame.address, b"abc"))
+def test_reply_of_the_wrong_size_is_a_protocol_error(xgo_peer: Any) -> None:
+    peer = xgo_peer(lambda frame: reply_frame(frame.address, b"abc"))
     with client_on(peer, 0.1) as client, pytest.raises(ProtocolError) as info:
         client.firmware()
     assert str(info.value) == (
@@ -234,9 +191,27 @@ def test_reply_of_the_wrong_size_is_a_protocol_error(peer_factory: PeerFactory) 
     )
 
 
-def test_stale_bytes_before_a_request_are_not_its_reply(peer_factory: PeerFactory) -> None:
-    peer = peer_factory(lambda frame: reply_frame(0x01, b"\x2a"))
+def test_stale_bytes_before_a_request_are_not_its_reply(xgo_peer: Any) -> None:
+    peer = xgo_peer(lambda frame: reply_frame(0x01, b"\x2a"))
     with client_on(peer) as client:
         os.write(peer.master, reply_frame(0x01, b"\x07"))  # a late reply to an older read
         select.select([], [], [], 0.05)  # let it reach the port's input queue
         assert client.battery() == 42
+
+
+def test_frames_are_spaced_by_wire_time_and_gap_on_a_fake_clock() -> None:
+    now = [0.0]
+
+    def advance(dt: float) -> None:
+        now[0] += dt
+
+    profile = get_profile("mini")
+    with open_transport("sim:mini", clock=lambda: now[0], sleep=advance) as link:
+        client = XgoClient(link, profile, clock=lambda: now[0], sleep=advance)
+        client.write("vx", 0.0)
+        client.write("vyaw", 0.0)
+        client.battery()
+        times = [f.t for f in link.robot.received]  # type: ignore[attr-defined]
+    spacing = profile.link.wire_time(9) + profile.link.gap
+    assert times[1] - times[0] == pytest.approx(spacing)
+    assert times[2] - times[1] == pytest.approx(spacing)

@@ -40,7 +40,7 @@ def test_pyserial_urls_and_paths_give_a_serial_transport(url: str) -> None:
     assert not link.is_open  # not opened until asked
 
 
-@pytest.mark.parametrize("model", ["mini", "lite", "rider"])
+@pytest.mark.parametrize("model", ["mini", "lite", "rider", "xarm"])
 def test_sim_urls_give_a_simulated_robot(model: str) -> None:
     link = open_transport(f"sim:{model}")
     assert isinstance(link, SimTransport)

@@ -10,9 +10,10 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from xgo_show.client import DEFAULT_TIMEOUT, XgoClient, open_client
+from xgo_show.client import DEFAULT_TIMEOUT, XarmClient, XgoClient, open_client
 from xgo_show.errors import XgoShowError
 from xgo_show.profiles import MODELS, model_from_firmware
+from xgo_show.profiles.xarm import position_to_degrees
 
 __all__ = ["add_parser", "format_table", "probe", "run"]
 
@@ -59,6 +60,8 @@ def probe(
 ) -> list[tuple[str, str]]:
     """Read the robot on ``url``; return ``(label, value)`` rows for :func:`format_table`."""
     with open_client(url, model, timeout=timeout) as client:
+        if isinstance(client, XarmClient):
+            return _probe_xarm(client, given=model)
         return _probe_xgo(client, given=model)
 
 
@@ -85,6 +88,20 @@ def _probe_xgo(client: XgoClient, *, given: str | None) -> list[tuple[str, str]]
         ("battery", f"{client.battery()} %"),
         ("status", status_text),
     ]
+
+
+def _probe_xarm(client: XarmClient, *, given: str | None) -> list[tuple[str, str]]:
+    millivolts = client.battery_mv()
+    rows = [
+        ("port", client.transport.url),
+        ("model", "xarm" if given else "xarm (from the URL)"),
+        ("battery", f"{millivolts / 1000:.2f} V"),
+    ]
+    for servo, position in client.positions().items():
+        rows.append(
+            (f"servo {servo}", f"{position:4d}  ({position_to_degrees(position):+.1f} deg)")
+        )
+    return rows
 
 
 def format_table(rows: list[tuple[str, str]]) -> str:

@@ -8,7 +8,8 @@
 
 from __future__ import annotations
 
-from xgo_show.client.connect import open_client, sim_model
+from xgo_show.client.connect import model_hint, open_client
+from xgo_show.client.xarm import XarmClient
 from xgo_show.client.xgo import DEFAULT_TIMEOUT, XgoClient
 
-__all__ = ["DEFAULT_TIMEOUT", "XgoClient", "open_client", "sim_model"]
+__all__ = ["DEFAULT_TIMEOUT", "XarmClient", "XgoClient", "model_hint", "open_client"]

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from typing import Any
 
+from xgo_show.client.xarm import XarmClient
 from xgo_show.client.xgo import DEFAULT_TIMEOUT, XgoClient
 from xgo_show.errors import ProfileError
 from xgo_show.profiles import get_profile, model_from_firmware
 from xgo_show.transports import open_transport, split_wrappers
 from xgo_show.transports.base import Transport
 
-__all__ = ["open_client"]
+__all__ = ["model_hint", "open_client"]
 
 # Every XGO model keeps its firmware string here (the vendor's auto-detection reads it too).
 _XGO_FIRMWARE = 0x07
@@ -23,20 +24,22 @@ def open_client(
     timeout: float = DEFAULT_TIMEOUT,
     baudrate: int | None = None,
     **options: Any,
-) -> XgoClient:
+) -> XgoClient | XarmClient:
     """Open ``url`` and return a client for the robot on it (close it, or use ``with``).
 
-    ``model`` ("mini", "lite", "rider") selects the profile; when it is None a ``sim:<model>``
-    URL names it, and otherwise the robot's firmware string (register 0x07) does. The baud
-    rate defaults to the model's link rate (115200 for XGO). ``options`` go to
-    :func:`~xgo_show.transports.open_transport`.
+    ``model`` ("mini", "lite", "rider", "xarm") selects the profile and the client
+    (:class:`XarmClient` for the xArm, else :class:`XgoClient`). When it is None the URL may
+    name it (``sim:<model>``; ``hid:`` is always the xArm), and otherwise the robot's firmware
+    string (register 0x07) does, which only XGO robots have: give ``model="xarm"`` for an arm on
+    a serial port. The baud rate defaults to the model's link rate (115200 for XGO, 9600 for the
+    xArm). ``options`` go to :func:`~xgo_show.transports.open_transport`.
 
     Raises :class:`~xgo_show.errors.TransportError` (cannot open, no reply),
     :class:`~xgo_show.errors.ProtocolError` (garbage) or
     :class:`~xgo_show.errors.ProfileError` (unknown model or firmware).
     """
     if model is None:
-        model = sim_model(url)
+        model = model_hint(url)
     profile = get_profile(model) if model is not None else None
     if baudrate is None and profile is not None:
         baudrate = profile.link.baud
@@ -45,16 +48,22 @@ def open_client(
     try:
         if profile is None:
             profile = get_profile(_identify(transport, url, timeout))
+        if profile.family == "xarm":
+            return XarmClient(transport, profile, timeout=timeout)
         return XgoClient(transport, profile, timeout=timeout)
     except BaseException:
         transport.close()
         raise
 
 
-def sim_model(url: str) -> str | None:
-    """The model a ``sim:<model>`` URL (wrappers allowed) names, else None."""
-    scheme, _, rest = split_wrappers(url)[1].partition(":")
-    return (rest.strip().lower() or None) if scheme == "sim" else None
+def model_hint(url: str) -> str | None:
+    """The model a URL names (wrappers allowed): ``sim:<model>``, ``hid:`` = xArm; else None."""
+    scheme, colon, rest = split_wrappers(url)[1].partition(":")
+    if colon and scheme == "sim":
+        return rest.strip().lower() or None
+    if colon and scheme == "hid":
+        return "xarm"
+    return None
 
 
 def _identify(transport: Transport, url: str, timeout: float) -> str:

@@ -13,7 +13,8 @@ import time
 from collections.abc import Callable
 from types import TracebackType
 
-from xgo_show.errors import ProfileError, ProtocolError, TransportTimeout
+from xgo_show.client.exchange import Exchange
+from xgo_show.errors import ProfileError
 from xgo_show.profiles import Action, Profile, Register, model_from_firmware
 from xgo_show.transports.base import Transport
 from xgo_show.wire.xgo import XgoDecoder, XgoFrame, read_frame, write_frame
@@ -23,10 +24,6 @@ __all__ = ["DEFAULT_TIMEOUT", "XgoClient"]
 #: Seconds to wait for a reply (a real robot answers within a few milliseconds).
 DEFAULT_TIMEOUT = 0.5
 
-# At most this many reads of already-buffered bytes before a request (the Rider streams
-# feedback continuously, so "until empty" needs a bound).
-_MAX_DRAIN_READS = 64
-
 
 class XgoClient:
     """Read and write an XGO robot's registers by name through ``transport``.
@@ -34,6 +31,11 @@ class XgoClient:
     The transport must be open (``with open_transport(url) as link: XgoClient(link, profile)``);
     the client closes it when used as a context manager itself. ``clock`` is the time source
     for reply deadlines (inject a fake one together with a fake-clock ``sim:`` transport).
+
+    Consecutive frames are spaced so that the link carries each one and then stays silent for
+    the profile's ``link.gap`` (>= 1 ms for XGO) before the next, as the robot's parser needs:
+    ``write`` returns when the bytes are queued, so two quick writes would otherwise run
+    together on the wire.
     """
 
     def __init__(
@@ -43,18 +45,34 @@ class XgoClient:
         *,
         timeout: float = DEFAULT_TIMEOUT,
         clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], None] = time.sleep,
     ) -> None:
         if profile.family != "xgo":
             raise ProfileError(f"XgoClient talks to XGO robots, not {profile.model!r}")
         self.transport = transport
         self.profile = profile
-        self.timeout = timeout
-        self._clock = clock
-        self._decoder = XgoDecoder()
+        self._exchange = Exchange(
+            transport,
+            XgoDecoder(),
+            profile.link,
+            protocol="XGO",
+            timeout=timeout,
+            clock=clock,
+            sleep=sleep,
+        )
 
     @property
     def model(self) -> str:
         return self.profile.model
+
+    @property
+    def timeout(self) -> float:
+        """Seconds a read waits for its reply (settable)."""
+        return self._exchange.timeout
+
+    @timeout.setter
+    def timeout(self, seconds: float) -> None:
+        self._exchange.timeout = seconds
 
     # ------------------------------------------------------------------ reads
     def read(
@@ -68,35 +86,19 @@ class XgoClient:
         """
         address, default_count, label = self._resolve_read(register)
         count = default_count if count is None else count
-        wait = self.timeout if timeout is None else timeout
-        request = read_frame(address, count)
-        self._drain()
-        junk_before = self._decoder.discarded + self._decoder.pending
-        self.transport.write(request)
-        deadline = self._clock() + wait
-        wrong_size: XgoFrame | None = None
-        while True:
-            left = deadline - self._clock()
-            if left <= 0:
-                break
-            for frame in self._decoder.feed(self.transport.read(4096, timeout=left)):
-                if frame.is_reply and frame.address == address:
-                    if len(frame.data) == count:
-                        return frame.data
-                    # Could be a Rider feedback block at the same address: keep waiting.
-                    wrong_size = frame
-        where = f"{self.transport.url} to a read of {label}"
-        if wrong_size is not None:
-            raise ProtocolError(
-                f"reply from {where} has {len(wrong_size.data)} data bytes, expected {count}"
-            )
-        garbage = self._decoder.discarded + self._decoder.pending - junk_before
-        if garbage:
-            raise ProtocolError(
-                f"garbage from {where}: {garbage} bytes that are no XGO frame "
-                "(wrong baud rate, or not an XGO robot?)"
-            )
-        raise TransportTimeout(f"no reply from {where} within {wait:g} s")
+
+        def match(frame: XgoFrame) -> bool | str:
+            if not frame.is_reply or frame.address != address:
+                return False  # feedback, stale replies: not ours
+            if len(frame.data) != count:
+                # Could be a Rider feedback block at the same address: keep waiting.
+                return f"has {len(frame.data)} data bytes, expected {count}"
+            return True
+
+        reply = self._exchange.request(
+            read_frame(address, count), match, label=f"a read of {label}", timeout=timeout
+        )
+        return reply.data
 
     def read_value(self, name: str, *, timeout: float | None = None) -> object:
         """Read register ``name`` and decode it (see :meth:`Register.decode_value`).
@@ -139,7 +141,7 @@ class XgoClient:
         if reg.unsafe and not allow_unsafe:
             raise ProfileError(f"{name} is an unsafe register; pass allow_unsafe=True to write it")
         data = reg.encode_value(value)
-        self.transport.write(write_frame(reg.address, data, write_type=self.profile.write_type))
+        self._exchange.send(write_frame(reg.address, data, write_type=self.profile.write_type))
 
     def action(self, key: int | str) -> Action:
         """Start preset action ``key`` (number or name, e.g. ``"sit"``); returns the action."""
@@ -180,11 +182,3 @@ class XgoClient:
         if reg is None:
             return register, 1, f"0x{register:02X}"
         return register, reg.size, f"{reg.name} (0x{register:02X})"
-
-    def _drain(self) -> None:
-        # Bytes that arrived before this request (late replies, feedback) cannot answer it.
-        for _ in range(_MAX_DRAIN_READS):
-            chunk = self.transport.read(4096, timeout=0)
-            if not chunk:
-                break
-            self._decoder.feed(chunk)
