@@ -13,6 +13,7 @@ import pytest
 import serial
 
 from xgo_show.cli.main import main
+from xgo_show.wire.xarm import XarmDecoder, XarmPacket, battery_mv, get_battery_voltage
 from xgo_show.wire.xgo import XgoDecoder, read_frame, write_frame
 
 
@@ -85,3 +86,32 @@ def test_help_mentions_the_first_line() -> None:
     ).stdout
     assert "first line" in out
     assert "--record FILE" in out
+
+
+def test_simulate_xarm() -> None:
+    proc = start("--model", "xarm", "--pty")
+    try:
+        assert proc.stdout is not None
+        path = proc.stdout.readline().strip()
+        with serial.Serial(path, 9600, timeout=0.2) as port:
+            port.write(get_battery_voltage())
+            decoder = XarmDecoder()
+            deadline = time.monotonic() + 3.0
+            got: list[XarmPacket] = []
+            while not got and time.monotonic() < deadline:
+                got = decoder.feed(port.read(max(1, port.in_waiting)))
+        assert battery_mv(got[0]) == 7600
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=10)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    assert "xarm on /dev/" in err
+    assert "battery 7600 mV" in err
+
+
+def test_battery_option_is_not_for_the_xarm(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["simulate", "--model", "xarm", "--battery", "50"]) == 2
+    assert "millivolts" in capsys.readouterr().err
