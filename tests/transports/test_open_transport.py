@@ -48,6 +48,17 @@ def test_sim_urls_give_a_simulated_robot(model: str) -> None:
     assert link.url == f"sim:{model}"
 
 
+@pytest.mark.parametrize("url", ["hid:", "hid:0123ABC", "hex+hid:"])
+def test_hid_urls_give_the_usb_hid_transport(url: str) -> None:
+    from xgo_show.transports.hid import HidTransport
+
+    link = open_transport(url)
+    inner = link.inner if isinstance(link, HexLogTransport) else link
+    assert isinstance(inner, HidTransport)
+    assert inner.url == url.removeprefix("hex+")
+    assert not link.is_open
+
+
 def test_sim_without_model_or_unknown_model() -> None:
     with pytest.raises(TransportError, match="name a model"):
         open_transport("sim:")
