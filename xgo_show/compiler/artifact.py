@@ -93,18 +93,18 @@ def dumps_schedule(schedule: Schedule) -> str:
             })
             for f in p.frames
         ]
-        head = {
-            "end_us": _us(p.end),
-            "link": {"baud": p.link.baud, "bits_per_byte": p.link.bits_per_byte,
-                     "gap_us": _us(p.link.gap)},
-            "model": p.model,
-            "name": p.name,
-            "port": p.port,
-        }
         body = ",\n    ".join(frames)
-        items = ",\n   ".join(f"{_dump(k)}: {_dump(v)}" for k, v in head.items())
-        frames_text = f"[\n    {body}\n   ]" if frames else "[]"
-        performers.append(f"  {{\n   {items},\n   \"frames\": {frames_text}\n  }}")
+        items = {
+            "end_us": _dump(_us(p.end)),
+            "frames": f"[\n    {body}\n   ]" if frames else "[]",
+            "link": _dump({"baud": p.link.baud, "bits_per_byte": p.link.bits_per_byte,
+                           "gap_us": _us(p.link.gap)}),
+            "model": _dump(p.model),
+            "name": _dump(p.name),
+            "port": _dump(p.port),
+        }
+        text = ",\n   ".join(f"{_dump(k)}: {v}" for k, v in items.items())
+        performers.append(f"  {{\n   {text}\n  }}")
     show = {
         "battery_floor": schedule.battery_floor,
         "beats_per_bar": schedule.beats_per_bar,

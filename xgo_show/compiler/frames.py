@@ -194,7 +194,7 @@ class _Diag:
 
     def error(self, origin: Origin | None, message: str) -> None:
         self.items.append(
-            Diagnostic("error", f"{self.performer}: {message}", origin, f"tracks.{self.performer}")
+            Diagnostic("error", message, origin, f"tracks.{self.performer}")
         )
 
 
