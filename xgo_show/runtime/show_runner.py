@@ -16,6 +16,7 @@ delay the others; the whole stop is bounded by ``stop_timeout`` (100 ms by defau
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -42,6 +43,7 @@ from xgo_show.transports.base import Transport
 __all__ = ["FAILURE_POLICIES", "ShowProgress", "ShowResult", "ShowRunner", "default_reach"]
 
 FAILURE_POLICIES = ("halt_all", "continue")
+_SWITCH_INTERVAL = 0.0005  # seconds
 
 
 @dataclass(frozen=True)
@@ -67,10 +69,8 @@ class ShowResult:
     offset: float = 0.0
 
 
-def default_reach(schedule: PerformerSchedule, profile: Profile) -> ReachFn | None:
+def default_reach(schedule: PerformerSchedule, profile: Profile) -> ReachFn:
     """Catch-up frames from the compiler: the register state at ``t``, and frames to reach it."""
-    if profile.family != "xgo":
-        return None
 
     def reach(t: float) -> list[tuple[bytes, str]]:
         from xgo_show.compiler import frames_to_reach, state_at
@@ -192,6 +192,10 @@ class ShowRunner:
         called from the main thread and ``handle_signals``).
         """
         restore = self._install_signals() if handle_signals else {}
+        # Writer threads hand the GIL to each other at their deadlines; a CPU-bound thread (a
+        # reader parsing, a progress callback) must not hold it for the default 5 ms.
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(min(switch, _SWITCH_INTERVAL))
         result = ShowResult(False, "")
         self.result = result
         result.executors = dict(self.executors)
@@ -224,6 +228,7 @@ class ShowRunner:
                 ex.join(1.0)
                 ex.close()
             self._restore_signals(restore)
+            sys.setswitchinterval(switch)
             result.faults = {ex.name: ex.fault for ex in self.executors.values() if ex.fault}
             self.log.event(
                 "end",

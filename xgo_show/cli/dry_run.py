@@ -1,0 +1,65 @@
+"""``xgo-show dry-run``: play a show on simulated robots over real pseudo-terminals.
+
+The whole real path runs (compile -> pyserial -> pty -> simulator); at the end each simulated
+robot's final state is printed: registers that changed, actions run, frames received and any
+frame it rejected. ``--fast`` skips the waiting (every frame still reaches the simulators).
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from xgo_show.cli.run import (
+    PlayOptions,
+    add_common_arguments,
+    load_schedule_file,
+    play,
+    start_offset,
+)
+
+__all__ = ["add_parser", "run"]
+
+
+def add_parser(sub: Any) -> None:
+    """Register the ``dry-run`` subcommand."""
+    parser = sub.add_parser(
+        "dry-run",
+        help="run a show on simulated robots (real ptys, no hardware)",
+        description=(
+            "Compile SHOW.yaml and run it on one simulated robot per performer, each on its "
+            "own pseudo-terminal, in real time (or --fast); then print what every simulated "
+            "robot ended up doing."
+        ),
+    )
+    parser.add_argument("show", metavar="SHOW", help="SHOW.yaml or SCHEDULE.xshow.json")
+    parser.add_argument(
+        "--fast",
+        action="store_true",
+        help="do not wait between frames (every frame still reaches the simulators)",
+    )
+    parser.add_argument(
+        "--plot", metavar="FILE.png", help="also draw the compiled schedule into FILE.png"
+    )
+    add_common_arguments(parser)
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Entry point of ``xgo-show dry-run``."""
+    schedule = load_schedule_file(args.show)
+    if args.plot:
+        from xgo_show.compiler import plot_schedule
+
+        print(f"schedule plot written to {plot_schedule(schedule, args.plot)}")
+    opts = PlayOptions(
+        sim=True,
+        fast=args.fast,
+        countdown=0.0,
+        offset=start_offset(schedule, args.start, args.start_bar),
+        battery_floor=args.battery_floor,
+        log=args.log,
+        allow_unsafe=args.allow_unsafe,
+        telemetry=not args.no_telemetry,
+    )
+    return play(schedule, opts)
