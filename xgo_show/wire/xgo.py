@@ -130,6 +130,12 @@ def decode_one(buf: bytes | bytearray) -> tuple[int, XgoFrame | None]:
 
     A bad header, impossible length, bad checksum or bad tail skips one byte only, so that a
     real frame starting inside a false one is still found.
+
+    Look-ahead trade-off: while the frame at the start is incomplete, a complete valid frame
+    later in ``buf`` proves it false and it is skipped at once (a noise header claiming 255
+    bytes would otherwise hold real frames back). The price: a frame whose *data* holds a whole
+    valid frame, arriving slowly, yields that inner frame instead; fed whole, it decodes
+    normally. Frames the compiler sends never carry frame-shaped data in practice.
     """
     n = len(buf)
     if n == 0:
