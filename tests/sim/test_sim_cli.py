@@ -48,7 +48,8 @@ def test_simulate_serves_a_pty_until_signalled(sig: signal.Signals, tmp_path: Pa
             assert ask(port, read_frame(0x07, 10)) == b"M-1.4.1\0\0\0"
             assert ask(port, read_frame(0x01, 1)) == bytes([42])
             port.write(write_frame(0x30, b"\x90"))
-        time.sleep(0.05)
+            # Frames are handled in order: once this is answered, the write has landed.
+            assert ask(port, read_frame(0x30, 1)) == b"\x90"
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=10)
     finally:
@@ -58,8 +59,8 @@ def test_simulate_serves_a_pty_until_signalled(sig: signal.Signals, tmp_path: Pa
     assert proc.returncode == 0, err
     summary = err.strip().splitlines()[-1]
     assert summary.startswith("xgo-show simulate: mini on /dev/")
-    assert "3 frames received (0 rejected)" in summary
-    assert len(record.read_text().splitlines()) == 3
+    assert "4 frames received (0 rejected)" in summary
+    assert len(record.read_text().splitlines()) == 4
     assert json.loads(record.read_text().splitlines()[2])["hex"] == write_frame(0x30, b"\x90").hex()
 
 
