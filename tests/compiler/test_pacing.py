@@ -1,0 +1,116 @@
+"""Pacing: invariants on random frame sets, link-fit errors, decimation."""
+
+from __future__ import annotations
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from xgo_show.choreo.resolved import ActionCue, MotionCue, SetCue
+from xgo_show.compiler import compile_show, state_at
+from xgo_show.compiler.frames import PlannedFrame, Write
+from xgo_show.compiler.pacing import pace, wire_us
+from xgo_show.errors import CompileError
+from xgo_show.profiles import Link, get_profile
+from xgo_show.wire.xgo import write_frame
+
+XGO = Link(115200, 0.001)
+
+
+def _planned(t_us: int, nbytes: int, *, droppable: bool = False) -> PlannedFrame:
+    data = write_frame(0x40, bytes(nbytes))
+    w = Write(t_us, 0x40, bytes(nbytes), None, 0, droppable)
+    return PlannedFrame(t_us, data, ((0x40, bytes(nbytes)),), (w,), None, 0, droppable, False)
+
+
+def test_wire_time_rounds_up_to_whole_microseconds() -> None:
+    assert wire_us(XGO, 9) == 782  # 9 bytes * 86.805 us = 781.25 us
+    assert wire_us(Link(9600, 0.001), 25) == 26042
+    assert wire_us(XGO, 0) == 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, 200_000), st.integers(1, 60)), min_size=1, max_size=60),
+    st.integers(0, 3000),
+    st.sampled_from([9600, 115200, 1_000_000]),
+)
+def test_pacing_invariants(frames: list[tuple[int, int]], gap_us: int, baud: int) -> None:
+    planned = [_planned(t, n) for t, n in sorted(frames, key=lambda f: f[0])]
+    link = Link(baud, gap_us / 1e6)
+    result = pace(planned, link=link, gap_us=gap_us, period_us=20_000)
+    starts = [p.start_us for p in result.frames]
+    assert [p.frame for p in result.frames] == planned  # nothing dropped, order kept
+    assert starts == sorted(starts)
+    for p in result.frames:
+        assert p.start_us >= p.frame.t_us  # never earlier than planned
+    for a, b in zip(result.frames, result.frames[1:], strict=False):
+        # spacing >= the previous frame's wire time + the gap (exact, in integer us)
+        assert b.start_us - a.start_us >= wire_us(link, len(a.frame.data)) + gap_us
+        assert (b.start_us - a.start_us) / 1e6 >= link.wire_time(len(a.frame.data)) + link.gap - 1e-9
+        # and a frame is only late because the link was busy
+        if b.start_us > b.frame.t_us:
+            assert b.start_us == a.start_us + wire_us(link, len(a.frame.data)) + gap_us
+    late = {id(p) for p in result.late}
+    for p in result.frames:
+        assert (id(p) in late) == (p.start_us - p.frame.t_us > 20_000)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 100_000), st.integers(1, 40), st.booleans()),
+                min_size=1, max_size=80))
+def test_decimation_never_drops_settings(frames: list[tuple[int, int, bool]]) -> None:
+    planned = [_planned(t, n, droppable=d) for t, n, d in sorted(frames, key=lambda f: f[0])]
+    result = pace(planned, link=XGO, gap_us=1000, period_us=5_000, decimate=True)
+    kept = [p.frame for p in result.frames]
+    assert [f for f in planned if not f.droppable] == [f for f in kept if not f.droppable]
+    for p in result.frames:
+        if p.frame.droppable:
+            assert p.start_us - p.frame.t_us <= 2_500
+
+
+def _crowded(make_show, o, **settings):  # type: ignore[no-untyped-def]
+    # body_z (0x35) and servo_11 (0x50) are too far apart to share a frame: two frames per
+    # tick of ~1.8 ms each, while a 500 Hz tick is 2 ms: the backlog grows every tick.
+    return make_show({"rex": ("mini", [
+        SetCue(0.0, o("setup", 2), {"gait": "walk"}),
+        MotionCue(0.0, o("sway", 3), {"body_z": 120.0, "servo_11": 50.0}, duration=3.0),
+        ActionCue(3.5, o("dance", 4), 23, "dance", 6.0),
+    ])}, control_rate=500.0, **settings)
+
+
+def test_track_that_does_not_fit_is_an_error_naming_time_and_cue(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    try:
+        compile_show(_crowded(make_show, o))
+    except CompileError as err:
+        (diag,) = err.diagnostics
+        assert diag.origin == o("sway", 3)
+        assert "link does not fit cue 'sway'" in diag.message
+        assert "planned at 0." in diag.message and "more than one control period (2 ms)" in \
+            diag.message
+        assert "decimate" in diag.message
+    else:
+        raise AssertionError("expected a link-fit error")
+
+
+def test_decimation_drops_samples_with_a_warning_and_still_arrives(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    schedule = compile_show(_crowded(make_show, o, decimate=True))
+    (warning,) = schedule.warnings
+    assert warning.severity == "warning" and "decimated" in warning.message
+    perf = schedule.performers[0]
+    labels = [f.label for f in perf.frames]
+    assert "gait=walk" in labels and "action=23(dance)" in labels  # never dropped
+    mini = get_profile("mini")
+    state = state_at(perf, 3.4)
+    assert state["body_z"] == bytes((mini.register("body_z").to_byte(120.0),))
+    assert state["servo_11"] == bytes((mini.register("servo_11").to_byte(50.0),))
+    starts = [round(f.t * 1e6) for f in perf.frames]
+    for a, b, f in zip(starts, starts[1:], perf.frames, strict=False):
+        assert b - a >= wire_us(perf.link, len(f.data)) + 1000
+
+
+def test_show_gap_overrides_profile_gap(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    show = make_show({"rex": ("mini", [SetCue(0.0, o("s"), {"gait": "walk", "pace": "fast"})])},
+                     gap=0.004)
+    perf = compile_show(show).performers[0]
+    assert perf.link.gap == 0.004
+    assert [round(f.t * 1e6) for f in perf.frames] == [0, 782 + 4000]
