@@ -46,7 +46,8 @@ def test_pacing_invariants(frames: list[tuple[int, int]], gap_us: int, baud: int
     for a, b in zip(result.frames, result.frames[1:], strict=False):
         # spacing >= the previous frame's wire time + the gap (exact, in integer us)
         assert b.start_us - a.start_us >= wire_us(link, len(a.frame.data)) + gap_us
-        assert (b.start_us - a.start_us) / 1e6 >= link.wire_time(len(a.frame.data)) + link.gap - 1e-9
+        spacing = (b.start_us - a.start_us) / 1e6
+        assert spacing >= link.wire_time(len(a.frame.data)) + link.gap - 1e-9
         # and a frame is only late because the link was busy
         if b.start_us > b.frame.t_us:
             assert b.start_us == a.start_us + wire_us(link, len(a.frame.data)) + gap_us

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import re
 from pathlib import Path
 
@@ -101,7 +102,7 @@ def test_back_to_back_chain_starts_from_previous_target(make_show, o) -> None:  
     assert state_at(perf, 2.0)["body_z"] == bytes((body_z.to_byte(80.0),))
     # continuity: consecutive samples never jump more than a velocity-limited step
     values = [body_z.to_physical(f.data[5]) for f in perf.frames]
-    steps = [abs(b - a) for a, b in zip(values, values[1:], strict=False)]
+    steps = [abs(b - a) for a, b in itertools.pairwise(values)]
     assert max(steps) <= LIM.velocity / 50 + 0.3  # one tick at max speed + one byte of rounding
 
 
@@ -113,7 +114,7 @@ def test_interrupting_chain_carries_velocity(make_show, o) -> None:  # type: ign
     perf = compile_show(show).performers[0]
     reg = get_profile("mini").register("body_z")
     values = [(f.t, reg.to_physical(f.data[5])) for f in perf.frames]
-    steps = [abs(b[1] - a[1]) for a, b in zip(values, values[1:], strict=False)]
+    steps = [abs(b[1] - a[1]) for a, b in itertools.pairwise(values)]
     assert max(steps) <= LIM.velocity / 50 + 0.3  # no jump at the hand-over
     # still rising for a moment after 0.8 s (velocity carried over), then heading to 90
     after = [v for t, v in values if 0.8 <= t <= 0.9]
