@@ -181,12 +181,13 @@ class ProgressPrinter:
             beat = int(t * self.bpm / 60.0)
             parts.append(f"bar {beat // self.beats_per_bar + 1}:{beat % self.beats_per_bar + 1}")
         for p in progress.performers:
-            text = f"{p.performer} {p.cue or '-'}"
+            cue = p.cue.removeprefix(f"{p.performer}: ") if p.cue else "-"
+            text = f"{p.performer}: {cue}"
             if p.state.value not in ("running",):
                 text += f" [{p.state.value}]"
             battery = progress.telemetry.get(p.performer, {}).get("battery")
             if battery is not None:
-                text += f" {battery:.0f}%"
+                text += f" (battery {battery:.0f}%)"
             parts.append(text)
         return " | ".join(parts)
 

@@ -1,0 +1,224 @@
+"""``xgo-show run`` and ``dry-run``: YAML -> compile -> pyserial -> pty -> simulator."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from xgo_show.choreo import load_show
+from xgo_show.cli.main import main
+from xgo_show.compiler import compile_show, save_schedule
+from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+from xgo_show.profiles import get_profile
+from xgo_show.runtime.runlog import read_log
+from xgo_show.sim import PtyServer, create_robot
+from xgo_show.wire.xgo import TYPE_READ, write_frame
+
+DUET = """\
+show: Runtime duet
+tempo: {bpm: 120}
+performers:
+  rex: {model: mini}
+  wheels: {model: rider}
+tracks:
+  rex:
+    - {set: {gait: walk}}
+    - {at: 0.2, move: {body_z: 90, pitch: 4}, duration: 0.6}
+    - {at: 0.9, walk: {vx: 10}, duration: 0.5}
+    - {at: 2.2, move: {body_z: 100}, duration: 0.7}
+  wheels:
+    - {led: {led1: red, led2: blue}}
+    - {at: 0.3, move: {roll: 4}, duration: 0.6}
+    - {move: {roll: 0}, duration: 0.6}
+    - {at: 2.1, led: {led1: green}}
+"""
+
+WALK = """\
+show: Long walk
+performers:
+  rex: {model: mini}
+  wheels: {model: rider}
+tracks:
+  rex:
+    - {walk: {vx: 10}, duration: 20}
+  wheels:
+    - {walk: {vx: 0.5}, duration: 20}
+"""
+
+
+@pytest.fixture
+def duet(tmp_path: Path) -> Path:
+    path = tmp_path / "duet.yaml"
+    path.write_text(DUET)
+    return path
+
+
+@pytest.fixture
+def servers() -> Iterator[dict[str, PtyServer]]:
+    out: dict[str, PtyServer] = {}
+    yield out
+    for server in out.values():
+        server.close()
+
+
+def sim_records(log: Path) -> dict[str, dict]:
+    return {r["performer"]: r for r in read_log(log) if r["kind"] == "sim"}
+
+
+def test_dry_run_fast_plays_everything_and_reports_the_sims(duet, tmp_path, capsys) -> None:
+    log = tmp_path / "run.jsonl"
+    assert main(["dry-run", str(duet), "--fast", "--log", str(log)]) == 0
+    out = capsys.readouterr().out
+    assert "show completed" in out
+    assert "simulated robots at the end:" in out
+    assert "gait=walk" in out and "led1=[0, 255, 0]" in out
+    sims = sim_records(log)
+    assert sims["rex"]["frames_rejected"] == 0 and sims["wheels"]["frames_rejected"] == 0
+    schedule = compile_show(load_show(duet))
+    sent = [r for r in read_log(log) if r["kind"] == "frame" and r["send"] == "frame"]
+    assert len(sent) == sum(len(p.frames) for p in schedule.performers)
+    assert [e["event"] for e in read_log(log) if e["kind"] == "event"] == [
+        "preflight",
+        "start",
+        "end",
+    ]
+
+
+def test_dry_run_mid_show_start_reaches_the_state_first(duet, tmp_path, capsys) -> None:
+    log = tmp_path / "run.jsonl"
+    # Bar 2 at 120 bpm in 4/4 = 2.0 s: rex has gait walk, body_z 90, pitch 4 by then.
+    assert main(["dry-run", str(duet), "--fast", "--start-bar", "2", "--log", str(log)]) == 0
+    records = [r for r in read_log(log) if r["kind"] == "frame" and r["performer"] == "rex"]
+    kinds = [r["send"] for r in records if r["send"] != "read"]
+    assert kinds[0] == "reach"
+    first_frame = kinds.index("frame")
+    assert set(kinds[:first_frame]) == {"reach"}
+    sims = sim_records(log)
+    assert sims["rex"]["changed"]["gait"] == "walk"
+    assert sims["rex"]["changed"]["body_z"] == pytest.approx(100, abs=0.5)
+
+
+def test_unsafe_register_is_refused_before_any_port_opens(tmp_path, capsys) -> None:
+    profile = get_profile("mini")
+    show = compile_show(load_show(_write(tmp_path, "duet.yaml", DUET)))
+    rex = show.performer("rex")
+    bad = write_frame(profile.register("calibration").address, b"\x01")
+    patched = PerformerSchedule(
+        rex.name, rex.model, rex.link, (*rex.frames, ScheduledFrame(rex.end, bad)), rex.end
+    )
+    from dataclasses import replace
+
+    path = tmp_path / "bad.xshow.json"
+    save_schedule(replace(show, performers=(patched, show.performer("wheels"))), path)
+    assert main(["dry-run", str(path), "--fast"]) == 2
+    err = capsys.readouterr().err
+    assert "calibration" in err and "--allow-unsafe" in err
+
+
+def _write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_wrong_model_fails_preflight_and_nothing_moves(duet, servers, capsys) -> None:
+    servers["rex"] = PtyServer(create_robot("lite")).start()  # a Lite where a Mini should be
+    servers["wheels"] = PtyServer(create_robot("rider")).start()
+    args = ["run", str(duet), "--countdown", "0"]
+    for name, server in servers.items():
+        args += ["--map", f"{name}={server.path}"]
+    assert main(args) == 2
+    captured = capsys.readouterr()
+    assert "not mini" in captured.out
+    assert "pre-flight failed" in captured.err
+    time.sleep(0.05)
+    for server in servers.values():
+        # Only read requests reached the robots.
+        assert all(f.data[3] == TYPE_READ for f in server.robot.received)
+
+
+def test_low_battery_fails_preflight_unless_forced(duet, servers, capsys) -> None:
+    servers["rex"] = PtyServer(create_robot("mini", battery=12)).start()
+    servers["wheels"] = PtyServer(create_robot("rider")).start()
+    args = ["run", str(duet), "--countdown", "0", "--no-telemetry"]
+    for name, server in servers.items():
+        args += ["--map", f"{name}={server.path}"]
+    assert main(args) == 2
+    out = capsys.readouterr().out
+    assert "battery 12% is below the floor of 20%" in out
+    time.sleep(0.05)
+    assert all(f.data[3] == TYPE_READ for f in servers["rex"].robot.received)
+    # --force starts anyway (with a warning); --battery-floor overrides the show's floor.
+    # (Both start late in the show to keep the test short.)
+    assert main([*args, "--force", "--start", "2.4"]) == 0
+    out = capsys.readouterr().out
+    assert "starting anyway because of --force" in out and "show completed" in out
+    assert main([*args, "--battery-floor", "10", "--start", "2.4"]) == 0
+    out = capsys.readouterr().out
+    assert "battery floor 10%" in out and "show completed" in out
+
+
+def test_bad_map_and_missing_port_are_user_errors(duet, capsys) -> None:
+    assert main(["run", str(duet), "--map", "nobody=/dev/null"]) == 2
+    assert "no performer 'nobody'" in capsys.readouterr().err
+    assert main(["run", str(duet), "--countdown", "0"]) == 2
+    captured = capsys.readouterr()
+    assert "no port given" in captured.out
+    assert "a port did not open" in captured.err
+
+
+def test_sigint_safe_stops_every_simulated_robot(tmp_path) -> None:
+    show = _write(tmp_path, "walk.yaml", WALK)
+    log = tmp_path / "run.jsonl"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "xgo_show",
+            "run",
+            str(show),
+            "--sim",
+            "--countdown",
+            "0",
+            "--log",
+            str(log),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        assert proc.stdout is not None
+        deadline = time.monotonic() + 20
+        for line in proc.stdout:
+            if line.startswith("running"):
+                break
+            assert time.monotonic() < deadline
+        time.sleep(0.5)  # both robots are walking now
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert "interrupted (SIGINT)" in out
+    records = read_log(log)
+    stops = [r for r in records if r["kind"] == "event" and r["event"] == "safe_stop"]
+    assert {s["performer"] for s in stops} == {"rex", "wheels"}
+    assert all(s["ok"] and s["elapsed_ms"] < 100 for s in stops)
+    sims = sim_records(log)
+    for name in ("rex", "wheels"):
+        assert "vx" not in sims[name]["changed"], sims[name]  # back to neutral
+        assert sims[name]["actions"][-1] == 255
+    json.dumps(sims)  # the log holds plain data
