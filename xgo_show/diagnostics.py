@@ -34,7 +34,8 @@ class Diagnostic:
     path: str = ""  # field path inside the document, e.g. "tracks.rex[3].to.body_z"
 
     def format(self) -> str:
-        where = f"{self.origin.file}:{self.origin.line}:{self.origin.column}: " if self.origin else ""
+        o = self.origin
+        where = f"{o.file}:{o.line}:{o.column}: " if o else ""
         path = f"{self.path}: " if self.path else ""
         return f"{where}{self.severity}: {path}{self.message}"
 
