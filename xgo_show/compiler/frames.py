@@ -214,6 +214,11 @@ def cue_label(origin: Origin) -> str:
     return f"cue {origin.cue!r}" if origin.cue else f"the cue at line {origin.line}"
 
 
+def _round_up(seconds: float) -> float:
+    """Up to the next 0.01 s (float noise of 1e-6 s ignored)."""
+    return math.ceil(seconds * 100 - 1e-4) / 100
+
+
 def _limits_text(reg: Register, lim: Limits) -> str:
     u = reg.unit or "units"
     return (
@@ -365,7 +370,10 @@ class _XgoPlanner:
             reg = regs[exc.dof]
             diag.error(
                 cue.origin,
-                f"{cue_label(cue.origin)} needs at least {exc.minimum:.2f} s under its limits "
+                # Rounded up: "at least 0.51 s" must be enough, and never read like "0.50 s"
+                # when 0.50 s was given and falls short.
+                f"{cue_label(cue.origin)} needs at least {_round_up(exc.minimum):.2f} s under "
+                "its limits "
                 f"({reg.name}: {_limits_text(reg, limits[exc.dof])}) but is given "
                 f"{exc.requested:.2f} s",
             )
@@ -452,9 +460,10 @@ def _frames_from_ticks(
                                    action_address=action_addr)
         frames.extend(tick_frames)
         samples += sum(1 for f in tick_frames if f.droppable)
-        for w in keep:
-            sent[w.address] = w.data
-            known[w.address] = w.data
+        for f in tick_frames:
+            for address, data in f.fields:  # gap fillers included: they went out too
+                sent[address] = data
+                known[address] = data
         if any(f.action for f in tick_frames):
             # A preset action moves the robot on its own: what it holds afterwards is unknown,
             # so nothing counts as already sent (and nothing is re-sent as a gap filler).

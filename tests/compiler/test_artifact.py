@@ -1,0 +1,97 @@
+"""Schedule files: round trip, determinism, and clear errors for bad files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from xgo_show.choreo.resolved import ActionCue, ArmCue, FadeCue, MotionCue, SetCue
+from xgo_show.compiler import compile_show, load_schedule, save_schedule
+from xgo_show.compiler.artifact import dumps_schedule
+from xgo_show.errors import XgoShowError
+
+
+@pytest.fixture
+def show(make_show, o):  # type: ignore[no-untyped-def]
+    return make_show({
+        "rex": ("mini", [
+            SetCue(0.0, o("setup", 2), {"gait": "walk", "pace": "slow"}),
+            MotionCue(0.5, o("crouch", 3), {"body_z": 90.0, "pitch": 10.0}, duration=1.0),
+            MotionCue(1.5, o("rise", 4), {"body_z": 110.0, "roll": 8.0}),
+            ActionCue(3.5, o("dance", 5), 23, "dance", 6.0),
+        ]),
+        "wheels": ("rider", [FadeCue(0.0, o("glow", 7), "led1", (255, 40, 0), 0.5)]),
+        "arm": ("xarm", [ArmCue(1.0, o("reach", 9), {1: 500, 2: 300}, 1.5)]),
+    }, bpm=120.0)
+
+
+def test_round_trip_is_exact(show, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    schedule = compile_show(show)
+    path = save_schedule(schedule, tmp_path / "show.xshow.json")
+    loaded = load_schedule(path)
+    assert loaded == schedule
+    assert save_schedule(loaded, tmp_path / "again.xshow.json").read_bytes() == path.read_bytes()
+
+
+def test_compiling_twice_gives_identical_bytes(show, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    first = save_schedule(compile_show(show), tmp_path / "a.xshow.json").read_bytes()
+    second = save_schedule(compile_show(show), tmp_path / "b.xshow.json").read_bytes()
+    assert first == second
+
+
+def test_file_is_documented_json_with_integer_times(show) -> None:  # type: ignore[no-untyped-def]
+    doc = json.loads(dumps_schedule(compile_show(show)))
+    assert doc["format"] == "xgo-show-schedule" and doc["version"] == 1
+    rex = doc["performers"][0]
+    assert rex["link"] == {"baud": 115200, "bits_per_byte": 10, "gap_us": 1000}
+    frame = rex["frames"][0]
+    assert frame == {"duration_us": 0, "hex": "550009000901ec00aa", "label": "gait=walk",
+                     "origin": 0, "t_us": 0}
+    assert doc["origins"][0] == {"column": 5, "cue": "setup", "file": "show.yaml", "line": 2}
+    assert all(isinstance(f["t_us"], int) for p in doc["performers"] for f in p["frames"])
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "bad.xshow.json"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _mutated(show, tmp_path: Path, change) -> Path:  # type: ignore[no-untyped-def]
+    doc = json.loads(dumps_schedule(compile_show(show)))
+    change(doc)
+    return _write(tmp_path, json.dumps(doc))
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda d: d.update(version=2), "version 2 was written by a newer xgo-show"),
+        (lambda d: d.update(format="other"), "not an xgo-show schedule"),
+        (lambda d: d.pop("performers"), "performers: missing"),
+        (lambda d: d["performers"][0]["frames"][0].update(hex="5500zz"), "not hexadecimal"),
+        (lambda d: d["performers"][0]["frames"][0].update(hex="550009000901ed00aa"),
+         "not one valid XGO frame"),
+        (lambda d: d["performers"][0]["frames"][1].update(t_us=-1), "must not be negative"),
+        (lambda d: d["performers"][0]["frames"][0].update(t_us=99_000_000), "time order"),
+        (lambda d: d["performers"][0].update(model="robodog"), "unknown robot model"),
+        (lambda d: d["performers"][0]["frames"][0].update(origin=99), "no origin #99"),
+        (lambda d: d["show"].update(control_rate="fast"), "expected int or float"),
+    ],
+)
+def test_bad_files_give_clear_errors(show, tmp_path: Path, change, message: str) -> None:  # type: ignore[no-untyped-def]
+    path = _mutated(show, tmp_path, change)
+    with pytest.raises(XgoShowError, match=message) as err:
+        load_schedule(path)
+    assert str(path) in str(err.value)
+
+
+def test_not_json_or_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(XgoShowError, match="invalid JSON at line 1"):
+        load_schedule(_write(tmp_path, "{nope"))
+    with pytest.raises(XgoShowError, match=r"cannot read schedule .*missing"):
+        load_schedule(tmp_path / "missing.xshow.json")
+    with pytest.raises(XgoShowError, match="not an xgo-show schedule"):
+        load_schedule(_write(tmp_path, "[1, 2]"))

@@ -1,0 +1,96 @@
+"""Reading schedules back: describe_frame, state_at, frames_to_reach (checked on a simulator)."""
+
+from __future__ import annotations
+
+import pytest
+
+from xgo_show.choreo.resolved import ActionCue, ArmCue, MotionCue, SetCue
+from xgo_show.compiler import compile_show, describe_frame, frames_to_reach, state_at
+from xgo_show.errors import ProtocolError
+from xgo_show.profiles import get_profile
+from xgo_show.sim.xgo_robot import XgoRobot
+from xgo_show.wire.xgo import write_frame
+
+MINI = get_profile("mini")
+
+
+def test_describe_frame_decodes_physical_values() -> None:
+    data = write_frame(0x3C, bytes([0x00, 0x02, 0x17]))
+    assert describe_frame(MINI, data) == [("mark_time", 0.0), ("pace", "fast"), ("action", 23)]
+    assert describe_frame(MINI, write_frame(0x35, b"\xff")) == [("body_z", 120.0)]
+    with pytest.raises(ProtocolError):
+        describe_frame(MINI, b"\x55\x00\x09")
+    with pytest.raises(ProtocolError, match="register layout"):
+        describe_frame(MINI, write_frame(0x0E, b"\x00"))
+
+
+def test_describe_xarm_servo_move() -> None:
+    from xgo_show.wire.xarm import servo_move
+
+    arm = get_profile("xarm")
+    data = servo_move(1500, {1: 500, 3: 120})
+    assert describe_frame(arm, data) == [("time_ms", 1500), ("servo_1", 500), ("servo_3", 120)]
+
+
+@pytest.fixture
+def schedule(make_show, o):  # type: ignore[no-untyped-def]
+    return compile_show(make_show({
+        "rex": ("mini", [
+            SetCue(0.0, o("setup"), {"gait": "walk", "pace": "slow"}),
+            MotionCue(0.5, o("crouch"), {"body_z": 90.0, "pitch": 10.0}, duration=1.0),
+            ActionCue(3.0, o("dance"), 23, "dance", 6.0),
+            SetCue(10.0, o("walk"), {"vx": 12.0}),
+        ]),
+        "arm": ("xarm", [
+            ArmCue(0.0, o("a1"), {1: 500, 2: 300}, 1.0),
+            ArmCue(2.0, o("a2"), {2: 700, 3: 100}, 1.0),
+        ]),
+    }))
+
+
+def test_state_at_replays_writes_and_running_action(schedule) -> None:  # type: ignore[no-untyped-def]
+    rex = schedule.performer("rex")
+    assert state_at(rex, -1.0) == {}
+    mid = state_at(rex, 1.0)
+    assert mid["gait"] == b"\x01" and mid["pace"] == b"\x01"
+    assert 90.0 < MINI.register("body_z").to_physical(mid["body_z"][0]) < 97.6
+    assert "action" not in mid
+    assert state_at(rex, 4.0)["action"] == b"\x17"  # dance runs 3 .. 9 s
+    late = state_at(rex, 11.0)
+    assert "action" not in late
+    assert late["vx"] == bytes((MINI.register("vx").to_byte(12.0),))
+    assert late["body_z"] == bytes((MINI.register("body_z").to_byte(90.0),))
+
+
+def test_state_at_for_the_xarm(schedule) -> None:  # type: ignore[no-untyped-def]
+    arm = schedule.performer("arm")
+    state = state_at(arm, 2.5)
+    assert state == {"servo_1": (500).to_bytes(2, "little"), "servo_2": (700).to_bytes(2, "little"),
+                     "servo_3": (100).to_bytes(2, "little")}
+    (frame,) = frames_to_reach(get_profile("xarm"), state)
+    assert describe_frame(get_profile("xarm"), frame.data) == [
+        ("time_ms", 1000), ("servo_1", 500), ("servo_2", 700), ("servo_3", 100)]
+
+
+@pytest.mark.parametrize("t", [1.0, 4.0, 11.0])
+def test_frames_to_reach_bring_a_fresh_robot_to_the_state(schedule, t: float) -> None:  # type: ignore[no-untyped-def]
+    state = state_at(schedule.performer("rex"), t)
+    frames = frames_to_reach(MINI, state)
+    robot = XgoRobot(MINI)
+    for i, f in enumerate(frames):
+        robot.receive(f.data, 0.01 * i)
+        assert f.label == " ".join(f.label.split())  # labelled like scheduled frames
+    for name, raw in state.items():
+        if name != "action":
+            assert robot.raw(name) == raw, name
+    assert robot.running_action == (23 if "action" in state else None)
+    if "action" in state:
+        assert frames[-1].label == "action=23(dance)"  # the action goes last
+
+
+def test_frames_to_reach_skips_initial_values_and_merges() -> None:
+    initial = {"body_z": b"\x80", "roll": b"\x80"}
+    assert frames_to_reach(MINI, initial) == []
+    frames = frames_to_reach(MINI, {"body_z": b"\x90", "pitch": b"\x70"})
+    (frame,) = frames
+    assert frame.data == write_frame(0x35, b"\x90\x80\x70")  # roll bridged with its initial
