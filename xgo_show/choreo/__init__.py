@@ -2,12 +2,12 @@
 
 :func:`load_show` turns a YAML routine into a :class:`~xgo_show.choreo.resolved.ResolvedShow`
 (raising :class:`~xgo_show.errors.ChoreographyError` with every problem found);
-:func:`validate_file` also runs the compiler and returns all diagnostics.
+:func:`validate_file` also runs the compiler and returns all diagnostics;
+:func:`xgo_show.choreo.schema.choreography_json_schema` gives the JSON schema for editors.
 """
 
 from __future__ import annotations
 
 from xgo_show.choreo.loader import check_file, load_show, validate_file
-from xgo_show.choreo.schema import choreography_json_schema
 
-__all__ = ["check_file", "choreography_json_schema", "load_show", "validate_file"]
+__all__ = ["check_file", "load_show", "validate_file"]

@@ -63,11 +63,11 @@ class _Checker:
         self.diags: list[Diagnostic] = []
 
     def error(self, message: str, origin: Origin, src: CueSource, sub: str = "") -> None:
-        path = f"{src.path}.{sub}" if sub else src.path
+        path = src.paths.get(sub, src.path)
         self.diags.append(Diagnostic("error", message, origin, path))
 
     def warning(self, message: str, origin: Origin, src: CueSource, sub: str = "") -> None:
-        path = f"{src.path}.{sub}" if sub else src.path
+        path = src.paths.get(sub, src.path)
         self.diags.append(Diagnostic("warning", message, origin, path))
 
     def run(self) -> list[Diagnostic]:
@@ -89,8 +89,11 @@ class _Checker:
     ) -> Register | None:
         reg = next((r for r in profile.registers if r.name == name), None)
         if reg is None:
-            valid = sorted(r.name for r in profile.registers if r.access.writable and not r.unsafe)
-            self.error(f"a {profile.model} has no register {name!r}{did_you_mean(name, valid)}; "
+            valid = sorted(
+                r.name for r in profile.registers
+                if r.access.writable and not r.unsafe and r.name != "action"
+            )
+            self.error(f"the {profile.title} has no register {name!r}{did_you_mean(name, valid)}; "
                        f"valid: {', '.join(valid)}", origin, src, name)
             return None
         if reg.unsafe:
@@ -205,12 +208,14 @@ class _Checker:
                     and longest.cue is not w.cue
                     and w.start < longest.end - _EPS
                     and (w.end > w.start + _EPS or w.start > longest.start + _EPS)
+                    and not getattr(w.cue, "interrupts", False)
                 ):
                     self.error(
                         f"{name} is already driven by the cue at "
                         f"{_where(longest.source.origin)} ({_fmt(longest.start)} to "
                         f"{_fmt(longest.end)}); this cue starts at {_fmt(w.start)}: two cues "
-                        "cannot drive one register at once",
+                        "cannot drive one register at once (add 'interrupt: true' to cut the "
+                        "earlier move on purpose)",
                         w.source.values.get(name, w.source.origin), w.source, name,
                     )
                 if longest is None or w.end > longest.end:
@@ -219,12 +224,16 @@ class _Checker:
         self.check_periodic(cues, by_reg)
 
     def check_actions(self, cues: tuple[Cue, ...], profile: Profile) -> None:
-        actions = [c for c in cues if isinstance(c, ActionCue)]
-        for act in actions:
+        for i, act in enumerate(cues):
+            if not isinstance(act, ActionCue):
+                continue
             asrc = self.res.source(act)
             busy_until = act.start + max(asrc.running, 0.0)
-            for other in cues:
-                if other is act or other.start < act.start - _EPS:
+            for j, other in enumerate(cues):
+                # A cue at the very same time but earlier in the track is sent first: fine.
+                if j <= i and other.start <= act.start + _EPS:
+                    continue
+                if other.start < act.start - _EPS:
                     continue
                 if other.start >= busy_until - _EPS:
                     continue

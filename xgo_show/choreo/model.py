@@ -426,6 +426,17 @@ BLOCK_KINDS: frozenset[str] = frozenset({"rest", "phrase", "repeat", "include"})
 
 def cue_kind(value: object) -> str | None:
     """The kind key of a raw cue mapping, or None if it has none or several."""
+    kind = _cue_key(value)
+    return kind
+
+
+def _cue_tag(value: object) -> str | None:
+    # Union tags differ from the data's keys so that error locations stay unambiguous.
+    kind = _cue_key(value)
+    return None if kind is None else f"{kind}-cue"
+
+
+def _cue_key(value: object) -> str | None:
     if isinstance(value, BaseModel):
         for kind, cls in _CUE_CLASSES.items():
             if isinstance(value, cls):
@@ -439,23 +450,23 @@ def cue_kind(value: object) -> str | None:
 
 CueModel = Annotated[
     Union[  # noqa: UP007
-        Annotated[ActionCueModel, Tag("action")],
-        Annotated[MoveCueModel, Tag("move")],
-        Annotated[SetCueModel, Tag("set")],
-        Annotated[WalkCueModel, Tag("walk")],
-        Annotated[PeriodicCueModel, Tag("periodic")],
-        Annotated[LedCueModel, Tag("led")],
-        Annotated[GripperCueModel, Tag("gripper")],
-        Annotated[ArmCueModel, Tag("arm")],
-        Annotated[PoseCueModel, Tag("pose")],
-        Annotated[PoseDegCueModel, Tag("pose_deg")],
-        Annotated[RestCueModel, Tag("rest")],
-        Annotated[PhraseCueModel, Tag("phrase")],
-        Annotated[RepeatCueModel, Tag("repeat")],
-        Annotated[IncludeCueModel, Tag("include")],
+        Annotated[ActionCueModel, Tag("action-cue")],
+        Annotated[MoveCueModel, Tag("move-cue")],
+        Annotated[SetCueModel, Tag("set-cue")],
+        Annotated[WalkCueModel, Tag("walk-cue")],
+        Annotated[PeriodicCueModel, Tag("periodic-cue")],
+        Annotated[LedCueModel, Tag("led-cue")],
+        Annotated[GripperCueModel, Tag("gripper-cue")],
+        Annotated[ArmCueModel, Tag("arm-cue")],
+        Annotated[PoseCueModel, Tag("pose-cue")],
+        Annotated[PoseDegCueModel, Tag("pose_deg-cue")],
+        Annotated[RestCueModel, Tag("rest-cue")],
+        Annotated[PhraseCueModel, Tag("phrase-cue")],
+        Annotated[RepeatCueModel, Tag("repeat-cue")],
+        Annotated[IncludeCueModel, Tag("include-cue")],
     ],
     Discriminator(
-        cue_kind,
+        _cue_tag,
         custom_error_type="cue_kind",
         custom_error_message="a cue needs exactly one kind key",
     ),

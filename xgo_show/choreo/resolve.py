@@ -60,6 +60,7 @@ from xgo_show.profiles.xarm import degrees_to_position
 
 __all__ = ["MAX_CUES", "CueSource", "Resolution", "resolve_show"]
 
+_RESET_ACTION = 255
 MAX_CUES = 100_000  # a guard against repeat blocks that expand to absurd sizes
 _PARAM = re.compile(r"^(-?)\$([A-Za-z_][A-Za-z0-9_]*)$")
 
@@ -73,6 +74,7 @@ class CueSource:
     path: str  # field path of the cue, e.g. "tracks.rex[3]"
     origin: Origin
     values: Mapping[str, Origin] = field(default_factory=dict)  # per register / servo key
+    paths: Mapping[str, str] = field(default_factory=dict)  # field path of each value
     running: float = 0.0  # seconds the robot is busy with it (actions: their real run time)
     end: float = 0.0  # end of the cue's slot, seconds (estimated for open-ended moves)
 
@@ -546,9 +548,14 @@ class _Emitter:
         self.origin = origin
         self.doc = block.doc
         self.profile = perf.profile
+        self.paths: dict[Origin, str] = {}
 
     def at(self, *parts: str | int) -> Origin:
-        return self.doc.origin((*self.loc, *parts), self.origin.cue)
+        """Origin of a node inside this cue (its field path is remembered for messages)."""
+        loc = (*self.loc, *parts)
+        origin = self.doc.origin(loc, self.origin.cue)
+        self.paths[origin] = format_path(loc)
+        return origin
 
     def error(self, message: str, *parts: str | int, key: bool = False) -> None:
         self.res.error(self.doc, (*self.loc, *parts), message, key=key)
@@ -558,9 +565,11 @@ class _Emitter:
         running: float = 0.0,
     ) -> None:
         self.perf.cues.append(cue)
+        values = dict(values or {})
+        path = format_path(self.loc)
+        paths = {name: self.paths.get(o, path) for name, o in values.items()}
         self.res.sources[id(cue)] = CueSource(
-            self.perf.name, self.kind, format_path(self.loc), self.origin, dict(values or {}),
-            running, end,
+            self.perf.name, self.kind, path, self.origin, values, paths, running, end
         )
 
     def cue(self, cue: object, start: float) -> float | None:
@@ -575,7 +584,7 @@ class _Emitter:
 
     def on_action(self, cue: ActionCueModel, start: float, length: float | None) -> float | None:
         if not self.profile.actions:
-            self.error(f"a {self.profile.model} has no preset actions", "action", key=True)
+            self.error(f"the {self.profile.title} has no preset actions", "action", key=True)
             return None
         try:
             act = self.profile.action(cue.action)
@@ -583,11 +592,11 @@ class _Emitter:
             names = [a.name for a in self.profile.actions]
             hint = did_you_mean(str(cue.action), names)
             valid = ", ".join(f"{a.name} ({a.id})" for a in self.profile.actions)
-            self.error(f"{self.profile.model} has no action {cue.action!r}{hint}; valid: {valid}",
-                       "action")
+            self.error(f"the {self.profile.title} has no action {cue.action!r}{hint}; "
+                       f"valid: {valid}", "action")
             return None
         if act.duration is None and length is None:
-            self.error(f"the documents give no duration for {self.profile.model} action "
+            self.error(f"the documents give no duration for {self.profile.title} action "
                        f"{act.name!r}: give duration, beats or bars", "action")
             return None
         if act.duration is None:
@@ -601,10 +610,11 @@ class _Emitter:
                       cue.interrupt),
             start + slot, {"action": self.at("action")}, running,
         )
-        for name in self.profile.default_posture:  # actions end in the default posture
-            reg = next((r for r in self.profile.registers if r.name == name), None)
-            if reg is not None and reg.linear and reg.initial:
-                self.perf.state[name] = reg.to_physical(reg.initial[0])
+        if act.id == _RESET_ACTION:  # restores the default posture (as the compiler assumes)
+            for name in self.profile.default_posture:
+                reg = next((r for r in self.profile.registers if r.name == name), None)
+                if reg is not None and reg.linear and reg.initial:
+                    self.perf.state[name] = reg.to_physical(reg.initial[0])
         return start + slot
 
     def limits_for(self, names: Sequence[str], cue: MoveCueModel | None) -> dict[str, Limits]:
@@ -741,7 +751,7 @@ class _Emitter:
     def on_led(self, cue: LedCueModel, start: float, length: float | None) -> float | None:
         leds = [r.name for r in self.profile.registers if r.encoding is Encoding.RGB]
         if not leds:
-            self.error(f"a {self.profile.model} has no LEDs", "led", key=True)
+            self.error(f"the {self.profile.title} has no LEDs", "led", key=True)
             return None
         colors: dict[str, tuple[int, int, int]] = {}
         origins: dict[str, Origin] = {}
@@ -781,7 +791,7 @@ class _Emitter:
         length: float | None,
     ) -> float | None:
         if self.profile.family != "xarm":
-            self.error(f"{self.kind} is for the xArm; a {self.profile.model} moves with "
+            self.error(f"{self.kind} is for the xArm; the {self.profile.title} moves with "
                        "move: (registers) or arm: / gripper:", self.kind, key=True)
             return None
         if length is None:

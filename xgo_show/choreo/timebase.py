@@ -112,4 +112,4 @@ class TempoMap:
 
     def span(self, start: float, beats: float) -> float:
         """Seconds taken by ``beats`` beats that begin at ``start`` seconds."""
-        return self.seconds(self.beats(start) + beats) - start
+        return max(0.0, self.seconds(self.beats(start) + beats) - start)

@@ -8,6 +8,7 @@ unknown fields get a "did you mean" suggestion.
 from __future__ import annotations
 
 import difflib
+import re
 import types
 import typing
 from collections.abc import Sequence
@@ -51,7 +52,7 @@ def data_loc(data: object, loc: Sequence[str | int]) -> Loc:
 
 
 def _is_tag(part: str | int) -> bool:
-    return isinstance(part, str) and part in {*CUE_KINDS, "constant", "map", "cues", "part"}
+    return isinstance(part, str) and (part.endswith("-cue") or part in {"constant", "map"})
 
 
 def _unwrap(tp: Any) -> tuple[Any, list[Any]]:
@@ -148,6 +149,38 @@ _COMMON_FIELDS = frozenset(
 )
 
 
+_EXPECT = re.compile(r"^Input should be (?:a valid |an? )?(.+)$")
+
+
+def _merge_union_errors(payload: object, errors: list[Any]) -> list[Any]:
+    """One message for a value that fits none of a union's types ("a number or a list")."""
+    groups: dict[Loc, list[Any]] = {}
+    for err in errors:
+        if str(err["type"]).endswith("_type"):
+            groups.setdefault(data_loc(payload, err["loc"]), []).append(err)
+    out: list[Any] = []
+    done: set[Loc] = set()
+    for err in errors:
+        loc = data_loc(payload, err["loc"])
+        group = groups.get(loc, [])
+        if len(group) < 2 or err not in group:
+            out.append(err)
+            continue
+        if loc in done:
+            continue
+        done.add(loc)
+        kinds = []
+        for e in group:
+            match = _EXPECT.match(str(e["msg"]))
+            kind = match[1] if match else str(e["msg"])
+            if kind not in kinds:
+                kinds.append(kind)
+        merged = dict(err)
+        merged["msg"] = "Input should be " + " or ".join(f"a {k}" for k in kinds)
+        out.append(merged)
+    return out
+
+
 def validate(
     cls: type[M], doc: Document, data: object, base: Loc = (), *, wrap: str | None = None
 ) -> tuple[M | None, list[Diagnostic]]:
@@ -163,6 +196,7 @@ def validate(
         errors = exc.errors(include_url=False)
     diags: list[Diagnostic] = []
     seen: set[tuple[Loc, str]] = set()
+    errors = _merge_union_errors(payload, errors)
     for err in errors:
         loc = data_loc(payload, err["loc"])
         if wrap is not None:

@@ -1,0 +1,84 @@
+"""YAML reading with positions: every value knows its line:column; duplicates are errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from xgo_show.choreo.source import format_path, parse_yaml, read_yaml
+
+
+def test_marks_are_one_based_line_and_column() -> None:
+    doc, errors = parse_yaml("show: x\ntracks:\n  rex:\n    - {move: {pitch: 5}}\n", "f.yaml")
+    assert errors == []
+    assert doc.data == {"show": "x", "tracks": {"rex": [{"move": {"pitch": 5}}]}}
+    assert doc.marks[("show",)] == (1, 7)
+    assert doc.key_marks[("tracks",)] == (2, 1)
+    assert doc.marks[("tracks", "rex", 0)] == (4, 7)
+    assert doc.marks[("tracks", "rex", 0, "move", "pitch")] == (4, 22)
+
+
+def test_origin_falls_back_to_nearest_enclosing_node() -> None:
+    doc, _ = parse_yaml("a:\n  b: 1\n", "f.yaml")
+    origin = doc.origin(("a", "missing", "deeper"))
+    assert (origin.file, origin.line, origin.column) == ("f.yaml", 2, 3)
+    assert doc.origin(("a", "b"), key=True).column == 3
+    assert doc.origin(("a", "b")).column == 6
+
+
+def test_duplicate_key_is_an_error_with_both_lines() -> None:
+    _, errors = parse_yaml("a: 1\nb: 2\na: 3\n", "f.yaml")
+    assert len(errors) == 1
+    err = errors[0]
+    assert err.origin is not None and (err.origin.line, err.origin.column) == (3, 1)
+    assert "duplicate key 'a'" in err.message and "line 1" in err.message
+
+
+def test_nested_duplicates_are_all_reported() -> None:
+    _, errors = parse_yaml("x: {a: 1, a: 2}\ny: [{b: 1, b: 1}]\n", "f.yaml")
+    assert [(e.origin.line, e.origin.column) for e in errors if e.origin] == [(1, 11), (2, 12)]
+
+
+def test_syntax_error_is_one_diagnostic_with_position() -> None:
+    _, errors = parse_yaml("a: [1, 2\nb: 3\n", "f.yaml")
+    assert len(errors) == 1
+    assert errors[0].message.startswith("YAML syntax")
+    assert errors[0].origin is not None and errors[0].origin.line == 2
+
+
+def test_empty_and_multi_document_files() -> None:
+    assert parse_yaml("", "f")[1][0].message == "the file is empty"
+    assert "one YAML document" in parse_yaml("a: 1\n---\nb: 2\n", "f")[1][0].message
+
+
+def test_merge_keys_explicit_wins_and_is_no_duplicate() -> None:
+    doc, errors = parse_yaml("base: &b {x: 1, y: 2}\nc:\n  <<: *b\n  y: 5\n", "f")
+    assert errors == []
+    assert doc.data == {"base": {"x": 1, "y": 2}, "c": {"y": 5, "x": 1}}
+
+
+def test_boolean_keys_are_refused() -> None:
+    _, errors = parse_yaml("on: 1\n", "f")
+    assert "must be a name" in errors[0].message
+
+
+def test_unsafe_tags_are_errors_not_exceptions() -> None:
+    _, errors = parse_yaml("a: !!python/object:os.system ls\n", "f")
+    assert errors and errors[0].is_error
+
+
+def test_recursive_alias_is_an_error() -> None:
+    _, errors = parse_yaml("a: &x [*x]\n", "f")
+    assert any("recursive" in e.message for e in errors)
+
+
+def test_unreadable_files(tmp_path: Path) -> None:
+    assert read_yaml(tmp_path / "nope.yaml")[1][0].message == "no such file"
+    assert read_yaml(tmp_path)[1][0].message == "is a directory"
+    bad = tmp_path / "bin.yaml"
+    bad.write_bytes(b"a: \xff\xfe\n")
+    assert "UTF-8" in read_yaml(bad)[1][0].message
+
+
+def test_format_path() -> None:
+    assert format_path(("tracks", "rex", 3, "move", "body_z")) == "tracks.rex[3].move.body_z"
+    assert format_path((1, "a")) == "[1].a"

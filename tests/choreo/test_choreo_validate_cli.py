@@ -1,0 +1,82 @@
+"""``xgo-show validate``: every problem on its own line, a summary, exit status 1 on errors."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from xgo_show.cli.main import main
+
+from .conftest import WriteFn
+
+GOOD = """
+show: ok
+performers:
+  rex: {model: mini}
+tracks:
+  rex: [{action: stand_up}]
+"""
+
+
+def test_clean_file_exits_zero(write: WriteFn, capsys: pytest.CaptureFixture[str]) -> None:
+    path = write(GOOD)
+    assert main(["validate", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert f"{path}: ok: 0 error(s), 0 warning(s)" in out
+
+
+def test_errors_are_listed_and_exit_one(write: WriteFn, capsys: pytest.CaptureFixture[str]) -> None:
+    bad = write("""
+show: bad
+performers:
+  rex: {model: mini}
+tracks:
+  rex:
+    - {move: {body_z: 500}, duration: 1}
+    - {action: stand_upp}
+""", "bad.yaml")
+    good = write(GOOD, "good.yaml")
+    assert main(["validate", str(bad), str(good)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith(f"{bad}:6:23: error: tracks.rex[0].move.body_z: body_z = 500 mm")
+    assert lines[1].startswith(f"{bad}:7:16: error: tracks.rex[1].action: ")
+    assert lines[2] == f"{bad}: FAILED: 2 error(s), 0 warning(s)"
+    assert lines[3] == f"{good}: ok: 0 error(s), 0 warning(s)"
+
+
+def test_warnings_are_shown_but_do_not_fail(
+    write: WriteFn, capsys: pytest.CaptureFixture[str]
+) -> None:
+    two = GOOD.replace("  rex: {model: mini}", "  rex: {model: mini}\n  idle: {model: lite}")
+    path = write(two)
+    assert main(["validate", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "warning: performers.idle: performer 'idle' has no track" in out
+    assert main(["validate", "--quiet", str(path)]) == 0
+    assert capsys.readouterr().out.splitlines() == [f"{path}: ok: 0 error(s), 1 warning(s)"]
+
+
+def test_missing_file_and_directory_are_one_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["validate", str(tmp_path / "nope.yaml"), str(tmp_path)]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert out == [
+        f"{tmp_path / 'nope.yaml'}: error: no such file",
+        f"{tmp_path}: error: is a directory",
+    ]
+
+
+def test_syntax_error_is_reported_not_raised(
+    write: WriteFn, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = write("show: [\n")
+    assert main(["validate", str(path)]) == 1
+    assert "YAML syntax" in capsys.readouterr().out
+
+
+def test_help_mentions_exit_status(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["validate", "--help"])
+    assert "Exits 1" in capsys.readouterr().out
