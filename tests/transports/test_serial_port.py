@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import socket
+import threading
 import time
 from collections.abc import Iterator
 
@@ -144,3 +146,29 @@ def test_describe_error_prefers_the_os_reason() -> None:
     assert describe_error(ValueError("invalid URL, protocol 'foo' not known")) == (
         "invalid URL, protocol 'foo' not known"
     )
+
+
+def test_read_on_a_silent_pty_returns_nothing_after_the_timeout(pty_pair: PtyPair) -> None:
+    with open_transport(pty_pair.path) as link:
+        assert link.read(16, timeout=0.05) == b""
+        assert link.read(16, timeout=0) == b""
+
+
+def test_socket_url_round_trip_on_loopback() -> None:
+    server = socket.create_server(("127.0.0.1", 0))
+    port = server.getsockname()[1]
+
+    def echo_once() -> None:
+        conn, _ = server.accept()
+        with conn:
+            conn.sendall(conn.recv(64).upper())
+
+    thread = threading.Thread(target=echo_once, name="echo-server")
+    thread.start()
+    try:
+        with open_transport(f"socket://127.0.0.1:{port}") as link:
+            link.write(b"ping")
+            assert collect(link, 4) == b"PING"  # type: ignore[arg-type]
+    finally:
+        thread.join(timeout=5)
+        server.close()

@@ -10,7 +10,9 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import select
 import sys
+import time
 from typing import Any
 
 import serial
@@ -19,6 +21,10 @@ from xgo_show.errors import TransportError, TransportTimeout
 from xgo_show.transports.base import Transport
 
 __all__ = ["DEFAULT_WRITE_TIMEOUT", "SerialTransport", "describe_error", "open_serial"]
+
+# Seconds between checks while waiting for input on ports with no file descriptor (loop://,
+# socket://, rfc2217://, Windows).
+_POLL_INTERVAL = 0.001
 
 #: Seconds a write may block (output buffer full, flow control stuck) before it raises.
 DEFAULT_WRITE_TIMEOUT = 1.0
@@ -44,7 +50,6 @@ class SerialTransport(Transport):
         self.write_timeout = write_timeout
         self._options = options
         self._port: serial.SerialBase | None = None
-        self._read_timeout: float | None = None
 
     def open(self) -> None:
         if self._port is not None:
@@ -62,7 +67,6 @@ class SerialTransport(Transport):
         except (serial.SerialException, OSError, ValueError) as exc:
             raise TransportError(f"cannot open {self.url}: {describe_error(exc)}") from exc
         self._port = port
-        self._read_timeout = 0.0
 
     def close(self) -> None:
         port, self._port = self._port, None
@@ -87,18 +91,40 @@ class SerialTransport(Transport):
             raise TransportError(f"write to {self.url} failed: {describe_error(exc)}") from exc
 
     def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+        # The port stays non-blocking (pyserial timeout 0) and the wait happens here: changing
+        # pyserial's timeout reconfigures the port, which for rfc2217:// is a network exchange.
         port = self._require_open()
         try:
-            if timeout != self._read_timeout:
-                port.timeout = timeout  # reconfigures the port: only when it changes
-                self._read_timeout = timeout
-            first: bytes = port.read(1)
-            if not first or size <= 1:
-                return first
-            waiting = port.in_waiting
-            return first + (port.read(min(waiting, size - 1)) if waiting else b"")
+            data: bytes = port.read(size)
+            if data or timeout <= 0:
+                return data
+            deadline = time.monotonic() + timeout
+            fd = self._fileno(port)
+            while True:
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return b""
+                if fd is None:
+                    time.sleep(min(left, _POLL_INTERVAL))
+                else:
+                    # Readable also when the device is gone: the read below then raises.
+                    select.select([fd], [], [], left)
+                data = port.read(size)
+                if data:
+                    return data
         except (serial.SerialException, OSError) as exc:
             raise TransportError(f"read from {self.url} failed: {describe_error(exc)}") from exc
+
+    @staticmethod
+    def _fileno(port: serial.SerialBase) -> int | None:
+        """A file descriptor to wait on (POSIX serial ports and ptys), else None."""
+        if os.name != "posix" or not isinstance(port, serial.Serial):
+            return None
+        try:
+            fd: int = port.fileno()
+        except (AttributeError, OSError, serial.SerialException):
+            return None
+        return fd
 
     def set_low_latency(self) -> bool:
         """Ask the Linux serial driver for low latency (FTDI/CH340 adapters); never raises."""
