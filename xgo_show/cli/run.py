@@ -217,6 +217,11 @@ def summarize_sim(
         for name, value in snap.get("registers", {}).items()
         if name in writable and initial.get("registers", {}).get(name) != value
     }
+    # xArm: servo positions instead of registers.
+    for servo, state in snap.get("servos", {}).items():
+        before = initial.get("servos", {}).get(servo, {}).get("position")
+        if state.get("position") != before:
+            changed[f"servo_{servo}"] = state.get("position")
     return {
         "model": snap["model"],
         "changed": changed,
@@ -225,7 +230,8 @@ def summarize_sim(
         "frames_received": snap.get("frames_received"),
         "frames_rejected": snap.get("frames_rejected"),
         "rejected": rejected,
-        "battery": snap.get("battery"),
+        "battery": snap.get("battery", snap.get("battery_mv")),
+        "stops": len(snap.get("stops", [])),
         "fallen": snap.get("fallen"),
     }
 

@@ -18,7 +18,7 @@ from typing import TextIO
 
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import XgoShowError
-from xgo_show.profiles import get_profile, model_from_firmware
+from xgo_show.profiles import Profile, get_profile, model_from_firmware
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.transports.base import Transport
 
@@ -156,10 +156,8 @@ def preflight(
 
 def _check_robot(row: PreflightRow, transport: Transport, floor: float, timeout: float) -> None:
     profile = get_profile(row.model)
-    if profile.family != "xgo":
-        # The xArm reports no firmware string or model; its controller answers no status read
-        # this runtime relies on, so only the port is checked.
-        row.notes.append("xArm: port checked only")
+    if profile.family == "xarm":
+        _check_xarm(row, transport, profile, timeout)
         return
     from xgo_show.client import XgoClient
 
@@ -175,6 +173,21 @@ def _check_robot(row: PreflightRow, transport: Transport, floor: float, timeout:
             row.problems.append(f"battery {row.battery:.0f}% is below the floor of {floor:g}%")
     except XgoShowError as exc:
         row.problems.append(str(exc))
+
+
+def _check_xarm(row: PreflightRow, transport: Transport, profile: Profile, timeout: float) -> None:
+    # The xArm has no firmware string: an answer in its protocol is what identifies it. Its
+    # battery is reported in volts, so the show's percentage floor does not apply.
+    from xgo_show.client import XarmClient
+
+    try:
+        millivolts = XarmClient(transport, profile, timeout=timeout).battery_mv()
+    except XgoShowError as exc:
+        row.problems.append(str(exc))
+        return
+    row.firmware = "xArm controller"
+    row.detected = profile.model
+    row.notes.append(f"battery {millivolts / 1000:.2f} V")
 
 
 def request_realtime(priority: int = 10) -> str:

@@ -15,6 +15,9 @@ delay the others; the whole stop is bounded by ``stop_timeout`` (100 ms by defau
 
 from __future__ import annotations
 
+import contextlib
+import os
+import select
 import signal
 import sys
 import threading
@@ -67,6 +70,7 @@ class ShowResult:
     faults: dict[str, str] = field(default_factory=dict)
     start_at: float = 0.0
     offset: float = 0.0
+    stop_latency: float | None = None  # seconds from the stop request to the last stop frame
 
 
 def default_reach(schedule: PerformerSchedule, profile: Profile) -> ReachFn:
@@ -127,10 +131,13 @@ class ShowRunner:
         self.stop_timeout = stop_timeout
         self.profiles = {p.name: get_profile(p.model) for p in schedule.performers}
         self.unsafe_found = check_unsafe(schedule, self.profiles, allow_unsafe=allow_unsafe)
-        self._wake = threading.Event()
+        self._waker = _Waker()
         self._lock = threading.Lock()
         self._stop_reason: str | None = None
-        self._faulted: list[tuple[str, str]] = []
+        self._stop_requested_at: float | None = None
+        self._toggles = 0  # pause/resume requests from SIGTSTP (Ctrl-Z)
+        self._paused = False
+        self._faulted: list[tuple[str, str, float]] = []
         self.executors: dict[str, PerformerExecutor] = {}
         for perf in schedule.performers:
             profile = self.profiles[perf.name]
@@ -159,26 +166,37 @@ class ShowRunner:
     # ------------------------------------------------------------------ control (any thread)
 
     def stop(self, reason: str = "stop requested") -> None:
-        """Ask for a safe stop of every performer (returns at once; :meth:`run` does it)."""
-        with self._lock:
-            if self._stop_reason is None:
-                self._stop_reason = reason
-        self._wake.set()
+        """Ask for a safe stop of every performer (returns at once; :meth:`run` does it).
+
+        Lock-free, so that a signal handler may call it.
+        """
+        if self._stop_reason is None:
+            self._stop_requested_at = self.clock.now()
+            self._stop_reason = reason
+        self._waker.wake()
 
     def pause(self) -> None:
         """Pause every performer (robots held at rest, timeline frozen)."""
+        self._paused = True
+        self.log.event("pause", show_time=round(self.snapshot().show_time, 6))
         for ex in self.executors.values():
             ex.pause()
 
     def resume(self) -> None:
         """Resume every performer where the show was paused."""
+        self._paused = False
+        self.log.event("resume")
         for ex in self.executors.values():
             ex.resume()
 
+    @property
+    def paused(self) -> bool:
+        return self._paused
+
     def _on_fault(self, executor: PerformerExecutor, reason: str) -> None:
         with self._lock:
-            self._faulted.append((executor.name, reason))
-        self._wake.set()
+            self._faulted.append((executor.name, reason, self.clock.now()))
+        self._waker.wake()
 
     # ------------------------------------------------------------------ run
 
@@ -188,9 +206,11 @@ class ShowRunner:
         """Play the show from show time ``offset``; returns when it is over or stopped.
 
         ``lead`` seconds pass between the call and the start (room for catch-up frames of a
-        mid-show start). SIGINT/SIGTERM are turned into a safe stop while this runs (when
-        called from the main thread and ``handle_signals``).
+        mid-show start). While this runs in the main thread with ``handle_signals``, SIGINT and
+        SIGTERM become a safe stop and SIGTSTP (Ctrl-Z) pauses/resumes instead of suspending
+        the process with robots in motion.
         """
+        self._waker.open()
         restore = self._install_signals() if handle_signals else {}
         # Writer threads hand the GIL to each other at their deadlines; a CPU-bound thread (a
         # reader parsing, a progress callback) must not hold it for the default 5 ms.
@@ -228,6 +248,7 @@ class ShowRunner:
                 ex.join(1.0)
                 ex.close()
             self._restore_signals(restore)
+            self._waker.close()
             sys.setswitchinterval(switch)
             result.faults = {ex.name: ex.fault for ex in self.executors.values() if ex.fault}
             self.log.event(
@@ -236,27 +257,36 @@ class ShowRunner:
                 reason=result.reason,
                 faults=result.faults,
                 states={n: ex.state.value for n, ex in self.executors.items()},
+                stop_latency_ms=(
+                    None if result.stop_latency is None else round(result.stop_latency * 1000, 3)
+                ),
             )
         return result
 
     def _supervise(self, result: ShowResult) -> None:
         next_progress = 0.0
         while True:
-            self._wake.wait(self.progress_interval)
-            self._wake.clear()
+            self._waker.wait(self.progress_interval)
             with self._lock:
                 faulted, self._faulted = self._faulted, []
-                stop_reason = self._stop_reason
+            stop_reason = self._stop_reason
             if stop_reason is not None:
-                self._stop_all(stop_reason, result)
+                self._stop_all(stop_reason, result, requested=self._stop_requested_at)
                 result.reason = stop_reason
                 return
-            for name, reason in faulted:
+            while self._toggles:
+                self._toggles -= 1
+                if self._paused:
+                    self.resume()
+                else:
+                    self.pause()
+            for name, reason, when in faulted:
+                why = f"fault on {name}: {reason}"
                 if self.on_failure == "halt_all":
-                    self._stop_all(f"fault on {name}: {reason}", result)
-                    result.reason = f"fault on {name}: {reason}"
+                    self._stop_all(why, result, requested=when)
+                    result.reason = why
                     return
-                self._stop_some([name], f"fault on {name}: {reason}", result)
+                self._stop_some([name], why, result, requested=when)
             if all(ex.done for ex in self.executors.values()):
                 result.completed = all(
                     ex.state is ExecutorState.FINISHED for ex in self.executors.values()
@@ -291,11 +321,24 @@ class ShowRunner:
             worst = max(worst, sum(link.wire_time(len(d)) + link.gap for d, _ in frames))
         return worst + 0.05
 
-    def _stop_all(self, reason: str, result: ShowResult) -> None:
-        self._stop_some(list(self.executors), reason, result)
+    def _stop_all(self, reason: str, result: ShowResult, *, requested: float | None = None) -> None:
+        self._stop_some(list(self.executors), reason, result, requested=requested)
 
-    def _stop_some(self, names: list[str], reason: str, result: ShowResult) -> None:
-        """Safe-stop ``names`` in parallel; each gets ``stop_timeout`` for a stuck write."""
+    def _stop_some(
+        self,
+        names: list[str],
+        reason: str,
+        result: ShowResult,
+        *,
+        requested: float | None = None,
+    ) -> None:
+        """Safe-stop ``names`` in parallel; each gets ``stop_timeout`` for a stuck write.
+
+        ``result.stop_latency`` becomes the time from ``requested`` (default: now; for a fault,
+        when it was reported) to the end of the last stop sequence.
+        """
+        if requested is None:
+            requested = self.clock.now()
         pending = [n for n in names if n not in result.stops]
         for name in pending:
             self.executors[name].abort()  # no schedule frame goes out after this line
@@ -317,6 +360,9 @@ class ShowRunner:
             result.stops[name] = out.get(
                 name, SafeStopResult(name, reason, False, error="safe stop did not finish in time")
             )
+        if pending:
+            latency = self.clock.now() - requested
+            result.stop_latency = max(result.stop_latency or 0.0, latency)
 
     # ------------------------------------------------------------------ signals
 
@@ -325,14 +371,63 @@ class ShowRunner:
             return {}
         saved: dict[int, Any] = {}
 
-        def handler(signum: int, frame: FrameType | None) -> None:
+        # Handlers only set plain attributes and write to the wake-up pipe: they run between
+        # two bytecodes of the main thread, which may hold any lock at that moment.
+        def on_stop(signum: int, frame: FrameType | None) -> None:
             self.stop(signal.Signals(signum).name)
 
+        def on_pause(signum: int, frame: FrameType | None) -> None:
+            # Ctrl-Z would suspend the process with the robots still walking: instead it
+            # pauses the show (robots held at rest), and a second Ctrl-Z resumes it.
+            self._toggles += 1
+            self._waker.wake()
+
         for sig in (signal.SIGINT, signal.SIGTERM):
-            saved[sig] = signal.signal(sig, handler)
+            saved[sig] = signal.signal(sig, on_stop)
+        if hasattr(signal, "SIGTSTP"):
+            saved[signal.SIGTSTP] = signal.signal(signal.SIGTSTP, on_pause)
         return saved
 
     @staticmethod
     def _restore_signals(saved: dict[int, Any]) -> None:
         for sig, old in saved.items():
             signal.signal(sig, old)
+
+
+class _Waker:
+    """A self-pipe: ``wake()`` from any thread or signal handler, ``wait()`` in the supervisor.
+
+    Lock-free on the waking side (one ``os.write``), unlike :class:`threading.Event`, whose
+    internal lock a signal handler could find already held by the thread it interrupted.
+    """
+
+    def __init__(self) -> None:
+        self._r = -1
+        self._w = -1
+
+    def open(self) -> None:
+        if self._r < 0:
+            self._r, self._w = os.pipe()
+            os.set_blocking(self._r, False)
+            os.set_blocking(self._w, False)
+
+    def wake(self) -> None:
+        w = self._w
+        if w >= 0:
+            with contextlib.suppress(OSError):  # full pipe: a wake-up is already pending
+                os.write(w, b"!")
+
+    def wait(self, timeout: float) -> None:
+        if self._r < 0:
+            return
+        ready, _, _ = select.select([self._r], [], [], timeout)
+        if ready:
+            with contextlib.suppress(BlockingIOError):
+                os.read(self._r, 4096)
+
+    def close(self) -> None:
+        r, w = self._r, self._w
+        self._r = self._w = -1
+        for fd in (r, w):
+            if fd >= 0:
+                os.close(fd)
