@@ -31,10 +31,11 @@ def make_performer(
     """``count`` one-byte writes to ``register`` (distinct values), ``spacing`` s apart."""
     profile = get_profile(model)
     reg = profile.register(register)
+    wtype = profile.write_type
     frames = tuple(
         ScheduledFrame(
             start + i * spacing,
-            write_frame(reg.address, bytes((first_byte + i,)), write_type=profile.write_type),
+            write_frame(reg.address, bytes(((first_byte + i) % 256,)), write_type=wtype),
             Origin("show.yaml", 1 + i, 1, f"cue{i // 4}"),
             f"{register} #{i}",
         )

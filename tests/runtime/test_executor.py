@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import struct
 import threading
 import time
 from collections.abc import Callable
@@ -13,9 +14,10 @@ from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.executor import ExecutorState, PerformerExecutor
 from xgo_show.runtime.safety import rest_frames, stop_frames
+from xgo_show.runtime.telemetry import TelemetryPoller
 from xgo_show.sim import create_robot
 from xgo_show.transports.sim import SimTransport
-from xgo_show.wire.xgo import XgoDecoder, write_frame
+from xgo_show.wire.xgo import TYPE_READ, TYPE_WRITE_RIDER, XgoDecoder, reply_frame, write_frame
 
 MINI = get_profile("mini")
 # 9-byte frame: 0.78 ms on the wire at 115200 baud, then 1 ms of silence.
@@ -40,6 +42,17 @@ def sim_link(clock: FakeClock, model: str = "mini") -> SimTransport:
     link = SimTransport(create_robot(model), clock=clock.now, sleep=clock.advance)
     link.open()
     return link
+
+
+class PollingSim(SimTransport):
+    """A sim link for a reader thread on a fake clock: reads never wait on fake time (which
+    only the writer moves); an empty read sleeps 1 ms of real time instead."""
+
+    def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+        data = super().read(size, 0.0)
+        if not data:
+            time.sleep(0.001)
+        return data
 
 
 def schedule_frames(link: SimTransport) -> list[bytes]:
@@ -204,3 +217,56 @@ def test_stop_frames_decode_to_neutral_speeds_and_posture_reset() -> None:
         assert written["vx"] == b"\x80"
         assert written["action"] == b"\xff"
         assert list(written)[-1] == "action"  # posture reset after the speeds are neutral
+
+
+def test_telemetry_reads_fit_between_frames_without_delaying_any(perf) -> None:
+    clock = FakeClock()
+    link = PollingSim(create_robot("rider"), clock=clock.now)
+    link.open()
+    rider = get_profile("rider")
+    # Frames 3 ms apart (room for a read only where the spacing allows), then a 1 s tail.
+    schedule = perf("rita", "rider", count=200, spacing=0.003, end=1.6)
+    poller = TelemetryPoller(rider, interval=0.01)
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=rider, telemetry=poller)
+    start = clock.now() + 0.1
+    ex.run(start)
+    frames = [r for r in ex.records if r.kind == "frame"]
+    reads = [r for r in ex.records if r.kind == "read"]
+    assert len(frames) == len(schedule.frames)
+    assert all(r.error == pytest.approx(0.0) for r in frames)  # no frame delayed by a read
+    assert len(reads) > 20
+    # Every write, read or not, keeps the link's wire time + gap after the previous one.
+    by_time = [r for r in ex.records if r.kind in ("frame", "read")]
+    for a, b in itertools.pairwise(by_time):
+        assert b.actual - a.actual >= rider.link.wire_time(a.nbytes) + rider.link.gap - 1e-9
+    got = link.robot.received
+    assert sum(1 for f in got if f.data[3] == TYPE_READ) == len(reads)
+    writes = [f.data for f in got if f.data[3] == TYPE_WRITE_RIDER]
+    assert writes[: len(schedule.frames)] == [f.data for f in schedule.frames]
+
+
+def test_telemetry_poller_parses_replies_and_ignores_unsolicited_frames() -> None:
+    rider = get_profile("rider")
+    poller = TelemetryPoller(rider, battery_floor=30)
+    names = [item.name for item in poller.items]
+    assert names == ["battery", "status", "attitude"]
+    noise = b"\x01\x02" + reply_frame(0x65, bytes(24))  # junk, then a block nobody asked for
+    samples = poller.feed(noise + reply_frame(rider.register("battery").address, b"\x50"), 1.0)
+    assert [(s.name, s.value) for s in samples] == [("battery", 80.0)]
+    assert poller.unsolicited == 1
+    assert poller.fault is None
+    attitude = struct.pack("<ff", 3.5, -2.0)
+    samples = poller.feed(reply_frame(rider.register("imu_roll").address, attitude), 2.0)
+    assert {s.name: s.value for s in samples} == {"imu_roll": 3.5, "imu_pitch": -2.0}
+    # One low battery reading is not yet a fault; two in a row are.
+    poller.feed(reply_frame(rider.register("battery").address, b"\x14"), 3.0)
+    assert poller.fault is None
+    poller.feed(reply_frame(rider.register("battery").address, b"\x14"), 4.0)
+    assert poller.fault is not None and "below the floor" in poller.fault
+    fallen = TelemetryPoller(rider)
+    fallen.feed(reply_frame(rider.register("status").address, b"\x00"), 1.0)
+    assert fallen.fault is not None and "fallen" in fallen.fault
+    # A Mini's status 0 is not a fall (only the Rider documents that meaning).
+    mini = TelemetryPoller(MINI)
+    mini.feed(reply_frame(MINI.register("status").address, b"\x00"), 1.0)
+    assert mini.fault is None

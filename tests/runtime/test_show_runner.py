@@ -189,3 +189,32 @@ def test_unsafe_register_is_refused_before_anything_moves(rig, perf, sched) -> N
     assert rig.servers["rex"].robot.received == []
     found = check_unsafe(schedule, {"rex": profile}, allow_unsafe=True)
     assert len(found) == 1 and "servo_zero" in found[0]
+
+
+def test_xarm_gets_group_stop_when_the_show_is_stopped(rig, sched, walking) -> None:
+    from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.wire.xarm import servo_move
+
+    xarm = get_profile("xarm")
+    moves = tuple(
+        ScheduledFrame(i * 0.2, servo_move(200, {1: 300 + 50 * i, 2: 700 - 50 * i}))
+        for i in range(10)
+    )
+    schedule = sched(
+        walking("rex", "mini", seconds=2.0),
+        PerformerSchedule("arm", "xarm", xarm.link, moves, end=2.0),
+    )
+    rig.for_schedule(schedule)
+    runner = ShowRunner(schedule, rig.transports)
+    assert runner.executors["arm"].telemetry is None  # nothing to poll on the xArm
+    th, out = run_in_thread(runner)
+    wait_for(lambda: runner.executors["arm"].progress.sent >= 2)
+    runner.stop("operator")
+    th.join(5)
+    result = out[0]
+    settle(rig)
+    assert result.stops["arm"].ok and result.stops["arm"].frames == ("GroupStop",)
+    snap = rig.servers["arm"].snapshot()
+    assert len(snap["stops"]) == 1
+    assert 2 <= len(snap["moves"]) < 10
+    assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"

@@ -1,0 +1,82 @@
+"""Pre-flight checks against simulators on real ptys: nothing moves before they pass."""
+
+from __future__ import annotations
+
+import io
+
+from xgo_show.runtime.clock import FakeClock
+from xgo_show.runtime.preflight import countdown, open_ports, preflight, request_realtime
+from xgo_show.wire.xgo import TYPE_READ
+
+
+def test_all_robots_pass_and_the_table_says_so(rig, perf, sched) -> None:
+    schedule = sched(perf("rex", "mini"), perf("rita", "rider"))
+    rig.for_schedule(schedule)
+    report = preflight(schedule, rig.transports)
+    assert report.ok
+    table = report.table()
+    assert "rex" in table and "M-1.4.1" in table and "100%" in table
+    assert table.splitlines()[1].endswith("ok")
+
+
+def test_wrong_model_and_low_battery_fail_with_reads_only(rig, perf, sched) -> None:
+    schedule = sched(perf("rex", "mini"), perf("rita", "rider"))
+    rig.add("rex", "mini", firmware="L-1.3.2")  # a Lite's firmware on the Mini's port
+    rig.add("rita", "rider", battery=15)
+    report = preflight(schedule, rig.transports, battery_floor=25)
+    assert not report.ok and report.ports_ok
+    rex, rita = report.rows
+    assert rex.detected == "lite" and "not mini" in rex.problems[0]
+    assert rita.battery == 15 and "below the floor of 25%" in rita.problems[0]
+    assert "FAIL" in report.table()
+    for server in rig.servers.values():
+        assert all(f.data[3] == TYPE_READ for f in server.robot.received)
+
+
+def test_a_port_that_does_not_open_is_named(perf, sched, tmp_path) -> None:
+    schedule = sched(perf("rex", "mini"))
+    missing = str(tmp_path / "ttyUSB9")
+    transports, errors = open_ports(schedule, {"rex": missing})
+    assert transports == {}
+    assert missing in errors["rex"]
+    report = preflight(schedule, transports, urls={"rex": missing}, open_errors=errors)
+    assert not report.ports_ok
+    assert missing in report.table()
+    _, errors = open_ports(schedule, {})
+    assert "no port given" in errors["rex"]
+
+
+def test_xarm_is_recognised_by_its_answer(rig, sched) -> None:
+    from xgo_show.compiler.schedule import PerformerSchedule
+    from xgo_show.profiles import get_profile
+
+    xarm = get_profile("xarm")
+    schedule = sched(PerformerSchedule("arm", "xarm", xarm.link, (), end=1.0))
+    rig.for_schedule(schedule)
+    report = preflight(schedule, rig.transports)
+    assert report.ok, report.table()
+    assert "battery" in report.rows[0].notes[0] and " V" in report.rows[0].notes[0]
+
+
+def test_countdown_counts_whole_seconds_from_one_start() -> None:
+    out = io.StringIO()
+    clock = FakeClock()
+    start = clock.now()
+    countdown(2.5, out=out, clock=clock)
+    assert out.getvalue().splitlines() == [
+        "starting in 2.5 s",
+        "starting in 1.5 s",
+        "starting in 0.5 s",
+    ]
+    assert clock.now() == start + 2.5
+    countdown(0, out=out, clock=clock)
+    assert clock.now() == start + 2.5
+
+
+def test_realtime_request_says_what_was_granted() -> None:
+    text = request_realtime(priority=1)
+    assert "SCHED_FIFO" in text or "not available" in text
+    import os
+
+    if "granted" in text:  # give the test process its normal policy back
+        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
