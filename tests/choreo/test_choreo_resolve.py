@@ -376,3 +376,41 @@ tracks:
       cues: [{repeat: 100, cues: [{set: {pace: slow}}]}]
 """)
     assert any("more than" in d.message for d in errors(path))
+
+
+def test_cue_at_action_start_but_earlier_in_track_is_sent_first(write: WriteFn) -> None:
+    path = write(MINI + """
+tracks:
+  rex:
+    - {walk: {vx: 5}, duration: 1}
+    - {action: stand_up}
+    - {at: 4, action: sit_down}
+    - {at: 4, move: {pitch: 5}, duration: 1}
+""")
+    errs = errors(path)
+    assert len(errs) == 1 and errs[0].origin is not None and errs[0].origin.line == 10
+    assert "while action 'sit_down'" in errs[0].message
+
+
+def test_phrase_library_may_not_hold_cues(write: WriteFn) -> None:
+    write("""
+phrases: {a: {cues: [{rest: 1}]}}
+cues: [{rest: 1}]
+""", "lib.yaml")
+    path = write(MINI + """
+include: [lib.yaml]
+tracks:
+  rex: [{phrase: a}]
+""")
+    assert any("holds phrases only" in d.message for d in errors(path))
+
+
+def test_duplicate_phrase_names_across_files(write: WriteFn) -> None:
+    write("phrases: {a: {cues: [{rest: 1}]}}\n", "lib.yaml")
+    path = write(MINI + """
+include: [lib.yaml]
+phrases: {a: {cues: [{rest: 2}]}}
+tracks:
+  rex: [{phrase: a}]
+""")
+    assert any("already defined" in d.message for d in errors(path))

@@ -52,3 +52,33 @@ def test_routine_starts_with_schema_modeline(path: Path) -> None:
                          ids=lambda p: p.name)
 def test_routine_loads(path: Path) -> None:
     load_show(path)
+
+
+DOC = ROOT / "docs" / "choreography.md"
+
+
+def _doc_routines() -> list[str]:
+    text = DOC.read_text(encoding="utf-8")
+    blocks = [b.split("```", 1)[0] for b in text.split("```yaml\n")[1:]]
+    return [b for b in blocks if "\nshow:" in f"\n{b}" and "tracks:" in b]
+
+
+def test_docs_have_complete_examples() -> None:
+    assert len(_doc_routines()) >= 2
+
+
+@pytest.mark.parametrize("text", _doc_routines(), ids=lambda t: t.split("show:", 1)[1][:20])
+def test_doc_examples_load(tmp_path: Path, text: str) -> None:
+    path = tmp_path / "example.yaml"
+    path.write_text(text, encoding="utf-8")
+    load_show(path)
+
+
+def test_doc_complete_example_is_the_shipped_solo() -> None:
+    solo = (ROOT / "choreographies" / "solo_mini_120bpm.yaml").read_text(encoding="utf-8")
+    example = _doc_routines()[-1]
+
+    def code(text: str) -> list[str]:
+        return [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+
+    assert code(solo) == code(example)

@@ -61,7 +61,7 @@ from xgo_show.profiles.xarm import degrees_to_position
 __all__ = ["MAX_CUES", "CueSource", "Resolution", "resolve_show"]
 
 _RESET_ACTION = 255
-MAX_CUES = 100_000  # a guard against repeat blocks that expand to absurd sizes
+MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
 _PARAM = re.compile(r"^(-?)\$([A-Za-z_][A-Za-z0-9_]*)$")
 
 
