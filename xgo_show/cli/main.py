@@ -18,7 +18,15 @@ from xgo_show.errors import XgoShowError
 __all__ = ["COMMANDS", "build_parser", "main"]
 
 # Module names under xgo_show.cli, in the order --help lists them.
-COMMANDS: tuple[str, ...] = ("probe", "simulate", "validate", "compile", "inspect", "run", "dry_run")
+COMMANDS: tuple[str, ...] = (
+    "probe",
+    "simulate",
+    "validate",
+    "compile",
+    "inspect",
+    "run",
+    "dry_run",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
