@@ -414,3 +414,16 @@ tracks:
   rex: [{phrase: a}]
 """)
     assert any("already defined" in d.message for d in errors(path))
+
+
+def test_unquoted_off_is_a_colour_and_unused_phrases_warn(write: WriteFn) -> None:
+    path = write(RIDER + """
+phrases:
+  spare: {cues: [{rest: 1}]}
+tracks:
+  bob: [{led: {all: off}}]
+""")
+    show = load_show(path)
+    (s,) = cues(show, "bob")
+    assert isinstance(s, SetCue) and s.values["led1"] == (0, 0, 0)
+    assert [w.message for w in show.warnings] == ["phrase 'spare' is never played"]

@@ -231,7 +231,7 @@ LengthField = Annotated[Length, PlainValidator(_parse_length), WithJsonSchema(_L
 # -- colours ----------------------------------------------------------------------------------
 
 Color = Annotated[
-    Union[str, list[int]],  # noqa: UP007
+    Union[str, list[int], bool],  # noqa: UP007  (bool: YAML reads "off" as false)
     WithJsonSchema(
         {
             "description": "A colour name (red, warm_white, off...), \"#rrggbb\" or [r, g, b].",

@@ -133,6 +133,7 @@ class _Resolver:
         self.count = 0
         self.too_many = False
         self.phrase_stack: list[str] = []
+        self.played: set[tuple[str, str]] = set()  # (file, phrase) actually played
 
     # -- diagnostics ----------------------------------------------------------------------
 
@@ -200,11 +201,10 @@ class _Resolver:
         performers: dict[str, _Performer] = {}
         for name, perf in show.performers.items():
             profile = get_profile(perf.model)
-            if perf.arm and profile.family != "xgo":
+            if perf.arm and not profile.supports("arm"):
                 self.error(doc, ("performers", name, "arm"),
-                           f"'arm: true' is for XGO dogs; a {perf.model} has no arm accessory")
-            if perf.arm and perf.model == "rider":
-                self.error(doc, ("performers", name, "arm"), "the XGO-Rider has no arm accessory")
+                           f"'arm: true' is for the XGO-Mini and XGO-Lite; the {profile.title} "
+                           "has no arm accessory")
             performers[name] = _Performer(name, perf, profile, _initial_state(profile))
         for name, cues in show.tracks.items():
             if name not in performers:
@@ -215,6 +215,9 @@ class _Resolver:
                 continue
             block = _Block(doc, ("tracks", name), 0.0, True, phrases, (Path(doc.file).resolve(),))
             self.sequence(performers[name], cues, block)
+        for phrase in phrases.values():
+            if (phrase.doc.file, phrase.name) not in self.played:
+                self.warning(phrase.doc, phrase.loc, f"phrase {phrase.name!r} is never played")
         for name in performers:
             if name not in show.tracks:
                 self.warning(doc, ("performers", name), f"performer {name!r} has no track")
@@ -355,6 +358,7 @@ class _Resolver:
             self.error(doc, (*loc, "phrase"), f"unknown phrase {cue.phrase!r}"
                        f"{did_you_mean(cue.phrase, names)}{listing}")
             return None
+        self.played.add((found.doc.file, found.name))
         if cue.phrase in self.phrase_stack:
             chain = " -> ".join([*self.phrase_stack, cue.phrase])
             self.error(doc, (*loc, "phrase"), f"phrase {cue.phrase!r} plays itself ({chain})")
@@ -389,8 +393,9 @@ class _Resolver:
         if parsed is None:
             return None
         here = doc.origin(loc)
+        where = f"line {here.line}" if here.file == found.doc.file else f"{here.file}:{here.line}"
         sub = _Block(found.doc, body_loc, start, False, block.phrases, block.includes,
-                     f"phrase {cue.phrase} at {here.file}:{here.line}:{here.column}")
+                     f"phrase {cue.phrase} at {where}")
         self.phrase_stack.append(cue.phrase)
         try:
             return self.sequence(perf, parsed.cues, sub)
