@@ -10,18 +10,29 @@ import pytest
 
 from xgo_show.choreo import load_show
 from xgo_show.choreo.model import PerformerModel
-from xgo_show.choreo.schema import choreography_json_schema
+from xgo_show.choreo.schema import choreography_json_schema, choreography_part_json_schema
 from xgo_show.profiles import MODELS
 
 ROOT = Path(__file__).resolve().parents[2]
 SCHEMA = ROOT / "schemas" / "choreography.schema.json"
+PART_SCHEMA = ROOT / "schemas" / "choreography-part.schema.json"
 ROUTINES = sorted((ROOT / "choreographies").rglob("*.yaml"))
 
 
-def test_committed_schema_is_current() -> None:
+def is_routine(path: Path) -> bool:
+    """A routine has a top-level ``show:``; anything else under choreographies/ is a part."""
+    return any(line.startswith("show:") for line in path.read_text(encoding="utf-8").splitlines())
+
+
+def test_committed_schemas_are_current() -> None:
     committed = json.loads(SCHEMA.read_text(encoding="utf-8"))
     assert committed == choreography_json_schema(), (
         "regenerate: python -m xgo_show.choreo.schema > schemas/choreography.schema.json"
+    )
+    part = json.loads(PART_SCHEMA.read_text(encoding="utf-8"))
+    assert part == choreography_part_json_schema(), (
+        "regenerate: python -m xgo_show.choreo.schema --part > "
+        "schemas/choreography-part.schema.json"
     )
 
 
@@ -42,14 +53,15 @@ def test_there_are_routines() -> None:
 
 
 @pytest.mark.parametrize("path", ROUTINES, ids=lambda p: p.name)
-def test_routine_starts_with_schema_modeline(path: Path) -> None:
+def test_yaml_file_starts_with_schema_modeline(path: Path) -> None:
     first = path.read_text(encoding="utf-8").split("\n", 1)[0]
-    rel = Path(os.path.relpath(SCHEMA, path.parent)).as_posix()
-    assert first == f"# yaml-language-server: $schema={rel}"
+    schema = SCHEMA if is_routine(path) else PART_SCHEMA
+    rel = Path(os.path.relpath(schema, path.parent)).as_posix()
+    want = f"# yaml-language-server: $schema={rel}"
+    assert first == want, f"{path.relative_to(ROOT)}: the first line must be {want!r}"
 
 
-@pytest.mark.parametrize("path", [p for p in ROUTINES if "parts" not in p.parts],
-                         ids=lambda p: p.name)
+@pytest.mark.parametrize("path", [p for p in ROUTINES if is_routine(p)], ids=lambda p: p.name)
 def test_routine_loads(path: Path) -> None:
     load_show(path)
 

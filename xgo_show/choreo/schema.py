@@ -1,8 +1,11 @@
-"""The JSON schema of routine files, generated from the pydantic models.
+"""The JSON schemas of routine files and included part files, from the pydantic models.
 
-Editors that speak the YAML language server use it through the modeline
-``# yaml-language-server: $schema=../schemas/choreography.schema.json``. Regenerate with
-``python -m xgo_show.choreo.schema > schemas/choreography.schema.json``.
+Editors that speak the YAML language server use them through a modeline on the first line:
+``# yaml-language-server: $schema=../schemas/choreography.schema.json`` for a routine, and
+``...$schema=../../schemas/choreography-part.schema.json`` for a part (an included file: a list
+of cues, or a mapping with phrases and cues). Regenerate with
+``python -m xgo_show.choreo.schema > schemas/choreography.schema.json`` and
+``python -m xgo_show.choreo.schema --part > schemas/choreography-part.schema.json``.
 """
 
 from __future__ import annotations
@@ -11,11 +14,20 @@ import json
 import sys
 from typing import Any
 
-from xgo_show.choreo.model import ShowFile
+from pydantic import TypeAdapter
 
-__all__ = ["SCHEMA_ID", "choreography_json_schema", "main"]
+from xgo_show.choreo.model import CueModel, PartMapping, ShowFile
+
+__all__ = [
+    "PART_SCHEMA_ID",
+    "SCHEMA_ID",
+    "choreography_json_schema",
+    "choreography_part_json_schema",
+    "main",
+]
 
 SCHEMA_ID = "https://xgo-show.invalid/schemas/choreography.schema.json"
+PART_SCHEMA_ID = "https://xgo-show.invalid/schemas/choreography-part.schema.json"
 
 
 def choreography_json_schema() -> dict[str, Any]:
@@ -27,8 +39,25 @@ def choreography_json_schema() -> dict[str, Any]:
     return schema
 
 
-def main() -> int:
-    json.dump(choreography_json_schema(), sys.stdout, indent=2, sort_keys=True)
+def choreography_part_json_schema() -> dict[str, Any]:
+    """The JSON schema of an included part file: a list of cues, or phrases and cues."""
+    adapter: TypeAdapter[list[CueModel] | PartMapping] = TypeAdapter(
+        list[CueModel] | PartMapping
+    )
+    schema = adapter.json_schema()
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["$id"] = PART_SCHEMA_ID
+    schema["title"] = "xgo-show routine part (included file)"
+    return schema
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    if args not in ([], ["--part"]):
+        print("usage: python -m xgo_show.choreo.schema [--part]", file=sys.stderr)
+        return 2
+    schema = choreography_part_json_schema() if args else choreography_json_schema()
+    json.dump(schema, sys.stdout, indent=2, sort_keys=True)
     sys.stdout.write("\n")
     return 0
 
