@@ -14,6 +14,8 @@ from collections.abc import Iterator
 
 import pytest
 
+pytest_plugins = ["pytester"]  # lets tests/test_thread_leak_check.py run this check itself
+
 # A thread that is shutting down as the test ends gets this long to finish.
 _GRACE_S = 1.0
 
