@@ -16,8 +16,10 @@ than a separate frame would (8 bytes of frame overhead plus the silence between 
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
 from xgo_show.compiler.layout import Layout
@@ -31,7 +33,7 @@ from xgo_show.compiler.trajectory import (
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProfileError, ProtocolError
 from xgo_show.profiles.model import Encoding, Limits, Link, Register
-from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, write_frame
+from xgo_show.wire.xgo import MAX_DATA, write_frame
 
 __all__ = [
     "PlannedFrame",
@@ -44,6 +46,7 @@ __all__ = [
 ]
 
 ACTION_REGISTER = "action"
+BYTES = tuple(bytes((i,)) for i in range(256))
 RESET_ACTION = 255  # restores the default posture (Profile.default_posture)
 _EPS = 1e-9
 
@@ -63,8 +66,7 @@ def first_tick(t: float, rate: float) -> int:
     return math.ceil(t * rate - _EPS)
 
 
-@dataclass(frozen=True)
-class Write:
+class Write(NamedTuple):
     """One register's bytes to send at ``t_us``."""
 
     t_us: int
@@ -76,8 +78,7 @@ class Write:
     duration: float = 0.0  # seconds a preset action runs
 
 
-@dataclass(frozen=True)
-class PlannedFrame:
+class PlannedFrame(NamedTuple):
     """A frame at its planned time, before pacing."""
 
     t_us: int
@@ -121,63 +122,87 @@ def merge_writes(
     (:meth:`Layout.can_fill`) and are known can fill a gap between two runs. Filling ``n``
     bytes is chosen when it takes less link time than a separate frame (8 bytes + ``gap``).
     """
-    ordered = sorted(writes, key=lambda w: w.address)
+    ordered = sorted(writes, key=_address)
     if not ordered:
         return []
-    frame_cost = _link_cost_us(link, MIN_LENGTH) + gap * 1_000_000
-    runs: list[list[tuple[int, bytes, Write | None]]] = [[(ordered[0].address, ordered[0].data,
-                                                           ordered[0])]]
-    run_len = len(ordered[0].data)
+    frame_cost = layout.frame_cost_us(link, gap)
+    first = ordered[0]
+    runs: list[list[tuple[int, bytes, Write | None]]] = [[(first.address, first.data, first)]]
+    run_len = len(first.data)
+    last_addr = first.address
     for w in ordered[1:]:
-        run = runs[-1]
-        last_addr = run[-1][0]
-        filler = _filler(layout, last_addr, w.address, known)
-        if filler is not None:
+        addr = w.address
+        if addr == last_addr + 1 and run_len + len(w.data) <= MAX_DATA:
+            runs[-1].append((addr, w.data, w))
+            run_len += len(w.data)
+            last_addr = addr
+            continue
+        filler = _filler(layout, last_addr, addr, known)
+        if filler:
             extra = sum(len(d) for _, d in filler)
-            fits = run_len + extra + len(w.data) <= MAX_DATA
-            if fits and (not filler or _link_cost_us(link, extra) < frame_cost):
+            if (
+                run_len + extra + len(w.data) <= MAX_DATA
+                and _link_cost_us(link, extra) < frame_cost
+            ):
+                run = runs[-1]
                 run.extend((a, d, None) for a, d in filler)
-                run.append((w.address, w.data, w))
+                run.append((addr, w.data, w))
                 run_len += extra + len(w.data)
+                last_addr = addr
                 continue
-        runs.append([(w.address, w.data, w)])
+        runs.append([(addr, w.data, w)])
         run_len = len(w.data)
+        last_addr = addr
     frames: list[PlannedFrame] = []
+    write_type = layout.profile.write_type
+    walk = layout.walk
+    new = tuple.__new__
     for run in runs:
         address = run[0][0]
-        data = b"".join(d for _, d, _ in run)
-        if layout.walk(address, len(data)) is None:
+        fields = tuple([(a, d) for a, d, _ in run])
+        data = b"".join([d for _, d in fields])
+        if walk(address, len(data)) is None:
             raise ProfileError(
                 f"{layout.profile.model}: {len(data)} bytes at 0x{address:02X} do not match the "
                 "register layout"
             )
-        written = tuple(w for _, _, w in run if w is not None)
-        first = min(written, key=lambda w: (w.order, w.address))
-        frames.append(
-            PlannedFrame(
-                t_us=t_us,
-                data=write_frame(address, data, write_type=layout.profile.write_type),
-                fields=tuple((a, d) for a, d, _ in run),
-                written=written,
-                origin=first.origin,
-                order=first.order,
-                droppable=all(w.sample for w in written),
-                action=action_address is not None
-                and any(w.address == action_address for w in written),
-                duration=max(w.duration for w in written),
-            )
-        )
-    frames.sort(key=lambda f: (f.order, f.fields[0][0]))
+        written = tuple([w for _, _, w in run if w is not None])
+        lead = written[0]
+        droppable, action, duration = True, False, 0.0
+        for w in written:
+            if w.order < lead.order:
+                lead = w
+            if not w.sample:
+                droppable = False
+                if w.address == action_address:
+                    action = True
+                if w.duration > duration:
+                    duration = w.duration
+        frames.append(new(PlannedFrame, (
+            t_us, write_frame(address, data, write_type=write_type), fields, written,
+            lead.origin, lead.order, droppable, action, duration,
+        )))
+    if len(frames) > 1:
+        frames.sort(key=_frame_order)
     return frames
+
+
+def _frame_order(f: PlannedFrame) -> tuple[int, int]:
+    return (f.order, f.fields[0][0])
+
+
+def _address(w: Write) -> int:
+    return w.address
+
+
+def _order(w: Write) -> int:
+    return w.order
 
 
 def _filler(
     layout: Layout, last: int, nxt: int, known: Mapping[int, bytes]
 ) -> list[tuple[int, bytes]] | None:
-    """The known fields strictly between ``last`` and ``nxt``, or None if the gap can't be filled.
-
-    An empty list means the two are adjacent.
-    """
+    """The known fields strictly between ``last`` and ``nxt``; None if the gap can't be filled."""
     out: list[tuple[int, bytes]] = []
     for addr in range(last + 1, nxt):
         reg = layout.by_address.get(addr)
@@ -415,20 +440,26 @@ class _XgoPlanner:
         ]
         targets = plan.targets
         last = max(stops, default=k0 - 1)
-        traj = plan.trajectory
-        regs = run.regs
-        dofs = range(len(regs))
+        at_time = plan.trajectory.at_time
+        start = plan.start
+        tables = [self.layout.byte_table(reg) for reg in run.regs]
+        # The table lookup inlined (the hot loop of the compiler): in range, the byte is
+        # base + bisect; out of range, Register.to_byte raises the usual error.
+        spec = [(reg.address, t.lo, t.hi, t.base, t.thresholds, t) for reg, t in
+                zip(run.regs, tables, strict=True)]
+        origin, order = run.origin, run.order
+        get_list = self.ticks.setdefault
+        new = tuple.__new__
         for k in range(k0, last + 1):
-            pos = targets if k >= k_end else traj.at_time(max(k / rate - plan.start, 0.0))[0]
+            pos = targets if k >= k_end else at_time(max(k / rate - start, 0.0))[0]
             t_us = tick_us(k, rate)
-            for i in dofs:
+            bucket = get_list(t_us, [])
+            for i, (address, lo, hi, base, thresholds, table) in enumerate(spec):
                 if k > stops[i]:
                     continue
-                reg = regs[i]
-                byte = reg.to_byte(pos[i])
-                self._emit(
-                    Write(t_us, reg.address, bytes((byte,)), run.origin, run.order, True)
-                )
+                x = pos[i]
+                byte = base + bisect_right(thresholds, x) if lo <= x <= hi else table(x)
+                bucket.append(new(Write, (t_us, address, BYTES[byte], origin, order, True, 0.0)))
 
 
 def _frames_from_ticks(
@@ -450,10 +481,13 @@ def _frames_from_ticks(
     frames: list[PlannedFrame] = []
     samples = 0
     for t_us in sorted(ticks):
-        chosen: dict[int, Write] = {}
-        for w in sorted(ticks[t_us], key=lambda w: w.order):  # stable: emit order breaks ties
-            chosen[w.address] = w
-        keep = [w for a, w in chosen.items() if not (w.sample and sent.get(a) == w.data)]
+        bucket = ticks[t_us]
+        if len(bucket) > 1:
+            chosen: dict[int, Write] = {}
+            for w in sorted(bucket, key=_order):  # stable: emit order breaks ties
+                chosen[w.address] = w
+            bucket = list(chosen.values())
+        keep = [w for w in bucket if not (w.sample and sent.get(w.address) == w.data)]
         if not keep:
             continue
         tick_frames = merge_writes(layout, link, gap, t_us, keep, known,

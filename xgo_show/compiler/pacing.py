@@ -73,51 +73,56 @@ def pace(
     values are simply superseded by later samples.
     """
     result = PaceResult([])
-    # Heap of (planned us, class, sequence, frame); class 1 = re-sent pending values, after the
-    # planned frames of the same microsecond.
-    heap: list[tuple[int, int, int, PlannedFrame | None]] = [
-        (f.t_us, 0, i, f) for i, f in enumerate(frames)
-    ]
-    heapq.heapify(heap)
-    seq = len(frames)
+    out = result.frames
+    # Re-sends of pending values, as (planned us, sequence): they go after the planned frames
+    # of the same microsecond, so a fresher sample supersedes them first.
+    flushes: list[tuple[int, int]] = []
+    seq = 0
     pending: dict[int, Write] = {}
-    flush_queued = False
-    free_us: int | None = None  # when the link may start the next frame
+    free_us = -(1 << 62)  # when the link may start the next frame
     half = period_us // 2
-    while heap:
-        t_us, klass, _, frame = heapq.heappop(heap)
-        batch: list[PlannedFrame]
-        if frame is None:
-            flush_queued = False
-            if not pending or remerge is None:
-                continue
-            batch = remerge(t_us, [pending[a] for a in sorted(pending)])
-            pending.clear()
-        else:
-            batch = [frame]
-        for f in batch:
-            start = t_us if free_us is None else max(t_us, free_us)
-            late_by = start - t_us
-            if decimate and f.droppable and late_by > half:
-                if klass == 0:
-                    result.dropped += 1
-                    if result.first_drop_us is None:
-                        result.first_drop_us = t_us
-                for w in f.written:
-                    pending[w.address] = w
-                continue
-            paced = Paced(start, f)
-            result.frames.append(paced)
-            if late_by > period_us:
-                result.late.append(paced)
-            free_us = start + wire_us(link, len(f.data)) + gap_us
+    bits, baud = link.bits_per_byte * 1_000_000, link.baud
+
+    def send(f: PlannedFrame, t_us: int, planned: bool) -> None:
+        nonlocal free_us, seq
+        start = t_us if t_us > free_us else free_us
+        late_by = start - t_us
+        if decimate and f.droppable and late_by > half:
+            if planned:
+                result.dropped += 1
+                if result.first_drop_us is None:
+                    result.first_drop_us = t_us
+            for w in f.written:
+                pending[w.address] = w
+            if remerge is not None and not flushes:
+                heapq.heappush(flushes, (t_us + period_us, seq))
+                seq += 1
+            return
+        paced = Paced(start, f)
+        out.append(paced)
+        if late_by > period_us:
+            result.late.append(paced)
+        free_us = start + -(-len(f.data) * bits // baud) + gap_us
+        if pending:
             if f.action:
                 pending.clear()
             else:
                 for address, _ in f.fields:
                     pending.pop(address, None)
-        if pending and not flush_queued and remerge is not None:
-            heapq.heappush(heap, (t_us + period_us, 1, seq, None))
-            seq += 1
-            flush_queued = True
+
+    def flush_until(limit: int | None) -> None:
+        while flushes and (limit is None or flushes[0][0] < limit):
+            t_us, _ = heapq.heappop(flushes)
+            if not pending or remerge is None:
+                continue
+            batch = remerge(t_us, [pending[a] for a in sorted(pending)])
+            pending.clear()
+            for f in batch:
+                send(f, t_us, False)
+
+    for frame in frames:
+        if flushes:
+            flush_until(frame.t_us)
+        send(frame, frame.t_us, True)
+    flush_until(None)
     return result

@@ -35,6 +35,7 @@ __all__ = [
 
 ACTION_KEY = "action"
 _LAYOUTS: dict[str, Layout] = {}
+_FIELD_LABELS: dict[tuple[str, int, bytes], str] = {}
 
 
 def layout_of(profile: Profile) -> Layout:
@@ -131,6 +132,17 @@ def format_value(profile: Profile, name: str, value: object) -> str:
 def format_fields(profile: Profile, fields: Sequence[tuple[str, object]]) -> str:
     """``name=value`` pairs joined by spaces, e.g. ``body_z=98.0mm pitch=5.0deg``."""
     return " ".join(f"{name}={format_value(profile, name, value)}" for name, value in fields)
+
+
+def field_label(profile: Profile, address: int, raw: bytes) -> str:
+    """``name=value`` of one field (cached): the piece :func:`format_fields` builds labels of."""
+    key = (profile.model, address, raw)
+    text = _FIELD_LABELS.get(key)
+    if text is None:
+        reg = layout_of(profile).by_address[address]
+        text = f"{reg.name}={format_value(profile, reg.name, decode_value(reg, raw))}"
+        _FIELD_LABELS[key] = text
+    return text
 
 
 def state_at(performer: PerformerSchedule, t: float) -> dict[str, bytes]:
