@@ -1,0 +1,66 @@
+"""Bytes on the wire: the compiler's merged, de-duplicated frames vs one register per frame.
+
+The vendor library writes every register as its own frame (8 bytes of framing + data) each
+time it is set, and a script animating a pose sets every moving register every tick. For the
+benchmark show of ``compile_speed.py`` (continuous moves on several registers, Rider LED fades)
+this counts what that costs (each moving register / LED: one frame per control tick for the
+length of its cue) and what the compiled schedule sends. Prints figures only (no asserts).
+Usage::
+
+    python benchmarks/wire_bytes.py [--minutes 2] [--performers 10] [--rate 50]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+
+from compile_speed import build_show
+
+from xgo_show.choreo.resolved import FadeCue, MotionCue, ResolvedShow
+from xgo_show.compiler import compile_show
+from xgo_show.profiles import get_profile
+from xgo_show.wire.xgo import MIN_LENGTH
+
+
+def one_register_per_frame(show: ResolvedShow) -> int:
+    """Bytes when each moving register goes out in its own frame on every tick of its cue."""
+    total = 0
+    for track in show.tracks:
+        profile = get_profile(track.model)
+        for cue in track.cues:
+            if isinstance(cue, MotionCue):
+                assert cue.duration is not None
+                ticks = math.ceil(cue.duration * show.control_rate) + 1
+                total += ticks * sum(
+                    MIN_LENGTH + profile.register(name).size for name in cue.targets
+                )
+            elif isinstance(cue, FadeCue):
+                ticks = math.ceil(cue.duration * show.control_rate) + 1
+                total += ticks * (MIN_LENGTH + profile.register(cue.register).size)
+    return total
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--minutes", type=float, default=2.0)
+    parser.add_argument("--performers", type=int, default=10)
+    parser.add_argument("--rate", type=float, default=50.0)
+    args = parser.parse_args()
+    show = build_show(args.minutes, args.performers, args.rate)
+    schedule = compile_show(show)
+    ours = sum(p.total_bytes for p in schedule.performers)
+    frames = sum(len(p.frames) for p in schedule.performers)
+    vendor = one_register_per_frame(show)
+    print(f"show: {args.performers} performers, {args.minutes:g} min, {args.rate:g} Hz")
+    print(f"one register per frame, every tick: {vendor:,} bytes")
+    print(f"compiled schedule:                   {ours:,} bytes in {frames:,} frames")
+    print(f"ratio: {ours / vendor:.3f}  (target <= 0.6)")
+
+
+if __name__ == "__main__":
+    main()
