@@ -427,3 +427,11 @@ tracks:
     (s,) = cues(show, "bob")
     assert isinstance(s, SetCue) and s.values["led1"] == (0, 0, 0)
     assert [w.message for w in show.warnings] == ["phrase 'spare' is never played"]
+
+
+def test_include_name_with_nul_is_an_error(write: WriteFn) -> None:
+    path = write(MINI + """
+tracks:
+  rex: [{include: "a\\0b"}]
+""")
+    assert any("cannot include" in d.message for d in errors(path))

@@ -82,3 +82,8 @@ def test_unreadable_files(tmp_path: Path) -> None:
 def test_format_path() -> None:
     assert format_path(("tracks", "rex", 3, "move", "body_z")) == "tracks.rex[3].move.body_z"
     assert format_path((1, "a")) == "[1].a"
+
+
+def test_absurd_nesting_is_an_error_not_a_crash() -> None:
+    _, errors = parse_yaml("a: " + "[" * 20000 + "]" * 20000, "f")
+    assert [e.message for e in errors] == ["the YAML is nested too deeply"]

@@ -16,7 +16,7 @@ from xgo_show.choreo.resolve import resolve_show
 from xgo_show.choreo.resolved import ResolvedShow
 from xgo_show.choreo.source import read_yaml
 from xgo_show.choreo.validation import validate
-from xgo_show.diagnostics import Diagnostic
+from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ChoreographyError, CompileError
 
 __all__ = ["check_file", "load_show", "validate_file"]
@@ -40,6 +40,14 @@ def _sorted(diags: list[Diagnostic]) -> list[Diagnostic]:
 
 def check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]]:
     """Parse, validate, resolve and check ``path``: the show (if no errors) and all findings."""
+    try:
+        return _check_file(path)
+    except RecursionError:  # absurdly nested repeats/phrases/includes
+        return None, [Diagnostic("error", "the routine is nested too deeply", Origin(
+            str(path), 1, 1))]
+
+
+def _check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]]:
     doc, diags = read_yaml(Path(path), str(path))
     if diags:
         return None, _sorted(diags)

@@ -58,10 +58,11 @@ from xgo_show.errors import ProfileError, ValueRangeError
 from xgo_show.profiles import Encoding, Limits, Profile, get_profile
 from xgo_show.profiles.xarm import degrees_to_position
 
-__all__ = ["MAX_CUES", "CueSource", "Resolution", "resolve_show"]
+__all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "min_duration", "resolve_show"]
 
 _RESET_ACTION = 255
 MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
+MAX_SECONDS = 3600.0  # a show longer than an hour is a typo (or needs splitting)
 _PARAM = re.compile(r"^(-?)\$([A-Za-z_][A-Za-z0-9_]*)$")
 
 
@@ -315,9 +316,21 @@ class _Resolver:
             elif after is not None:
                 gap = self.length(after, cursor, block.doc, (*loc, "after"))
                 start = cursor + (gap or 0.0)
+            if start > MAX_SECONDS:
+                self.too_long(block.doc, loc, start)
+                break
             end = self.dispatch(perf, kind, cue, start, block, loc)
             cursor = start if end is None else end
+            if cursor > MAX_SECONDS:
+                self.too_long(block.doc, loc, cursor)
+                break
         return cursor
+
+    def too_long(self, doc: Document, loc: Loc, t: float) -> None:
+        if not self.too_many:
+            self.error(doc, loc, f"this cue ends at {t:g} s: a show lasts at most "
+                       f"{MAX_SECONDS:g} s (check durations and repeat counts)")
+        self.too_many = True
 
     def dispatch(
         self, perf: _Performer, kind: str, cue: object, start: float, block: _Block, loc: Loc
@@ -459,7 +472,11 @@ class _Resolver:
         self, name: str, doc: Document, loc: Loc, stack: tuple[Path, ...]
     ) -> tuple[Document, PartMapping | CueList, Path] | None:
         """Read, parse and validate an included file (once; later uses hit the cache)."""
-        path = (Path(doc.file).parent / name).resolve()
+        try:
+            path = (Path(doc.file).parent / name).resolve()
+        except (OSError, ValueError) as exc:  # a NUL in the name, a symlink loop, ...
+            self.error(doc, loc, f"cannot include {name!r}: {exc}")
+            return None
         if path in stack:
             chain = " -> ".join(p.name for p in (*stack, path))
             self.error(doc, loc, f"include cycle: {chain}")

@@ -159,6 +159,8 @@ def parse_yaml(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
     doc = Document(file, None)
     try:
         nodes = list(yaml.compose_all(text, Loader=yaml.SafeLoader))
+    except RecursionError:
+        return doc, [_too_deep(file)]
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
@@ -173,8 +175,15 @@ def parse_yaml(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         origin = Origin(file, mark.line + 1, mark.column + 1)
         return doc, [Diagnostic("error", "one YAML document per file, found several", origin)]
     builder = _Builder(doc)
-    doc.data = builder.build(nodes[0], ())
+    try:
+        doc.data = builder.build(nodes[0], ())
+    except RecursionError:
+        return Document(file, None), [_too_deep(file)]
     return doc, builder.errors
+
+
+def _too_deep(file: str) -> Diagnostic:
+    return Diagnostic("error", "the YAML is nested too deeply", Origin(file, 1, 1))
 
 
 def read_text(path: Path) -> str | tuple[str]:
@@ -189,6 +198,8 @@ def read_text(path: Path) -> str | tuple[str]:
         return (f"not UTF-8 text (byte {exc.start})",)
     except OSError as exc:
         return (f"cannot read: {exc.strerror or exc}",)
+    except ValueError as exc:  # e.g. a NUL character in the path
+        return (f"cannot read: {exc}",)
 
 
 def read_yaml(path: Path, file: str | None = None) -> tuple[Document, list[Diagnostic]]:

@@ -140,8 +140,19 @@ def _message(err: Any, root: type[BaseModel]) -> str:
                 "less_than_equal", "too_short", "too_long", "string_pattern_mismatch"):
         return f"{msg}, not {_describe(err['input'])}"
     if kind.endswith("_type") or kind.endswith("_parsing"):
-        return f"{msg}, not {_describe(err['input'])}"
+        hint = ""
+        if isinstance(err["input"], str) and _looks_numeric(err["input"]):
+            hint = " (YAML reads 1e3 as text: write 1.0e+3 or 1000)"
+        return f"{msg}, not {_describe(err['input'])}{hint}"
     return msg
+
+
+def _looks_numeric(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 _COMMON_FIELDS = frozenset(
