@@ -90,6 +90,19 @@ def test_probe_unopenable_port_is_one_line_exit_2(capsys: pytest.CaptureFixture[
     )
 
 
+def test_probe_silent_port_with_model(capsys: pytest.CaptureFixture[str]) -> None:
+    master, slave = os.openpty()
+    path = os.ttyname(slave)
+    try:
+        assert main(["probe", path, "--model", "xarm", "--timeout", "0.1"]) == 2
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert capsys.readouterr().err == (
+        f"xgo-show: error: no reply from {path} to a GetBatteryVoltage within 0.1 s\n"
+    )
+
+
 def test_probe_bad_timeout(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["probe", "sim:mini", "--timeout", "0"]) == 2
     assert "--timeout must be a positive" in capsys.readouterr().err
@@ -110,6 +123,7 @@ def test_probe_error_from_a_real_process_has_no_traceback() -> None:
 
 
 def test_probe_silent_port_is_a_one_line_timeout(capsys: pytest.CaptureFixture[str]) -> None:
+    # Without --model the probe asks for the XGO firmware string, which an xArm never sends.
     master, slave = os.openpty()  # nobody answers on the other end
     path = os.ttyname(slave)
     try:
@@ -118,5 +132,6 @@ def test_probe_silent_port_is_a_one_line_timeout(capsys: pytest.CaptureFixture[s
         os.close(master)
         os.close(slave)
     assert capsys.readouterr().err == (
-        f"xgo-show: error: no reply from {path} to a read of firmware (0x07) within 0.1 s\n"
+        f"xgo-show: error: no reply from {path} to a read of firmware (0x07) within 0.1 s "
+        "(for an xArm, give the model xarm)\n"
     )

@@ -6,7 +6,7 @@ from typing import Any
 
 from xgo_show.client.xarm import XarmClient
 from xgo_show.client.xgo import DEFAULT_TIMEOUT, XgoClient
-from xgo_show.errors import ProfileError
+from xgo_show.errors import ProfileError, TransportTimeout
 from xgo_show.profiles import get_profile, model_from_firmware
 from xgo_show.transports import open_transport, split_wrappers
 from xgo_show.transports.base import Transport
@@ -69,7 +69,11 @@ def model_hint(url: str) -> str | None:
 def _identify(transport: Transport, url: str, timeout: float) -> str:
     # Any XGO profile will do for reading the firmware register: it is 0x07 on every model.
     reader = XgoClient(transport, get_profile("mini"), timeout=timeout)
-    raw = reader.read(_XGO_FIRMWARE, 10)
+    try:
+        raw = reader.read(_XGO_FIRMWARE, 10)
+    except TransportTimeout as exc:
+        # Only XGO robots have a firmware register; an xArm stays silent.
+        raise TransportTimeout(f"{exc} (for an xArm, give the model xarm)") from exc
     firmware = raw.split(b"\0", 1)[0].decode("ascii", errors="replace")
     found = model_from_firmware(firmware)
     if found is None:
