@@ -76,6 +76,25 @@ def test_probe_over_a_simulated_pty(capsys: pytest.CaptureFixture[str]) -> None:
     assert "battery   42 %\n" in out
 
 
+def test_probe_a_simulate_process_as_in_the_readme(capsys: pytest.CaptureFixture[str]) -> None:
+    sim = subprocess.Popen(
+        [sys.executable, "-m", "xgo_show", "simulate", "--model", "rider", "--battery", "64"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    try:
+        assert sim.stdout is not None
+        path = sim.stdout.readline().strip()
+        assert main(["probe", path, "--timeout", "2"]) == 0
+    finally:
+        sim.terminate()
+        sim.wait(timeout=30)
+    out = capsys.readouterr().out
+    assert "model     rider (from firmware)\n" in out
+    assert "battery   64 %\n" in out
+
+
 def test_probe_given_model_that_firmware_contradicts(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["probe", "sim:lite", "--model", "mini"]) == 0
     assert "model     mini (given; the firmware names a lite)" in capsys.readouterr().out
