@@ -44,17 +44,18 @@ ROBOTS = 4
 
 @dataclass
 class Sims:
-    proc: subprocess.Popen[str]
+    procs: list[subprocess.Popen[str]]
     paths: list[str]
     records: list[Path]
     priority: str
 
 
-def serve_sims(tmp: Path, count: int) -> None:
-    """Child process: serve ``count`` simulators on ptys until stdin closes.
+def serve_sim(record: Path) -> None:
+    """Child process: serve one simulator on a pty until stdin closes.
 
-    The simulators stand in for robots' UARTs, which are never late: they ask for SCHED_FIFO so
-    that the measurement is not the simulator waiting for a CPU.
+    The simulator stands in for a robot's UART, which is never late: it asks for SCHED_FIFO so
+    that the measurement is not the simulator waiting for a CPU, and has a process (and a GIL)
+    of its own.
     """
     from xgo_show.sim import PtyServer, create_robot
 
@@ -63,35 +64,38 @@ def serve_sims(tmp: Path, count: int) -> None:
         priority = "SCHED_FIFO"
     except (AttributeError, OSError):
         priority = "normal"
-    servers = [
-        PtyServer(create_robot(MODEL), record=tmp / f"robot{i}.jsonl").start()
-        for i in range(count)
-    ]
-    print(priority, *(s.path for s in servers), flush=True)
-    sys.stdin.read()
-    for server in servers:
-        server.close()
+    with PtyServer(create_robot(MODEL), record=record) as server:
+        print(priority, server.path, flush=True)
+        sys.stdin.read()
 
 
 def start_sims(tmp: Path) -> Sims:
-    proc = subprocess.Popen(
-        [sys.executable, __file__, "--serve-sims", str(tmp)],
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        text=True,
-    )
-    assert proc.stdout is not None
-    words = proc.stdout.readline().split()
-    if len(words) != ROBOTS + 1:
-        raise SystemExit(f"simulators did not start: {words!r}")
-    records = [tmp / f"robot{i}.jsonl" for i in range(ROBOTS)]
-    return Sims(proc, words[1:], records, words[0])
+    procs, paths, records, priority = [], [], [], ""
+    for i in range(ROBOTS):
+        record = tmp / f"robot{i}.jsonl"
+        proc = subprocess.Popen(
+            [sys.executable, __file__, "--serve-sim", str(record)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert proc.stdout is not None
+        words = proc.stdout.readline().split()
+        if len(words) != 2:
+            raise SystemExit(f"simulator {i} did not start: {words!r}")
+        priority = words[0]
+        procs.append(proc)
+        paths.append(words[1])
+        records.append(record)
+    return Sims(procs, paths, records, priority)
 
 
 def stop_sims(sims: Sims) -> None:
-    assert sims.proc.stdin is not None
-    sims.proc.stdin.close()
-    sims.proc.wait(10)
+    for proc in sims.procs:
+        assert proc.stdin is not None
+        proc.stdin.close()
+    for proc in sims.procs:
+        proc.wait(10)
 
 
 def make_schedule(seconds: float, rate: float) -> Schedule:
@@ -199,10 +203,10 @@ def main() -> None:
         action="store_true",
         help="ask SCHED_FIFO for this process (both the runtime and the naive loop get it)",
     )
-    parser.add_argument("--serve-sims", metavar="DIR", help=argparse.SUPPRESS)
+    parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    if args.serve_sims:
-        serve_sims(Path(args.serve_sims), ROBOTS)
+    if args.serve_sim:
+        serve_sim(Path(args.serve_sim))
         return
     realtime = request_realtime() if args.realtime else "normal priority"
 
@@ -218,7 +222,7 @@ def main() -> None:
                 links[perf.name] = open_transport(path, baudrate=perf.link.baud)
                 links[perf.name].open()
             print(
-                f"{ROBOTS} simulated {MODEL}s on ptys ({sims.priority} simulator process), "
+                f"{ROBOTS} simulated {MODEL}s on ptys ({sims.priority} simulator processes), "
                 f"{args.rate:g} frames/s each for {args.seconds:g} s; CPU load: "
                 f"{'none' if busy is None else '1 busy process'}; {os.cpu_count()} CPUs; "
                 f"this process: {realtime}"

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from xgo_show.compiler.schedule import PerformerSchedule
 from xgo_show.errors import TransportError, XgoShowError
 from xgo_show.profiles.model import Profile
-from xgo_show.runtime.clock import Clock
+from xgo_show.runtime.clock import Clock, tighten_timer_slack
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryPoller, TelemetrySample
@@ -330,6 +330,7 @@ class PerformerExecutor:
         return self.stop_result
 
     def _run_guarded(self, start_at: float, offset: float) -> None:
+        tighten_timer_slack()
         try:
             self._run(start_at, offset)
         except (TransportError, OSError) as exc:
