@@ -372,7 +372,7 @@ class _XgoPlanner:
         for name in cue.targets:
             reg = self.layout.register(name)
             lim = cue.limits.get(name, reg.limits)
-            if lim is None or not reg.linear or reg.size != 1:
+            if lim is None or reg.encoding is not Encoding.U8 or not reg.linear or reg.size != 1:
                 diag.error(
                     cue.origin, f"{cue_label(cue.origin)}: {name} cannot follow a trajectory"
                 )

@@ -94,13 +94,17 @@ def _draw_xgo(ax: Any, profile: Profile, performer: PerformerSchedule, end: floa
         for i, (t, rgb) in enumerate(points):
             t_next = points[i + 1][0] if i + 1 < len(points) else end
             ax.add_patch(_colour_bar(ax, t, t_next - t, y, rgb))
-        ax.annotate(name, (0, y), xycoords=("data", "axes fraction"), fontsize=6,
-                    xytext=(2, 1), textcoords="offset points")
+        ax.annotate(name, (1.0, y + 0.017), xycoords="axes fraction", fontsize=7,
+                    xytext=(3, 0), textcoords="offset points", va="center")
     for t, text in marks:
         ax.axvline(t, color="grey", linewidth=0.6, linestyle=":")
         ax.annotate(text, (t, 0.0), xycoords=("data", "axes fraction"), rotation=90,
                     fontsize=6, xytext=(2, 4), textcoords="offset points", color="dimgrey",
                     va="bottom")
+    if colours:
+        # Room under the curves for the colour strips.
+        low, high = ax.get_ylim()
+        ax.set_ylim(low - (high - low) * 0.06 * (len(colours) + 1), high)
     if series:
         ax.legend(loc="upper right", fontsize=7, ncol=min(len(series), 4))
     ax.set_ylabel("physical value")
