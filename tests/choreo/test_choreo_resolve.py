@@ -435,3 +435,14 @@ tracks:
   rex: [{include: "a\\0b"}]
 """)
     assert any("cannot include" in d.message for d in errors(path))
+
+
+def test_cue_after_the_explicit_end_warns(write: WriteFn) -> None:
+    path = write(MINI + """
+settings: {end: 2}
+tracks:
+  rex: [{action: stand_up}]
+""")
+    show = load_show(path)
+    assert show.end == 2.0
+    assert any("after the show's end" in w.message for w in show.warnings)

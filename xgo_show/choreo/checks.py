@@ -8,6 +8,7 @@ check in the package); this module only decides *which* check applies and words 
 
 from __future__ import annotations
 
+import bisect
 from collections import defaultdict
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -224,18 +225,18 @@ class _Checker:
         self.check_periodic(cues, by_reg)
 
     def check_actions(self, cues: tuple[Cue, ...], profile: Profile) -> None:
+        starts = [c.start for c in cues]  # the track is sorted by start time
         for i, act in enumerate(cues):
             if not isinstance(act, ActionCue):
                 continue
             asrc = self.res.source(act)
             busy_until = act.start + max(asrc.running, 0.0)
-            for j, other in enumerate(cues):
+            first = bisect.bisect_left(starts, act.start - _EPS)
+            last = bisect.bisect_left(starts, busy_until - _EPS)
+            for j in range(first, last):
+                other = cues[j]
                 # A cue at the very same time but earlier in the track is sent first: fine.
-                if j <= i and other.start <= act.start + _EPS:
-                    continue
-                if other.start < act.start - _EPS:
-                    continue
-                if other.start >= busy_until - _EPS:
+                if j <= i:
                     continue
                 if not self.is_motion(other, profile):
                     continue

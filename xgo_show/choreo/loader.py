@@ -17,7 +17,7 @@ from xgo_show.choreo.resolved import ResolvedShow
 from xgo_show.choreo.source import read_yaml
 from xgo_show.choreo.validation import validate
 from xgo_show.diagnostics import Diagnostic, Origin
-from xgo_show.errors import ChoreographyError, CompileError
+from xgo_show.errors import ChoreographyError, CompileError, XgoShowError
 
 __all__ = ["check_file", "load_show", "validate_file"]
 
@@ -107,4 +107,6 @@ def validate_file(path: str | Path) -> list[Diagnostic]:
         if not extra:
             extra = [Diagnostic("error", str(exc))]
         return _sorted(diags + extra)
+    except XgoShowError as exc:  # any other user-facing failure of the compiler: one line
+        return _sorted([*diags, Diagnostic("error", f"compiler: {exc}", Origin(str(path), 1, 1))])
     return _sorted(diags + list(schedule.warnings))

@@ -226,6 +226,14 @@ class _Resolver:
         if show.settings.end is not None:
             top = _Block(doc, ("settings",), 0.0, True, phrases, ())
             end = self.position(show.settings.end, top, ("settings", "end"))
+        if end is not None:
+            for player in performers.values():
+                late = [c for c in player.cues if self.sources[id(c)].end > end + 1e-9]
+                if late:
+                    src = self.sources[id(late[0])]
+                    self.diags.append(Diagnostic(
+                        "warning", f"{player.name}: this cue ends at {src.end:.3f} s, after the "
+                        f"show's end at {end:.3f} s (settings.end)", src.origin, src.path))
         tracks = tuple(
             ResolvedTrack(p.name, p.model.model, tuple(sorted(p.cues, key=lambda c: c.start)),
                           p.model.port)
