@@ -26,7 +26,8 @@ class XarmClient:
     """Read the xArm's battery voltage and servo positions through ``transport`` (open).
 
     ``profile`` defaults to the "xarm" profile (servo ids, 9600-baud link). As a context
-    manager the client closes the transport at the end.
+    manager the client closes the transport at the end. Not thread-safe, like
+    :class:`~xgo_show.client.XgoClient`.
     """
 
     def __init__(

@@ -36,6 +36,9 @@ class XgoClient:
     the profile's ``link.gap`` (>= 1 ms for XGO) before the next, as the robot's parser needs:
     ``write`` returns when the bytes are queued, so two quick writes would otherwise run
     together on the wire.
+
+    Not thread-safe: one thread talks through a client at a time (a reply read by another
+    thread is lost to this one).
     """
 
     def __init__(
