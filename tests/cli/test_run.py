@@ -75,7 +75,9 @@ def sim_records(log: Path) -> dict[str, dict]:
 
 def test_dry_run_fast_plays_everything_and_reports_the_sims(duet, tmp_path, capsys) -> None:
     log = tmp_path / "run.jsonl"
-    assert main(["dry-run", str(duet), "--fast", "--log", str(log)]) == 0
+    plot = tmp_path / "duet.png"
+    assert main(["dry-run", str(duet), "--fast", "--log", str(log), "--plot", str(plot)]) == 0
+    assert plot.stat().st_size > 0
     out = capsys.readouterr().out
     assert "show completed" in out
     assert "simulated robots at the end:" in out

@@ -56,6 +56,11 @@ def add_parser(sub: Any) -> None:
             "every robot (port, firmware model, battery), count down, then send every frame "
             "on time. Ctrl-C, SIGTERM or any fault safe-stops every robot."
         ),
+        epilog=(
+            "While the show runs, Ctrl-Z pauses it (robots held at rest) and a second Ctrl-Z "
+            "resumes it. Exit status: 0 the show completed; 2 an error, a failed pre-flight or "
+            "a fault (every robot was safe-stopped); 130 interrupted by Ctrl-C or SIGTERM."
+        ),
     )
     parser.add_argument("show", metavar="SHOW", help="SHOW.yaml or SCHEDULE.xshow.json")
     parser.add_argument(

@@ -1,0 +1,82 @@
+"""End-of-show report, error statistics, progress line and run log."""
+
+from __future__ import annotations
+
+import io
+import json
+
+import pytest
+
+from xgo_show.runtime.clock import FakeClock
+from xgo_show.runtime.executor import ExecutorState, Progress
+from xgo_show.runtime.report import ProgressPrinter, error_stats, format_report, percentile
+from xgo_show.runtime.runlog import RunLog, read_log
+from xgo_show.runtime.show_runner import ShowProgress, ShowRunner
+from xgo_show.sim import create_robot
+from xgo_show.transports.sim import SimTransport
+
+
+def test_percentiles_interpolate() -> None:
+    assert percentile([3.0, 1.0, 2.0], 0.5) == 2.0
+    assert percentile([0.0, 10.0], 0.95) == pytest.approx(9.5)
+    stats = error_stats([0.001, 0.002, -0.001])
+    assert stats.count == 3 and stats.max == pytest.approx(2.0) and stats.p50 == pytest.approx(1.0)
+    assert error_stats([]).format() == "no frames sent"
+
+
+def _progress(t: float, state: ExecutorState = ExecutorState.RUNNING) -> ShowProgress:
+    rex = Progress("rex", state, t, 3, 10, "rex: walk", "vx=10")
+    return ShowProgress(t, 20.0, (rex,), {"rex": {"battery": 87.0}})
+
+
+def test_progress_line_shows_time_bar_beat_cue_and_battery() -> None:
+    printer = ProgressPrinter(bpm=120, beats_per_bar=4, out=io.StringIO(), tty=False)
+    # 5.25 s at 120 bpm = beat 10 (0-based) = bar 3, beat 3.
+    assert printer.line(_progress(5.25)) == "   5.2/20.0s | bar 3:3 | rex: walk (battery 87%)"
+    paused = printer.line(_progress(5.25, ExecutorState.PAUSED))
+    assert "rex: walk [paused]" in paused
+
+
+def test_progress_prints_plain_lines_now_and_then_off_a_terminal() -> None:
+    out = io.StringIO()
+    printer = ProgressPrinter(out=out, tty=False, plain_every=2.0)
+    for k in range(21):
+        printer(_progress(k * 0.25))
+    assert len(out.getvalue().splitlines()) == 3  # at 0, 2 and 4 s
+    tty_out = io.StringIO()
+    live = ProgressPrinter(out=tty_out, tty=True)
+    live(_progress(1.0))
+    live(_progress(1.25))
+    live.finish()
+    assert tty_out.getvalue().count("\r") == 2 and tty_out.getvalue().endswith("\n")
+
+
+def test_report_and_log_of_a_completed_run(perf, sched, tmp_path) -> None:
+    clock = FakeClock()
+    schedule = sched(perf("rex", "mini", count=6), perf("rita", "rider", count=4))
+    links = {
+        p.name: SimTransport(create_robot(p.model), clock=clock.now, sleep=clock.advance)
+        for p in schedule.performers
+    }
+    for link in links.values():
+        link.open()
+    log_path = tmp_path / "run.jsonl"
+    with RunLog(log_path) as log:
+        result = ShowRunner(schedule, links, fast=True, log=log).run(handle_signals=False)
+    assert result.completed
+    text = format_report(result)
+    assert text.splitlines()[0] == "show completed"
+    assert "rex (mini): finished; 6/6 frames" in text
+    assert "rita (rider): finished; 4/4 frames" in text
+    assert "rested: vx=0" in text
+    records = read_log(log_path)
+    frames = [r for r in records if r["kind"] == "frame" and r["send"] == "frame"]
+    assert len(frames) == 10
+    assert all(r["planned"] is not None and r["actual"] is not None for r in frames)
+    rex = schedule.performer("rex")
+    assert [r["bytes"] for r in frames if r["performer"] == "rex"] == [
+        f.data.hex() for f in rex.frames
+    ]
+    events = [r["event"] for r in records if r["kind"] == "event"]
+    assert events == ["start", "end"]
+    json.dumps(records)
