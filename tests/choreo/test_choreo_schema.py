@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 
 import pytest
+import yaml
 
 from xgo_show.choreo import load_show
 from xgo_show.choreo.model import PerformerModel
@@ -94,3 +95,24 @@ def test_doc_complete_example_is_the_shipped_solo() -> None:
         return [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
 
     assert code(solo) == code(example)
+
+
+STRUCTURAL = ["unknown_top_field", "unknown_cue_field", "cue_two_kinds", "cue_no_kind",
+              "unknown_model", "negative_time", "string_for_number", "missing_tracks"]
+
+
+@pytest.mark.parametrize("path", ROUTINES, ids=lambda p: p.name)
+def test_schema_accepts_shipped_files(path: Path) -> None:
+    jsonschema = pytest.importorskip("jsonschema")
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    schema = choreography_json_schema() if is_routine(path) else choreography_part_json_schema()
+    errors = [e.message for e in jsonschema.Draft202012Validator(schema).iter_errors(data)]
+    assert errors == []
+
+
+@pytest.mark.parametrize("name", STRUCTURAL)
+def test_schema_rejects_structural_mistakes(name: str) -> None:
+    jsonschema = pytest.importorskip("jsonschema")
+    path = Path(__file__).parent / "invalid" / f"{name}.yaml"
+    data = yaml.safe_load(path.read_text(encoding="utf-8"))
+    assert not jsonschema.Draft202012Validator(choreography_json_schema()).is_valid(data)

@@ -237,6 +237,7 @@ Color = Annotated[
             "description": "A colour name (red, warm_white, off...), \"#rrggbb\" or [r, g, b].",
             "anyOf": [
                 {"type": "string"},
+                {"const": False, "description": "YAML reads an unquoted off as false"},
                 {
                     "type": "array",
                     "items": {"type": "integer", "minimum": 0, "maximum": 255},
