@@ -9,6 +9,7 @@ import pytest
 
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.executor import ExecutorState
+from xgo_show.runtime.report import format_report
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.safety import UnsafeScheduleError, check_unsafe, rest_frames
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
@@ -218,3 +219,41 @@ def test_xarm_gets_group_stop_when_the_show_is_stopped(rig, sched, walking) -> N
     assert len(snap["stops"]) == 1
     assert 2 <= len(snap["moves"]) < 10
     assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
+
+
+def test_a_blocked_port_delays_no_one_else_and_ends_in_a_halt(rig, sched, walking) -> None:
+    import os
+    import tty
+
+    from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.profiles.model import Link
+    from xgo_show.transports import open_transport
+
+    # A robot whose UART stopped reading: a pty nobody drains, on a fast link so that the
+    # terminal's buffer fills within a few tens of milliseconds and writes then block.
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    try:
+        fast = Link(baud=10_000_000, gap=0.0001)
+        junk = tuple(ScheduledFrame(i * 0.0003, b"\x00" * 255) for i in range(5000))
+        stuck = PerformerSchedule("lola", "mini", fast, junk, end=2.0)
+        schedule = sched(walking("rex", "mini", seconds=2.0), stuck)
+        rig.add("rex", "mini")
+        blocked = open_transport(os.ttyname(slave), baudrate=115200, write_timeout=0.5)
+        blocked.open()
+        rig.transports["lola"] = blocked
+        runner = ShowRunner(schedule, rig.transports, telemetry=False)
+        result = runner.run(handle_signals=False)
+        settle(rig)
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert result.reason.startswith("fault on lola")
+    assert "blocked" in result.faults["lola"]
+    # rex kept its timeline while lola's port was stuck, then was stopped with everyone.
+    rex = result.executors["rex"]
+    assert sum(1 for r in rex.records if r.kind == "frame") >= 8
+    assert result.stops["rex"].ok
+    assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
+    assert not result.stops["lola"].ok
+    assert "safe stop" in format_report(result).split("lola (mini)")[1]

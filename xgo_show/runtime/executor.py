@@ -266,7 +266,7 @@ class PerformerExecutor:
                 for frame in stop_frames(self.profile):
                     self._write_locked(frame.data, "stop", None, None, frame.label)
                     sent.append(frame.label)
-            except (TransportError, OSError) as exc:
+            except Exception as exc:  # any failure of a dying port: report it, never raise
                 result = SafeStopResult(
                     self.name, reason, False, tuple(sent), f"{exc}", self.clock.now() - requested
                 )

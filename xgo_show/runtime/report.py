@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
-from xgo_show.runtime.executor import PerformerExecutor, SendRecord
+from xgo_show.runtime.executor import PerformerExecutor, SafeStopResult, SendRecord
 from xgo_show.runtime.show_runner import ShowProgress, ShowResult
 
 __all__ = [
@@ -108,8 +108,10 @@ def _fmt(name: str, value: float) -> str:
     return f"{value:g}"
 
 
-def _ending(ex: PerformerExecutor, records: Sequence[SendRecord]) -> str:
-    stop = ex.stop_result
+def _ending(
+    ex: PerformerExecutor, records: Sequence[SendRecord], stop: SafeStopResult | None
+) -> str:
+    stop = stop if stop is not None else ex.stop_result
     if stop is not None:
         did = ", ".join(stop.frames) if stop.frames else "nothing sent"
         status = "ok" if stop.ok else f"FAILED ({stop.error})"
@@ -137,7 +139,7 @@ def build_report(result: ShowResult) -> list[PerformerReport]:
                 reads=sum(1 for r in records if r.kind == "read"),
                 errors=error_stats([r.error for r in frames if r.error is not None]),
                 telemetry=dict(ex.telemetry.last) if ex.telemetry is not None else {},
-                ending=_ending(ex, records),
+                ending=_ending(ex, records, result.stops.get(name)),
                 fault=ex.fault,
             )
         )
