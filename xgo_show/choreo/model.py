@@ -426,9 +426,8 @@ BLOCK_KINDS: frozenset[str] = frozenset({"rest", "phrase", "repeat", "include"})
 
 
 def cue_kind(value: object) -> str | None:
-    """The kind key of a raw cue mapping, or None if it has none or several."""
-    kind = _cue_key(value)
-    return kind
+    """The kind key of a raw cue mapping (or cue model), or None if it has none or several."""
+    return _cue_key(value)
 
 
 def _cue_tag(value: object) -> str | None:

@@ -527,13 +527,14 @@ def _lookup(data: object, loc: Loc) -> object:
 
 
 def _describe(performer: str, kind: str, cue: object, context: str) -> str:
+    """Short cue description for messages and transcripts: "rex: move body_z, pitch"."""
     what = getattr(cue, kind, None)
     if isinstance(what, dict):
         detail = ", ".join(str(k) for k in what)
-    elif what is None or isinstance(what, (Length,)):
-        detail = ""
+    elif isinstance(what, (str, int, float)) and not isinstance(what, bool):
+        detail = str(what)
     else:
-        detail = str(what) if not hasattr(what, "model_dump") else ""
+        detail = ""
     text = f"{performer}: {kind} {detail}".rstrip()
     return f"{text} ({context})" if context else text
 
