@@ -80,6 +80,8 @@ def _draw_xgo(ax: Any, profile: Profile, performer: PerformerSchedule, end: floa
                 vs.append(value)
             else:
                 marks.append((frame.t, f"{name}={format_value(profile, name, value)}"))
+    # A register that never changes (often one only re-sent to bridge a gap) is not drawn.
+    series = {n: tv for n, tv in series.items() if min(tv[1]) != max(tv[1])}
     for name in sorted(series, key=lambda n: profile.register(n).address):
         ts, vs = series[name]
         ax.step([*ts, end], [*vs, vs[-1]], where="post", label=f"{name} ({units[name]})",
