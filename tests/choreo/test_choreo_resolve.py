@@ -446,3 +446,16 @@ tracks:
     show = load_show(path)
     assert show.end == 2.0
     assert any("after the show's end" in w.message for w in show.warnings)
+
+
+def test_part_files_get_a_structural_check_only(write: WriteFn) -> None:
+    ok = write("- {move: {pitch: 5}, duration: 1}\n", "part.yaml")
+    show, diags = check_file(ok)
+    assert show is None and [d.severity for d in diags] == ["warning"]
+    assert "part file" in diags[0].message
+    with pytest.raises(ChoreographyError, match="part file"):
+        load_show(ok)
+    bad = write("phrases: {a: {cues: [{rest: 1}]}}\ncues: [{mvoe: 1}]\n", "bad.yaml")
+    _, diags = check_file(bad)
+    assert [d.severity for d in diags] == ["warning", "error"]
+    assert diags[1].origin is not None and diags[1].origin.line == 2

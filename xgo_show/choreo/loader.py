@@ -11,15 +11,15 @@ import dataclasses
 from pathlib import Path
 
 from xgo_show.choreo.checks import check_show
-from xgo_show.choreo.model import ShowFile
+from xgo_show.choreo.model import CueList, PartMapping, ShowFile
 from xgo_show.choreo.resolve import resolve_show
 from xgo_show.choreo.resolved import ResolvedShow
-from xgo_show.choreo.source import read_yaml
+from xgo_show.choreo.source import Document, read_yaml
 from xgo_show.choreo.validation import validate
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ChoreographyError, CompileError, XgoShowError
 
-__all__ = ["check_file", "load_show", "validate_file"]
+__all__ = ["check_file", "is_part", "load_show", "validate_file"]
 
 
 def _sorted(diags: list[Diagnostic]) -> list[Diagnostic]:
@@ -51,8 +51,10 @@ def _check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]
     doc, diags = read_yaml(Path(path), str(path))
     if diags:
         return None, _sorted(diags)
+    if is_part(doc.data):
+        return None, _check_part(doc)
     if not isinstance(doc.data, dict):
-        kind = "a list" if isinstance(doc.data, list) else type(doc.data).__name__
+        kind = type(doc.data).__name__
         diags = [Diagnostic("error", f"a routine is a mapping with show, performers and tracks, "
                             f"not {kind}", doc.origin(()))]
         return None, diags
@@ -68,6 +70,31 @@ def _check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]
         return None, diags
     warnings = tuple(d for d in diags if not d.is_error)
     return dataclasses.replace(res.show, warnings=warnings), diags
+
+
+def is_part(data: object) -> bool:
+    """Whether parsed YAML is a part (an included file) rather than a routine."""
+    if isinstance(data, list):
+        return True
+    return (
+        isinstance(data, dict)
+        and not {"show", "performers", "tracks"} & set(data)
+        and bool({"phrases", "cues"} & set(data))
+    )
+
+
+_PART_NOTE = (
+    "a part file (for include:), not a routine: only its structure was checked; the robot "
+    "checks run when a routine includes it"
+)
+
+
+def _check_part(doc: Document) -> list[Diagnostic]:
+    if isinstance(doc.data, list):
+        _, diags = validate(CueList, doc, doc.data, (), wrap="cues")
+    else:
+        _, diags = validate(PartMapping, doc, doc.data)
+    return _sorted([Diagnostic("warning", _PART_NOTE, doc.origin(())), *diags])
 
 
 def _summary(path: str | Path, diags: list[Diagnostic]) -> str:
@@ -86,7 +113,9 @@ def load_show(path: str | Path) -> ResolvedShow:
     show, diags = check_file(path)
     if show is None:
         errors = tuple(d for d in diags if d.is_error)
-        raise ChoreographyError(_summary(path, diags), errors)
+        if not errors:  # a well-formed part file
+            errors = tuple(Diagnostic("error", d.message, d.origin) for d in diags)
+        raise ChoreographyError(_summary(path, list(errors)), errors)
     return show
 
 

@@ -631,7 +631,7 @@ class _Emitter:
                        f"{act.name!r}: give duration, beats or bars", "action")
             return None
         if act.duration is None:
-            self.res.warning(self.doc, self.loc, f"action {act.name!r} lasts {length:g} s as "
+            self.res.warning(self.doc, self.loc, f"action {act.name!r} lasts {length:.3g} s as "
                              "given by hand (the documents give no duration)")
         slot = length if length is not None else act.duration
         assert slot is not None
