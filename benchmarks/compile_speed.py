@@ -11,6 +11,7 @@ body_z and roll and fade two LEDs. Prints figures only (no asserts). Usage::
 from __future__ import annotations
 
 import argparse
+import os
 import random
 import time
 
@@ -61,14 +62,15 @@ def main() -> None:
     args = parser.parse_args()
     show = build_show(args.minutes, args.performers, args.rate)
     cues = sum(len(t.cues) for t in show.tracks)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     schedule = compile_show(show)
-    elapsed = time.perf_counter() - t0
+    elapsed, cpu = time.perf_counter() - t0, time.process_time() - c0
     frames = sum(len(p.frames) for p in schedule.performers)
     nbytes = sum(p.total_bytes for p in schedule.performers)
     print(f"show: {args.performers} performers, {args.minutes:g} min, {args.rate:g} Hz, "
           f"{cues} cues")
-    print(f"compile time: {elapsed:.2f} s  (target < 2 s)")
+    print(f"compile time: {elapsed:.2f} s wall, {cpu:.2f} s CPU  (target < 2 s); "
+          f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
     print(f"frames: {frames}  bytes: {nbytes}  ({frames / elapsed:,.0f} frames/s)")
 
 
