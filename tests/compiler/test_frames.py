@@ -6,7 +6,7 @@ import itertools
 
 import pytest
 
-from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, SetCue
+from xgo_show.choreo.resolved import ActionCue, ArmCue, FadeCue, MotionCue, SetCue
 from xgo_show.compiler import compile_show, describe_frame
 from xgo_show.profiles import get_profile
 
@@ -147,3 +147,25 @@ def test_reset_action_returns_posture_start_to_default(make_show, o) -> None:  #
     # The second move starts from the default height again, so it really moves.
     assert len(again) > 10
     assert again[0].label == "body_z=97.6mm"
+
+
+def test_xarm_cue_is_one_servo_move_and_other_cues_are_errors(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    from xgo_show.errors import CompileError
+
+    (frame,) = _frames(make_show({"arm": ("xarm", [ArmCue(0.25, o("r"), {2: 300, 1: 500}, 1.2)])}))
+    assert frame.data == bytes([
+        0x55, 0x55,  # header
+        0x0B,        # length: itself, command and 9 parameter bytes
+        0x03,        # ServoMove
+        0x02,        # two servos
+        0xB0, 0x04,  # 1200 ms, little-endian
+        0x01, 0xF4, 0x01,  # servo 1 -> 500 (ids in ascending order)
+        0x02, 0x2C, 0x01,  # servo 2 -> 300
+    ])
+    assert frame.t == 0.25 and frame.duration == 1.2
+    assert frame.label == "time_ms=1200 servo_1=500 servo_2=300"
+    with pytest.raises(CompileError) as err:
+        compile_show(make_show({"arm": ("xarm", [SetCue(0.0, o("s", 7), {"gait": "walk"}),
+                                                 ArmCue(1.0, o("r", 8), {9: 500}, 1.0)])}))
+    messages = [d.message for d in err.value.diagnostics]
+    assert messages == ["cue 's': an xArm only takes arm cues", "cue 'r': no xArm servo 9"]

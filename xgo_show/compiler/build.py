@@ -58,7 +58,7 @@ def _compile(show: ResolvedShow) -> Schedule:
         try:
             profile = get_profile(track.model)
         except ProfileError as exc:
-            errors.append(Diagnostic("error", f"{track.performer}: {exc}", None,
+            errors.append(Diagnostic("error", str(exc), None,
                                      f"tracks.{track.performer}"))
             continue
         performer, errs, warns = _compile_track(show, track, profile)
@@ -122,7 +122,7 @@ def _compile_track(
         hint = "" if show.decimate else ", or set decimate: true"
         errors.append(Diagnostic(
             "error",
-            f"{track.performer}: the link does not fit {where}: its frame planned at "
+            f"the link does not fit {where}: its frame planned at "
             f"{f.t_us / 1e6:.3f} s could only start at {late.start_us / 1e6:.3f} s, more than one "
             f"control period ({period_us / 1000:g} ms) late at {link.baud} baud with "
             f"{gap * 1000:g} ms between frames; write fewer registers at once or lower "
@@ -133,7 +133,7 @@ def _compile_track(
         assert paced.first_drop_us is not None
         warnings.append(Diagnostic(
             "warning",
-            f"{track.performer}: decimated {paced.dropped} of {plan.samples} trajectory sample "
+            f"decimated {paced.dropped} of {plan.samples} trajectory sample "
             f"frames to fit the link (first at {paced.first_drop_us / 1e6:.3f} s); their values "
             "went out with later frames",
             None, path,

@@ -30,7 +30,7 @@ def plan_xarm_track(profile: Profile, track: ResolvedTrack) -> TrackPlan:
         where = cue.origin
         if not isinstance(cue, ArmCue):
             diags.append(Diagnostic(
-                "error", f"{track.performer}: {cue_label(where)}: an xArm only takes arm cues",
+                "error", f"{cue_label(where)}: an xArm only takes arm cues",
                 where, path,
             ))
             continue
@@ -38,7 +38,7 @@ def plan_xarm_track(profile: Profile, track: ResolvedTrack) -> TrackPlan:
         if not 0 <= time_ms <= MAX_MOVE_MS:
             diags.append(Diagnostic(
                 "error",
-                f"{track.performer}: {cue_label(where)}: an xArm move takes 0..{MAX_MOVE_MS} ms, "
+                f"{cue_label(where)}: an xArm move takes 0..{MAX_MOVE_MS} ms, "
                 f"not {time_ms} ms",
                 where, path,
             ))
@@ -46,7 +46,7 @@ def plan_xarm_track(profile: Profile, track: ResolvedTrack) -> TrackPlan:
         unknown = sorted(set(cue.positions) - set(profile.xarm_servos))
         if unknown:
             diags.append(Diagnostic(
-                "error", f"{track.performer}: {cue_label(where)}: no xArm servo {unknown[0]}",
+                "error", f"{cue_label(where)}: no xArm servo {unknown[0]}",
                 where, path,
             ))
             continue
@@ -54,7 +54,7 @@ def plan_xarm_track(profile: Profile, track: ResolvedTrack) -> TrackPlan:
             data = servo_move(time_ms, dict(sorted(cue.positions.items())))
         except XgoShowError as exc:
             diags.append(Diagnostic(
-                "error", f"{track.performer}: {cue_label(where)}: {exc}", where, path
+                "error", f"{cue_label(where)}: {exc}", where, path
             ))
             continue
         t_us = to_us(cue.start)
