@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from xgo_show.choreo import check_file, load_show
+from xgo_show.choreo import check_file, load_show, resolve
 from xgo_show.choreo.resolved import ActionCue, ArmCue, FadeCue, MotionCue, ResolvedShow, SetCue
 from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import ChoreographyError
@@ -368,14 +368,15 @@ tracks:
     assert isinstance(s, SetCue) and s.values == {"steering_hold": "off"}
 
 
-def test_runaway_repeat_is_refused(write: WriteFn) -> None:
+def test_runaway_repeat_is_refused(write: WriteFn, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(resolve, "MAX_CUES", 500)  # the real guard is 20 000: same code path
     path = write(MINI + """
 tracks:
   rex:
     - repeat: 10000
       cues: [{repeat: 100, cues: [{set: {pace: slow}}]}]
 """)
-    assert any("more than" in d.message for d in errors(path))
+    assert any("more than 500 cues" in d.message for d in errors(path))
 
 
 def test_cue_at_action_start_but_earlier_in_track_is_sent_first(write: WriteFn) -> None:
