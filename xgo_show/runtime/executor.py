@@ -76,7 +76,7 @@ class SendRecord:
     kind: str
     index: int | None
     planned: float | None  # monotonic time the schedule wanted it (None: not in the schedule)
-    actual: float  # monotonic time the write call returned
+    actual: float  # monotonic time the write was issued
     nbytes: int
     label: str = ""
 
@@ -481,10 +481,14 @@ class PerformerExecutor:
         # Keep the link's silence after whatever went before (stop frames included).
         if self.clock.now() < self._ready_at:
             self.clock.sleep_until(self._ready_at)
-        self.transport.write(data)
+        # The send time is when the write is issued: the bytes leave as soon as it queues them,
+        # and the call may return late only because this thread lost its CPU meanwhile.
         actual = self.clock.now()
+        self.transport.write(data)
         link = self.schedule.link
-        self._ready_at = actual + link.wire_time(len(data)) + link.gap
+        # The link is busy for the frame's wire time from the send, and never free before the
+        # write returned (a write that blocked means the bytes left late).
+        self._ready_at = max(actual + link.wire_time(len(data)), self.clock.now()) + link.gap
         record = SendRecord(kind, index, planned, actual, len(data), label)
         self.records.append(record)
         if self.log is not None:
