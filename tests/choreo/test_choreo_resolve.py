@@ -460,3 +460,15 @@ def test_part_files_get_a_structural_check_only(write: WriteFn) -> None:
     _, diags = check_file(bad)
     assert [d.severity for d in diags] == ["warning", "error"]
     assert diags[1].origin is not None and diags[1].origin.line == 2
+
+
+@pytest.mark.parametrize("register", ["gait", "periodic_roll", "mark_time"])
+def test_only_trajectory_registers_move(write: WriteFn, register: str) -> None:
+    path = write(MINI + f"""
+tracks:
+  rex:
+    - move: {{{register}: 2}}
+      limits: {{{register}: {{velocity: 1, acceleration: 1, jerk: 1}}}}
+      duration: 1
+""")
+    assert any("cannot be moved smoothly" in d.message for d in errors(path))

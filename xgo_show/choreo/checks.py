@@ -167,9 +167,11 @@ class _Checker:
             reg = self.register(name, profile, arm, src, origin)
             if reg is None:
                 continue
-            if isinstance(cue, MotionCue) and reg.limits is None and name not in cue.limits:
-                self.error(f"{name} cannot be moved smoothly (it has no trajectory limits); "
-                           "write it with set:", origin, src, name)
+            if isinstance(cue, MotionCue) and reg.limits is None:
+                # Only registers the profile gives limits are trajectory-capable; a cue's own
+                # limits tune a move, they do not make a switch or a period movable.
+                self.error(f"{name} cannot be moved smoothly; write it with set:", origin,
+                           src, name)
                 continue
             if src.kind == "walk" and reg.group != "speed":
                 speeds = [r.name for r in profile.registers if r.group == "speed"]
