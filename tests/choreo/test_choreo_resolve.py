@@ -8,6 +8,7 @@ import pytest
 
 from xgo_show.choreo import check_file, load_show, resolve
 from xgo_show.choreo.resolved import ActionCue, ArmCue, FadeCue, MotionCue, ResolvedShow, SetCue
+from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import ChoreographyError
 
@@ -472,3 +473,19 @@ tracks:
       duration: 1
 """)
     assert any("cannot be moved smoothly" in d.message for d in errors(path))
+
+
+def test_resolved_show_carries_the_tempo_map(write: WriteFn) -> None:
+    path = write("""
+show: T
+tempo: [{bar: 1, bpm: 120}, {bar: 3, bpm: 60, beats_per_bar: 3}]
+performers:
+  rex: {model: mini}
+tracks:
+  rex: [{action: stand_up}]
+""")
+    show = load_show(path)
+    assert show.tempo_map == ((1, 120.0, 4), (3, 60.0, 3))
+    assert (show.bpm, show.beats_per_bar) == (120.0, 4)
+    tempo = TempoMap([Segment(*row) for row in show.tempo_map])
+    assert tempo.position(4, 1) == 7.0

@@ -253,6 +253,10 @@ class _Resolver:
             end=end,
             bpm=first.bpm if first else None,
             beats_per_bar=first.beats_per_bar if first else 4,
+            tempo_map=tuple(
+                (seg.bar, seg.bpm, seg.beats_per_bar)
+                for seg in (self.tempo.segments if self.tempo else ())
+            ),
         )
         return Resolution(resolved, self.diags, self.sources,
                           {n: p.model for n, p in performers.items()})

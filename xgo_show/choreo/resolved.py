@@ -121,3 +121,7 @@ class ResolvedShow:
     bpm: float | None = None  # for progress display only (times are already in seconds)
     beats_per_bar: int = 4
     warnings: tuple[Diagnostic, ...] = ()  # non-fatal findings of the loader
+    # The whole tempo map as (first bar, bpm, beats_per_bar) segments, empty without a tempo
+    # (bpm/beats_per_bar above are its first segment). Bar <-> seconds with tempo changes:
+    # xgo_show.choreo.timebase.TempoMap([Segment(*row) for row in tempo_map]).
+    tempo_map: tuple[tuple[int, float, int], ...] = ()
