@@ -7,8 +7,13 @@ import math
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from pydantic import TypeAdapter, ValidationError
 
+from xgo_show.choreo.model import Length, LengthField, Position, PositionField
 from xgo_show.choreo.timebase import Segment, TempoMap
+
+PositionAdapter: TypeAdapter[Position] = TypeAdapter(PositionField)
+LengthAdapter: TypeAdapter[Length] = TypeAdapter(LengthField)
 
 
 def test_constant_tempo() -> None:
@@ -93,3 +98,23 @@ def test_span_is_positive_and_additive(tempo: TempoMap, start: float, beats: flo
     assert first + tempo.span(start + first, beats / 2) == pytest.approx(
         tempo.span(start, beats), rel=1e-9, abs=1e-6
     )
+
+
+@given(st.integers(1, 10_000), st.integers(1, 64))
+def test_bar_beat_strings_parse(bar: int, beat: int) -> None:
+    assert PositionAdapter.validate_python(f"{bar}.{beat}") == Position(bar=bar, beat=beat)
+    assert PositionAdapter.validate_python({"bar": bar, "beat": beat}) == Position(
+        bar=bar, beat=beat
+    )
+
+
+@given(st.one_of(st.text(max_size=12), st.floats(), st.integers(), st.none(), st.booleans(),
+                 st.dictionaries(st.text(max_size=4), st.integers(), max_size=3)))
+def test_time_parser_accepts_or_explains(value: object) -> None:
+    try:
+        pos = PositionAdapter.validate_python(value)
+    except ValidationError as exc:
+        assert exc.errors()[0]["type"] == "position"
+        return
+    assert (pos.seconds is not None and pos.seconds >= 0) or (pos.bar or 0) >= 1
+    assert LengthAdapter.validate_python(1.5) == Length(1.5)
