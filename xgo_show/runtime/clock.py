@@ -17,7 +17,6 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Callable
 from typing import Protocol
 
 __all__ = ["Clock", "FakeClock", "MonotonicClock", "tighten_timer_slack"]
@@ -63,40 +62,38 @@ class MonotonicClock:
 
     def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
         now = time.monotonic
+        # A real-time thread is woken within tens of microseconds: it sleeps to the deadline
+        # and never spins (a spinning real-time thread starves the kernel workers that move
+        # serial and pty data).
+        realtime = _is_realtime()
+        spin = 0.0 if realtime else self.spin
         while True:
             left = deadline - now()
-            if left <= self.spin:
+            if left <= spin:
                 break
-            nap = left - self.margin if left > self.margin + self.spin else left - self.aim
+            if realtime:
+                nap = left
+            elif left > self.margin + spin:
+                nap = left - self.margin
+            else:
+                nap = left - self.aim
             if interrupt is None:
                 time.sleep(nap)
             elif interrupt.wait(nap):
                 return False
-        pause = _spin_pause()
         while now() < deadline:
             if interrupt is not None and interrupt.is_set():
                 return False
-            pause()
+            time.sleep(0)  # release the GIL so other writer threads keep their deadlines
         return not (interrupt is not None and interrupt.is_set())
 
 
-def _sleep0() -> None:
-    time.sleep(0)
-
-
-def _spin_pause() -> Callable[[], None]:
-    """What to do on each spin: release the GIL so other writer threads keep their deadlines.
-
-    A real-time (SCHED_FIFO/RR) thread also yields the CPU to threads of its priority, which
-    ``sleep(0)`` does not; under normal scheduling ``sched_yield`` would hand the CPU to any
-    busy process for a whole time slice, so it is used only for real-time threads.
-    """
+def _is_realtime() -> bool:
+    """Whether the calling thread runs under SCHED_FIFO or SCHED_RR."""
     try:
-        if os.sched_getscheduler(0) in (os.SCHED_FIFO, os.SCHED_RR):
-            return os.sched_yield
+        return os.sched_getscheduler(0) in (os.SCHED_FIFO, os.SCHED_RR)
     except (AttributeError, OSError):
-        pass
-    return _sleep0
+        return False
 
 
 def tighten_timer_slack() -> bool:
