@@ -204,12 +204,21 @@ def main() -> None:
         action="store_true",
         help="ask SCHED_FIFO for this process (both the runtime and the naive loop get it)",
     )
+    parser.add_argument(
+        "--nice",
+        type=int,
+        default=0,
+        help="run this process at this nice value (e.g. -10; both loops get it)",
+    )
     parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.serve_sim:
         serve_sim(Path(args.serve_sim))
         return
     realtime = request_realtime() if args.realtime else "normal priority"
+    if args.nice:
+        os.nice(args.nice)
+        realtime += f", nice {args.nice}"
 
     schedule = make_schedule(args.seconds, args.rate)
     load_before = os.getloadavg()[0]

@@ -190,17 +190,28 @@ def _check_xarm(row: PreflightRow, transport: Transport, profile: Profile, timeo
     row.notes.append(f"battery {millivolts / 1000:.2f} V")
 
 
-def request_realtime(priority: int = 10) -> str:
-    """Ask for SCHED_FIFO for this thread and the threads it starts; say what was granted."""
+def request_realtime(priority: int = 10, *, nice: int = -10) -> str:
+    """Ask for real-time scheduling for this thread and the threads it starts.
+
+    SCHED_FIFO at ``priority`` first; where that is refused, a higher CPU share (``nice``) if
+    permitted. Call before the show's threads start (they inherit it). Returns what was
+    granted, for the pre-flight report.
+    """
     setter = getattr(os, "sched_setscheduler", None)
     fifo = getattr(os, "SCHED_FIFO", None)
     if setter is None or fifo is None:
         return f"not available on {sys.platform}"
     try:
         setter(0, fifo, os.sched_param(priority))
-    except (PermissionError, OSError) as exc:
-        return f"SCHED_FIFO refused ({exc.strerror or exc}); running with normal priority"
-    return f"SCHED_FIFO priority {priority} granted"
+    except OSError as exc:
+        refused = f"SCHED_FIFO refused ({exc.strerror or exc})"
+    else:
+        return f"SCHED_FIFO priority {priority} granted"
+    try:
+        os.nice(nice)
+    except OSError:
+        return f"{refused}; running with normal priority"
+    return f"{refused}; nice {nice} granted instead"
 
 
 def countdown(seconds: float, *, out: TextIO | None = None, clock: Clock | None = None) -> None:
