@@ -10,6 +10,7 @@ or below ``x`` (one C-level ``bisect``). Values outside the register's range go 
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_right
 
 from xgo_show.profiles.model import Encoding, Register
@@ -41,6 +42,9 @@ class ByteTable:
                     below = mid
             thresholds.append(above)
         self.thresholds = thresholds
+        # The same thresholds after ``base`` entries of -inf: bisect_right(padded, x) is then
+        # the byte itself (base + bisect_right(thresholds, x)) for any x in range.
+        self.padded = [-math.inf] * self.base + thresholds
 
     def __call__(self, value: float) -> int:
         if self.lo <= value <= self.hi:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_right
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Container, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -33,7 +33,7 @@ from xgo_show.compiler.trajectory import (
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProfileError, ProtocolError
 from xgo_show.profiles.model import Encoding, Limits, Link, Register
-from xgo_show.wire.xgo import MAX_DATA, write_frame
+from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, TAIL, write_frame
 
 __all__ = [
     "PlannedFrame",
@@ -122,69 +122,169 @@ def merge_writes(
     (:meth:`Layout.can_fill`) and are known can fill a gap between two runs. Filling ``n``
     bytes is chosen when it takes less link time than a separate frame (8 bytes + ``gap``).
     """
-    ordered = sorted(writes, key=_address)
-    if not ordered:
-        return []
-    frame_cost = layout.frame_cost_us(link, gap)
-    first = ordered[0]
-    runs: list[list[tuple[int, bytes, Write | None]]] = [[(first.address, first.data, first)]]
-    run_len = len(first.data)
-    last_addr = first.address
-    for w in ordered[1:]:
-        addr = w.address
-        if addr == last_addr + 1 and run_len + len(w.data) <= MAX_DATA:
-            runs[-1].append((addr, w.data, w))
-            run_len += len(w.data)
-            last_addr = addr
-            continue
-        filler = _filler(layout, last_addr, addr, known)
-        if filler:
-            extra = sum(len(d) for _, d in filler)
-            if (
-                run_len + extra + len(w.data) <= MAX_DATA
-                and _link_cost_us(link, extra) < frame_cost
-            ):
-                run = runs[-1]
-                run.extend((a, d, None) for a, d in filler)
-                run.append((addr, w.data, w))
-                run_len += extra + len(w.data)
+    merger = _Merger(layout, link, gap, action_address)
+    return merger.merge(t_us, sorted(writes, key=_address), known, uniform=False)
+
+
+class _FramePlan(NamedTuple):
+    """One frame of a merge plan: the fields it carries, by where their bytes come from."""
+
+    address: int
+    slots: tuple[tuple[int, int], ...]  # (address, index into the tick's writes, or -1: filler)
+    writes: tuple[int, ...]  # indices of the tick's writes in this frame
+    nbytes: int  # data bytes (a cheap check that the writes have the sizes planned with)
+    prefix: bytes  # frame bytes before the data
+    check_base: int  # length + type + address: the checksum's part that is not data
+    fills: bool  # whether any slot is a gap filler
+
+
+class _Merger:
+    """merge_writes for one performer, with merge plans cached.
+
+    How one tick's writes group into frames depends only on their addresses and sizes and on
+    which gap registers are known, and a show repeats the same few address sets tick after
+    tick: the plan (which writes and fillers make which frame, its header bytes) is computed
+    once per address set and reused while the set of known registers stays the same.
+    """
+
+    def __init__(
+        self, layout: Layout, link: Link, gap: float, action_address: int | None
+    ) -> None:
+        self.layout = layout
+        self.link = link
+        self.gap = gap
+        self.action_address = action_address
+        self.plans: dict[tuple[int, ...], tuple[_FramePlan, ...]] = {}
+
+    def forget_plans(self) -> None:
+        """Call when registers become known or unknown: fillers depend on that."""
+        self.plans.clear()
+
+    def merge(
+        self, t_us: int, ordered: Sequence[Write], known: Mapping[int, bytes], *, uniform: bool
+    ) -> list[PlannedFrame]:
+        """Frames for ``ordered`` (address order, one write per address) at ``t_us``.
+
+        ``uniform``: the writes all come from one cue (same origin, order, kind), which spares
+        the per-frame search for the lead write and the final sort.
+        """
+        if not ordered:
+            return []
+        key = tuple([w.address for w in ordered])
+        plan = self.plans.get(key)
+        if plan is None:
+            plan = self.plans[key] = self._plan(ordered, known)
+        frames = self._build(t_us, ordered, known, plan, uniform)
+        if frames is None:  # sizes differ from the cached plan's: plan this tick afresh
+            frames = self._build(t_us, ordered, known, self._plan(ordered, known), uniform)
+            assert frames is not None
+        if len(frames) > 1 and not uniform:
+            frames.sort(key=_frame_order)
+        return frames
+
+    def _plan(self, ordered: Sequence[Write], known: Mapping[int, bytes]) -> tuple[_FramePlan, ...]:
+        layout, link = self.layout, self.link
+        frame_cost = layout.frame_cost_us(link, self.gap)
+        first = ordered[0]
+        runs: list[list[tuple[int, int, int]]] = [[(first.address, 0, len(first.data))]]
+        run_len = len(first.data)
+        last_addr = first.address
+        for i in range(1, len(ordered)):
+            w = ordered[i]
+            addr = w.address
+            if addr == last_addr + 1 and run_len + len(w.data) <= MAX_DATA:
+                runs[-1].append((addr, i, len(w.data)))
+                run_len += len(w.data)
                 last_addr = addr
                 continue
-        runs.append([(addr, w.data, w)])
-        run_len = len(w.data)
-        last_addr = addr
-    frames: list[PlannedFrame] = []
-    write_type = layout.profile.write_type
-    walk = layout.walk
-    new = tuple.__new__
-    for run in runs:
-        address = run[0][0]
-        fields = tuple([(a, d) for a, d, _ in run])
-        data = b"".join([d for _, d in fields])
-        if walk(address, len(data)) is None:
-            raise ProfileError(
-                f"{layout.profile.model}: {len(data)} bytes at 0x{address:02X} do not match the "
-                "register layout"
-            )
-        written = tuple([w for _, _, w in run if w is not None])
-        lead = written[0]
-        droppable, action, duration = True, False, 0.0
-        for w in written:
-            if w.order < lead.order:
-                lead = w
-            if not w.sample:
-                droppable = False
-                if w.address == action_address:
-                    action = True
-                if w.duration > duration:
-                    duration = w.duration
-        frames.append(new(PlannedFrame, (
-            t_us, write_frame(address, data, write_type=write_type), fields, written,
-            lead.origin, lead.order, droppable, action, duration,
-        )))
-    if len(frames) > 1:
-        frames.sort(key=_frame_order)
-    return frames
+            filler = _filler(layout, last_addr, addr, known)
+            if filler:
+                extra = sum(len(d) for _, d in filler)
+                if (
+                    run_len + extra + len(w.data) <= MAX_DATA
+                    and _link_cost_us(link, extra) < frame_cost
+                ):
+                    run = runs[-1]
+                    run.extend((a, -1, len(d)) for a, d in filler)
+                    run.append((addr, i, len(w.data)))
+                    run_len += extra + len(w.data)
+                    last_addr = addr
+                    continue
+            runs.append([(addr, i, len(w.data))])
+            run_len = len(w.data)
+            last_addr = addr
+        write_type = layout.profile.write_type
+        plan: list[_FramePlan] = []
+        for run in runs:
+            address = run[0][0]
+            nbytes = sum(n for _, _, n in run)
+            if layout.walk(address, nbytes) is None:
+                raise ProfileError(
+                    f"{layout.profile.model}: {nbytes} bytes at 0x{address:02X} do not match "
+                    "the register layout"
+                )
+            # The real encoder, on placeholder data: the same checks and the same header.
+            template = write_frame(address, bytes(nbytes), write_type=write_type)
+            plan.append(_FramePlan(
+                address,
+                tuple([(a, i) for a, i, _ in run]),
+                tuple([i for _, i, _ in run if i >= 0]),
+                nbytes,
+                template[:len(template) - nbytes - 3],
+                MIN_LENGTH + nbytes + write_type + address,
+                any(i < 0 for _, i, _ in run),
+            ))
+        return tuple(plan)
+
+    def _build(
+        self,
+        t_us: int,
+        ordered: Sequence[Write],
+        known: Mapping[int, bytes],
+        plan: tuple[_FramePlan, ...],
+        uniform: bool,
+    ) -> list[PlannedFrame] | None:
+        frames: list[PlannedFrame] = []
+        action_address = self.action_address
+        new = tuple.__new__
+        for run in plan:
+            if run.fills:
+                fields = tuple([
+                    (a, ordered[i].data if i >= 0 else known[a]) for a, i in run.slots
+                ])
+            else:
+                fields = tuple([(a, ordered[i].data) for a, i in run.slots])
+            data = b"".join([d for _, d in fields])
+            if len(data) != run.nbytes:
+                return None
+            wire = b"".join((
+                run.prefix, data, BYTES[~(run.check_base + sum(data)) & 0xFF], TAIL
+            ))
+            written = tuple([ordered[i] for i in run.writes])
+            lead = written[0]
+            if uniform:
+                # One cue: the same order and kind throughout.
+                droppable = lead.sample
+                action = not droppable and action_address is not None and any(
+                    w.address == action_address for w in written
+                )
+                duration = 0.0 if droppable else max(0.0, lead.duration)
+            else:
+                droppable, action, duration = True, False, 0.0
+                for w in written:
+                    if w.order < lead.order:
+                        lead = w
+                    if not w.sample:
+                        droppable = False
+                        if w.address == action_address:
+                            action = True
+                        if w.duration > duration:
+                            duration = w.duration
+            frames.append(new(PlannedFrame, (
+                t_us, wire, fields, written, lead.origin, lead.order, droppable, action,
+                duration,
+            )))
+        return frames
 
 
 def _frame_order(f: PlannedFrame) -> tuple[int, int]:
@@ -273,6 +373,7 @@ class _XgoPlanner:
         self.active: dict[str, tuple[_Run, int]] = {}  # register -> latest run and its DoF
         self.runs: list[_Run] = []
         self.ticks: dict[int, list[Write]] = {}
+        self.mixed: set[int] = set()  # ticks that more than one cue writes (see _emit)
         self.action_reg = layout.by_name.get(ACTION_REGISTER)
         self.end = 0.0
 
@@ -298,8 +399,20 @@ class _XgoPlanner:
         for run in self.runs:
             self._sample_run(run)
 
-    def _emit(self, w: Write) -> None:
-        self.ticks.setdefault(w.t_us, []).append(w)
+    def _emit(self, t_us: int, writes: list[Write]) -> None:
+        """File one cue's writes at ``t_us`` (one per register, in address order).
+
+        A tick only one cue writes needs no de-duplication or sorting when merged: the ticks
+        where a second cue adds writes are noted in ``mixed``.
+        """
+        if not writes:
+            return
+        bucket = self.ticks.get(t_us)
+        if bucket is None:
+            self.ticks[t_us] = writes
+        else:
+            bucket.extend(writes)
+            self.mixed.add(t_us)
 
     def _take_over(self, name: str, t: float) -> DofState | None:
         """A cue writes ``name`` at ``t``: stop sampling a move still running on it.
@@ -320,14 +433,19 @@ class _XgoPlanner:
             ((self.layout.register(n), v) for n, v in cue.values.items()),
             key=lambda rv: rv[0].address,
         )
-        for reg, value in regs:
-            data = reg.encode_value(value)
-            self._emit(Write(to_us(cue.start), reg.address, data, cue.origin, order, False))
-            self._take_over(reg.name, cue.start)
-            if reg.linear and reg.size == 1 and isinstance(value, (int, float)):
-                self.commanded[reg.name] = float(value)
-            elif reg.encoding is Encoding.RGB:
-                self.colours[reg.name] = (data[0], data[1], data[2])
+        t_us = to_us(cue.start)
+        writes: list[Write] = []
+        try:
+            for reg, value in regs:
+                data = reg.encode_value(value)
+                writes.append(Write(t_us, reg.address, data, cue.origin, order, False))
+                self._take_over(reg.name, cue.start)
+                if reg.linear and reg.size == 1 and isinstance(value, (int, float)):
+                    self.commanded[reg.name] = float(value)
+                elif reg.encoding is Encoding.RGB:
+                    self.colours[reg.name] = (data[0], data[1], data[2])
+        finally:
+            self._emit(t_us, writes)  # what was encoded before an error still goes out
         self.end = max(self.end, cue.start)
 
     def _action(self, cue: ActionCue, order: int) -> None:
@@ -335,10 +453,10 @@ class _XgoPlanner:
             self.diag.error(cue.origin, f"{self.profile.model} has no action register")
             return
         data = self.action_reg.encode_value(cue.action_id)
-        self._emit(
-            Write(to_us(cue.start), self.action_reg.address, data, cue.origin, order, False,
-                  cue.duration)
-        )
+        t_us = to_us(cue.start)
+        self._emit(t_us, [
+            Write(t_us, self.action_reg.address, data, cue.origin, order, False, cue.duration)
+        ])
         if cue.action_id == RESET_ACTION:
             # The reset action restores the default posture: later moves start from there.
             for name in self.profile.default_posture:
@@ -358,13 +476,18 @@ class _XgoPlanner:
         self.end = max(self.end, cue.start + cue.duration)
         k0 = first_tick(cue.start, self.rate)
         k1 = first_tick(cue.start + cue.duration, self.rate)
+        (r0, g0, b0), (r1, g1, b1) = start, cue.to
+        dr, dg, db = r1 - r0, g1 - g0, b1 - b0
+        rate, t0, duration = self.rate, cue.start, cue.duration
+        address, origin = reg.address, cue.origin
         for k in range(k0, k1 + 1):
-            if k == k1 or cue.duration <= 0:
+            if k == k1 or duration <= 0:
                 frac = 1.0
             else:
-                frac = min(max((k / self.rate - cue.start) / cue.duration, 0.0), 1.0)
-            rgb = bytes(round(a + (b - a) * frac) for a, b in zip(start, cue.to, strict=True))
-            self._emit(Write(tick_us(k, self.rate), reg.address, rgb, cue.origin, order, True))
+                frac = min(max((k / rate - t0) / duration, 0.0), 1.0)
+            rgb = bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac)))
+            t_us = tick_us(k, rate)
+            self._emit(t_us, [Write(t_us, address, rgb, origin, order, True)])
 
     def _motion(self, cue: MotionCue, order: int) -> None:
         diag = self.diag
@@ -443,23 +566,43 @@ class _XgoPlanner:
         at_time = plan.trajectory.at_time
         start = plan.start
         tables = [self.layout.byte_table(reg) for reg in run.regs]
-        # The table lookup inlined (the hot loop of the compiler): in range, the byte is
-        # base + bisect; out of range, Register.to_byte raises the usual error.
+        addresses = [reg.address for reg in run.regs]
+        # While every DoF is sampled and the whole move (ruckig's exact extrema, and the
+        # targets) lies within each register's range, all bytes of a tick come from one
+        # C-level map of bisect over the tables: the hot loop of the compiler.
+        in_range = all(
+            t.lo <= lo and hi <= t.hi and t.lo <= x <= t.hi
+            for t, (lo, hi), x in zip(tables, plan.extrema(), targets, strict=True)
+        )
+        full = min(stops, default=k0 - 1) if in_range else k0 - 1
+        padded = [t.padded for t in tables]
+        # Elsewhere, the table lookup per DoF: in range, the byte is base + bisect; out of
+        # range, Register.to_byte raises the usual error.
         spec = [(reg.address, t.lo, t.hi, t.base, t.thresholds, t) for reg, t in
                 zip(run.regs, tables, strict=True)]
         origin, order = run.origin, run.order
-        get_list = self.ticks.setdefault
+        emit = self._emit
         new = tuple.__new__
         for k in range(k0, last + 1):
             pos = targets if k >= k_end else at_time(max(k / rate - start, 0.0))[0]
-            t_us = tick_us(k, rate)
-            bucket = get_list(t_us, [])
-            for i, (address, lo, hi, base, thresholds, table) in enumerate(spec):
-                if k > stops[i]:
-                    continue
-                x = pos[i]
-                byte = base + bisect_right(thresholds, x) if lo <= x <= hi else table(x)
-                bucket.append(new(Write, (t_us, address, BYTES[byte], origin, order, True, 0.0)))
+            t_us = round(k * 1_000_000 / rate)  # tick_us(k, rate), inlined
+            if k <= full:
+                data = map(bisect_right, padded, pos)
+                writes = [
+                    new(Write, (t_us, address, BYTES[byte], origin, order, True, 0.0))
+                    for address, byte in zip(addresses, data, strict=True)
+                ]
+            else:
+                writes = []
+                for i, (address, lo, hi, base, thresholds, table) in enumerate(spec):
+                    if k > stops[i]:
+                        continue
+                    x = pos[i]
+                    byte = base + bisect_right(thresholds, x) if lo <= x <= hi else table(x)
+                    writes.append(
+                        new(Write, (t_us, address, BYTES[byte], origin, order, True, 0.0))
+                    )
+            emit(t_us, writes)
 
 
 def _frames_from_ticks(
@@ -467,10 +610,16 @@ def _frames_from_ticks(
     link: Link,
     gap: float,
     ticks: Mapping[int, Sequence[Write]],
+    mixed: Container[int],
     action_reg: Register | None,
 ) -> tuple[list[PlannedFrame], int]:
-    """Tick by tick: keep the last write per register, drop unchanged samples, merge."""
+    """Tick by tick: keep the last write per register, drop unchanged samples, merge.
+
+    ``mixed`` names the ticks that more than one cue wrote; every other tick holds one cue's
+    writes, one per register in address order, which need no sorting nor de-duplication.
+    """
     action_addr = action_reg.address if action_reg is not None else None
+    merger = _Merger(layout, link, gap, action_addr)
     sent: dict[int, bytes] = {}  # what each register was last sent: unchanged samples drop
     # What each register holds, as far as we know: gap fillers re-send these bytes. A show
     # starts from the initial values (trajectories start there too), and a preset action makes
@@ -478,31 +627,42 @@ def _frames_from_ticks(
     known: dict[int, bytes] = {
         r.address: r.initial for r in layout.profile.registers if r.initial is not None
     }
+    n_known = len(known)
     frames: list[PlannedFrame] = []
     samples = 0
+    merge = merger.merge
+    get = sent.get
+    keep: Sequence[Write]
     for t_us in sorted(ticks):
         bucket = ticks[t_us]
-        if len(bucket) > 1:
+        if t_us in mixed:
             chosen: dict[int, Write] = {}
             for w in sorted(bucket, key=_order):  # stable: emit order breaks ties
                 chosen[w.address] = w
-            bucket = list(chosen.values())
-        keep = [w for w in bucket if not (w.sample and sent.get(w.address) == w.data)]
+            keep = [w for w in chosen.values() if not (w.sample and get(w.address) == w.data)]
+            keep.sort(key=_address)
+            uniform = False
+        else:
+            keep = [w for w in bucket if get(w.address) != w.data] if bucket[0].sample else bucket
+            uniform = True
         if not keep:
             continue
-        tick_frames = merge_writes(layout, link, gap, t_us, keep, known,
-                                   action_address=action_addr)
+        tick_frames = merge(t_us, keep, known, uniform=uniform)
         frames.extend(tick_frames)
-        samples += sum(1 for f in tick_frames if f.droppable)
+        action = False
         for f in tick_frames:
-            for address, data in f.fields:  # gap fillers included: they went out too
-                sent[address] = data
-                known[address] = data
-        if any(f.action for f in tick_frames):
+            samples += f.droppable
+            action = action or f.action
+            sent.update(f.fields)  # gap fillers included: they went out too
+            known.update(f.fields)
+        if action:
             # A preset action moves the robot on its own: what it holds afterwards is unknown,
             # so nothing counts as already sent (and nothing is re-sent as a gap filler).
             sent.clear()
             known.clear()
+        if len(known) != n_known:  # fillers depend on which registers are known
+            n_known = len(known)
+            merger.forget_plans()
     return frames, samples
 
 
@@ -512,5 +672,7 @@ def plan_xgo_track(
     """Plan every frame of one XGO performer (unpaced), with its diagnostics."""
     planner = _XgoPlanner(layout, track, rate)
     planner.plan()
-    frames, samples = _frames_from_ticks(layout, link, gap, planner.ticks, planner.action_reg)
+    frames, samples = _frames_from_ticks(
+        layout, link, gap, planner.ticks, planner.mixed, planner.action_reg
+    )
     return TrackPlan(frames, planner.end, planner.diag.items, samples)
