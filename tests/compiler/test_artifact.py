@@ -79,6 +79,8 @@ def _mutated(show, tmp_path: Path, change) -> Path:  # type: ignore[no-untyped-d
         (lambda d: d["performers"][0].update(model="robodog"), "unknown robot model"),
         (lambda d: d["performers"][0]["frames"][0].update(origin=99), "no origin #99"),
         (lambda d: d["show"].update(control_rate="fast"), "expected int or float"),
+        (lambda d: d["show"].update(tempo_map=[[1, 120]]), "expected \\[first bar, bpm"),
+        (lambda d: d["show"].update(tempo_map=[[2, 120, 4]]), "must start at bar 1"),
     ],
 )
 def test_bad_files_give_clear_errors(show, tmp_path: Path, change, message: str) -> None:  # type: ignore[no-untyped-def]
@@ -86,6 +88,23 @@ def test_bad_files_give_clear_errors(show, tmp_path: Path, change, message: str)
     with pytest.raises(XgoShowError, match=message) as err:
         load_schedule(path)
     assert str(path) in str(err.value)
+
+
+def test_tempo_changes_survive_the_file(make_show, o, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    show = make_show({"rex": ("mini", [ActionCue(0.0, o("bow", 2), 14, "bow", 3.0)])},
+                     bpm=120.0, beats_per_bar=4, tempo_map=((1, 120.0, 4), (3, 60.0, 3)))
+    loaded = load_schedule(save_schedule(compile_show(show), tmp_path / "t.xshow.json"))
+    assert loaded.tempo_map == ((1, 120.0, 4), (3, 60.0, 3))
+    tempo = loaded.tempo()
+    assert tempo is not None
+    assert tempo.position(3) == pytest.approx(4.0)  # two 4/4 bars at 120 bpm
+    assert tempo.position(4) == pytest.approx(7.0)  # then a 3/4 bar at 60 bpm
+
+
+def test_files_without_a_tempo_map_use_their_bpm(show, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    path = _mutated(show, tmp_path, lambda d: d["show"].pop("tempo_map"))
+    tempo = load_schedule(path).tempo()
+    assert tempo is not None and tempo.position(2) == pytest.approx(2.0)
 
 
 def test_not_json_or_missing_file(tmp_path: Path) -> None:

@@ -7,7 +7,8 @@ Format (version 1)::
      "version": 1,
      "show": {"name": str, "source": str, "control_rate": float (Hz),
               "on_failure": "halt_all" | "continue", "battery_floor": int (%),
-              "bpm": float | null, "beats_per_bar": int},
+              "bpm": float | null, "beats_per_bar": int,
+              "tempo_map": [[first bar, bpm, beats_per_bar], ...]},
      "origins": [{"file": str, "line": int, "column": int, "cue": str}, ...],
      "warnings": [{"severity": "warning", "message": str, "origin": int | null,
                    "path": str}, ...],
@@ -42,6 +43,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.compiler.schedule import (
     SCHEDULE_VERSION,
     PerformerSchedule,
@@ -113,6 +115,7 @@ def dumps_schedule(schedule: Schedule) -> str:
         "name": schedule.name,
         "on_failure": schedule.on_failure,
         "source": schedule.source,
+        "tempo_map": [list(row) for row in schedule.tempo_map],
     }
     origin_rows = [
         _dump({"file": o.file, "line": o.line, "column": o.column, "cue": o.cue}) for o in origins
@@ -183,6 +186,27 @@ class _Reader:
         if value < 0:
             raise self.fail(f"{where}.{key}", "must not be negative")
         return float(value) / 1_000_000
+
+
+def _tempo_map(r: _Reader, show: Mapping[str, Any]) -> tuple[tuple[int, float, int], ...]:
+    """``show.tempo_map``: optional (files written before it existed have only ``bpm``)."""
+    rows = show.get("tempo_map", [])
+    if not isinstance(rows, list):
+        raise r.fail("show.tempo_map", f"expected a list, not {type(rows).__name__}")
+    out: list[tuple[int, float, int]] = []
+    for i, row in enumerate(rows):
+        where = f"show.tempo_map[{i}]"
+        if (not isinstance(row, list) or len(row) != 3
+                or any(isinstance(v, bool) for v in row)
+                or not isinstance(row[0], int) or not isinstance(row[1], (int, float))
+                or not isinstance(row[2], int)):
+            raise r.fail(where, "expected [first bar, bpm, beats_per_bar]")
+        out.append((row[0], float(row[1]), row[2]))
+    try:
+        TempoMap([Segment(*row) for row in out]) if out else None
+    except ValueError as exc:
+        raise r.fail("show.tempo_map", str(exc)) from exc
+    return tuple(out)
 
 
 def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
@@ -287,6 +311,7 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
     if rate <= 0:
         raise r.fail("show.control_rate", "must be positive")
     bpm = r.get(show, "bpm", (int, float), "show", optional=True)
+    tempo_map = _tempo_map(r, show)
     return Schedule(
         name=r.get(show, "name", str, "show"),
         source=r.get(show, "source", str, "show"),
@@ -298,4 +323,5 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
         version=SCHEDULE_VERSION,
         bpm=None if bpm is None else float(bpm),
         beats_per_bar=r.get(show, "beats_per_bar", int, "show"),
+        tempo_map=tempo_map,
     )

@@ -81,6 +81,7 @@ def _compile(show: ResolvedShow) -> Schedule:
         warnings=tuple(warnings),
         bpm=show.bpm,
         beats_per_bar=show.beats_per_bar,
+        tempo_map=show.tempo_map,
     )
 
 

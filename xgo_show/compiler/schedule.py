@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.profiles.model import Link
 
@@ -58,6 +59,17 @@ class Schedule:
     version: int = SCHEDULE_VERSION
     bpm: float | None = None
     beats_per_bar: int = 4
+    # The show's whole tempo map as (first bar, bpm, beats_per_bar) rows; empty without a tempo
+    # (bpm/beats_per_bar above are its first row, kept for simple consumers).
+    tempo_map: tuple[tuple[int, float, int], ...] = ()
+
+    def tempo(self) -> TempoMap | None:
+        """The tempo map (bar/beat <-> seconds, tempo changes included), or None without one."""
+        if self.tempo_map:
+            return TempoMap([Segment(*row) for row in self.tempo_map])
+        if self.bpm:
+            return TempoMap.constant(self.bpm, self.beats_per_bar)
+        return None
 
     @property
     def duration(self) -> float:
