@@ -17,6 +17,7 @@ from xgo_show.choreo import load_show
 from xgo_show.cli.main import main
 from xgo_show.compiler import compile_show, save_schedule
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+from xgo_show.errors import XgoShowError
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.runlog import read_log
 from xgo_show.sim import PtyServer, create_robot
@@ -239,3 +240,22 @@ def test_sigint_safe_stops_every_simulated_robot(tmp_path) -> None:
         assert "vx" not in sims[name]["changed"], sims[name]  # back to neutral
         assert sims[name]["actions"][-1] == 255
     json.dumps(sims)  # the log holds plain data
+
+
+def test_start_bar_follows_the_tempo_map(tmp_path) -> None:
+    schedule = compile_show(load_show(_write(tmp_path, "duet.yaml", DUET)))
+    from dataclasses import replace
+
+    from xgo_show.cli.run import start_offset
+
+    # Two 4/4 bars at 120 bpm (4 s), then 3/4 at 60 bpm: bar 4 starts at 4 + 3 = 7 s.
+    changing = replace(schedule, tempo_map=((1, 120.0, 4), (3, 60.0, 3)))
+    long_enough = replace(changing, performers=tuple(
+        replace(p, end=30.0) for p in changing.performers))
+    assert start_offset(long_enough, None, 4) == pytest.approx(7.0)
+    assert start_offset(long_enough, None, 2) == pytest.approx(2.0)
+    with pytest.raises(XgoShowError, match="outside the show"):
+        start_offset(long_enough, None, 40)
+    no_tempo = replace(long_enough, tempo_map=(), bpm=None)
+    with pytest.raises(XgoShowError, match="needs a show with a tempo"):
+        start_offset(no_tempo, None, 2)

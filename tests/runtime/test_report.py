@@ -9,6 +9,7 @@ import pytest
 
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.executor import ExecutorState, Progress
+from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.runtime.report import ProgressPrinter, error_stats, format_report, percentile
 from xgo_show.runtime.runlog import RunLog, read_log
 from xgo_show.runtime.show_runner import ShowProgress, ShowRunner
@@ -30,11 +31,19 @@ def _progress(t: float, state: ExecutorState = ExecutorState.RUNNING) -> ShowPro
 
 
 def test_progress_line_shows_time_bar_beat_cue_and_battery() -> None:
-    printer = ProgressPrinter(bpm=120, beats_per_bar=4, out=io.StringIO(), tty=False)
+    printer = ProgressPrinter(tempo=TempoMap.constant(120, 4), out=io.StringIO(), tty=False)
     # 5.25 s at 120 bpm = beat 10 (0-based) = bar 3, beat 3.
     assert printer.line(_progress(5.25)) == "   5.2/20.0s | bar 3:3 | rex: walk (battery 87%)"
     paused = printer.line(_progress(5.25, ExecutorState.PAUSED))
     assert "rex: walk [paused]" in paused
+
+
+def test_progress_bars_follow_tempo_changes() -> None:
+    # Two 4/4 bars at 120 bpm (4 s), then 3/4 at 60 bpm: 8.5 s is 4.5 s into bar 3 -> bar 4:2.
+    tempo = TempoMap([Segment(1, 120, 4), Segment(3, 60, 3)])
+    printer = ProgressPrinter(tempo=tempo, out=io.StringIO(), tty=False)
+    assert "| bar 4:2 |" in printer.line(_progress(8.5))
+    assert "| bar 2:4 |" in printer.line(_progress(3.9))
 
 
 def test_progress_prints_plain_lines_now_and_then_off_a_terminal() -> None:

@@ -142,11 +142,12 @@ def load_schedule_file(path: str) -> Schedule:
 def start_offset(schedule: Schedule, seconds: float | None, bar: int | None) -> float:
     """The show time to start at, from ``--start`` or ``--start-bar``."""
     if bar is not None:
-        if schedule.bpm is None:
+        tempo = schedule.tempo()
+        if tempo is None:
             raise XgoShowError("--start-bar needs a show with a tempo (bpm); use --start SECONDS")
         if bar < 1:
             raise XgoShowError(f"--start-bar {bar}: bars count from 1")
-        seconds = (bar - 1) * schedule.beats_per_bar * 60.0 / schedule.bpm
+        seconds = tempo.position(bar)  # the tempo map: right across tempo changes
     if seconds is None:
         return 0.0
     if not 0.0 <= seconds < schedule.duration:
@@ -354,7 +355,7 @@ def _play(
             raise PreflightError("pre-flight failed; nothing was moved (--force to start anyway)")
         print("warning: pre-flight failed; starting anyway because of --force", file=out)
     countdown(opts.countdown, out=out)
-    printer = ProgressPrinter(bpm=schedule.bpm, beats_per_bar=schedule.beats_per_bar, out=out)
+    printer = ProgressPrinter(tempo=schedule.tempo(), out=out)
     runner = ShowRunner(
         schedule,
         opened,

@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
+from xgo_show.choreo.timebase import TempoMap
 from xgo_show.runtime.executor import PerformerExecutor, SafeStopResult, SendRecord
 from xgo_show.runtime.show_runner import ShowProgress, ShowResult
 
@@ -162,14 +163,12 @@ class ProgressPrinter:
     def __init__(
         self,
         *,
-        bpm: float | None = None,
-        beats_per_bar: int = 4,
+        tempo: TempoMap | None = None,
         out: TextIO | None = None,
         tty: bool | None = None,
         plain_every: float = 2.0,
     ) -> None:
-        self.bpm = bpm
-        self.beats_per_bar = beats_per_bar
+        self.tempo = tempo
         self.out = out or sys.stdout
         self.tty = self.out.isatty() if tty is None else tty
         self.plain_every = plain_every
@@ -179,9 +178,10 @@ class ProgressPrinter:
     def line(self, progress: ShowProgress) -> str:
         t = progress.show_time
         parts = [f"{t:6.1f}/{progress.duration:.1f}s"]
-        if self.bpm:
-            beat = int(t * self.bpm / 60.0)
-            parts.append(f"bar {beat // self.beats_per_bar + 1}:{beat % self.beats_per_bar + 1}")
+        if self.tempo is not None:
+            # Through the tempo map: bars stay right across tempo and metre changes.
+            bar, beat = self.tempo.bar_beat(t)
+            parts.append(f"bar {bar}:{int(beat + 1e-9)}")
         for p in progress.performers:
             cue = p.cue.removeprefix(f"{p.performer}: ") if p.cue else "-"
             text = f"{p.performer}: {cue}"
