@@ -233,6 +233,8 @@ def summarize_sim(
         "changed": changed,
         "raw": {name: snap.get("raw", {}).get(name) for name in changed},
         "actions": [a.get("id") for a in snap.get("actions", [])],
+        # For people: "wave (13)", and where an action did not run its course, what cut it.
+        "action_names": [_action_text(a) for a in snap.get("actions", [])],
         "frames_received": snap.get("frames_received"),
         "frames_rejected": snap.get("frames_rejected"),
         "rejected": rejected,
@@ -242,11 +244,12 @@ def summarize_sim(
     }
 
 
-def format_sim_summaries(summaries: dict[str, dict[str, Any]]) -> str:
+def format_sim_summaries(summaries: dict[str, dict[str, Any]], *, fast: bool = False) -> str:
+    """The dry-run's closing lines: what each simulated robot received and ended up doing."""
     lines = ["simulated robots at the end:"]
     for name, s in summaries.items():
         changed = ", ".join(f"{k}={_short(v)}" for k, v in s["changed"].items()) or "none"
-        actions = ", ".join(str(a) for a in s["actions"]) or "none"
+        actions = ", ".join(s["action_names"]) or "none"
         lines.append(
             f"  {name} ({s['model']}): {s['frames_received']} frames received, "
             f"{s['frames_rejected']} rejected; actions run: {actions}"
@@ -254,7 +257,20 @@ def format_sim_summaries(summaries: dict[str, dict[str, Any]]) -> str:
         lines.append(f"    registers changed: {changed}")
         for r in s["rejected"]:
             lines.append(f"    rejected {r['hex']}: {r['reason']}")
+    if fast and any("cut after" in a for s in summaries.values() for a in s["action_names"]):
+        lines.append("  (--fast sends frames without waiting, so the simulators see preset actions "
+                     "cut short; run without --fast to see them run their course)")
     return "\n".join(lines)
+
+
+def _action_text(action: dict[str, Any]) -> str:
+    text = f"{action.get('name') or 'action'} ({action.get('id')})"
+    cut, start = action.get("interrupted_at"), action.get("start")
+    if cut is not None and start is not None:
+        text += f" cut after {cut - start:.2f} of {action.get('duration', 0.0):.2f} s"
+        if action.get("interrupted_by"):
+            text += f" by {action['interrupted_by']}"
+    return text
 
 
 def _short(value: Any) -> str:
@@ -383,7 +399,7 @@ def _play(
         summaries = sims.summaries()
         for name, summary in summaries.items():
             log.write("sim", flush=True, performer=name, **summary)
-        print(format_sim_summaries(summaries), file=out, flush=True)
+        print(format_sim_summaries(summaries, fast=opts.fast), file=out, flush=True)
     if result.completed:
         return 0
     if result.reason in SIGNAL_REASONS:
