@@ -5,10 +5,16 @@ from __future__ import annotations
 import itertools
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from xgo_show.choreo.resolved import ActionCue, ArmCue, FadeCue, MotionCue, SetCue
 from xgo_show.compiler import compile_show, describe_frame
+from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.profiles import get_profile
+from xgo_show.sim.xgo_robot import XgoRobot
+
+BEAT_132 = 60 / 132  # a beat at 132 bpm: 0.4545... s, off the 20 ms tick grid
 
 
 def _frames(show):  # type: ignore[no-untyped-def]
@@ -121,8 +127,11 @@ def test_samples_sit_on_the_tick_grid_and_settings_at_their_start(make_show, o) 
     frames = _frames(show)
     samples = [f for f in frames if f.origin == o("m")]
     assert samples[0].t == pytest.approx(0.025)  # first tick at or after 0.013 s
-    for f in samples:
+    for f in samples[:-1]:
         assert round(f.t * 40_000_000) % 1_000_000 == 0  # a multiple of 1/40 s
+    # The exact target goes out at the move's end, 1.013 s, not at the next tick (1.025 s).
+    assert samples[-1].t == pytest.approx(1.013)
+    assert samples[-1].data[5] == get_profile("mini").register("roll").to_byte(10.0)
     assert frames[-1].t == pytest.approx(2.345)
     assert frames[-1].label == "pace=fast"
 
@@ -169,3 +178,105 @@ def test_xarm_cue_is_one_servo_move_and_other_cues_are_errors(make_show, o) -> N
                                                  ArmCue(1.0, o("r", 8), {9: 500}, 1.0)])}))
     messages = [d.message for d in err.value.diagnostics]
     assert messages == ["cue 's': an xArm only takes arm cues", "cue 'r': no xArm servo 9"]
+
+
+def _replay(model: str, frames: tuple[ScheduledFrame, ...]) -> XgoRobot:
+    """A simulated robot that received ``frames`` at their scheduled times."""
+    robot = XgoRobot(get_profile(model))
+    for f in frames:
+        robot.receive(f.data, f.t)
+    return robot
+
+
+def test_move_ending_off_grid_sends_its_target_at_its_end_not_after_an_action(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    end = 3 * BEAT_132  # 1.3636 s: between the 50 Hz ticks at 1.36 s and 1.38 s
+    show = make_show({"rex": ("mini", [
+        MotionCue(BEAT_132, o("lean"), {"body_z": 110.0, "roll": 12.0}, duration=2 * BEAT_132),
+        ActionCue(end, o("wave"), 13, "wave", 7.0),
+    ])})
+    frames = _frames(show)
+    # The action's command is the last write: nothing after it cuts the action.
+    assert frames[-1].origin == o("wave")
+    assert all(f.t <= end + 1e-9 for f in frames[:-1])
+    robot = _replay("mini", frames)
+    (wave,) = robot.actions
+    assert wave["interrupted_at"] is None
+    # ... and the move still arrived exactly.
+    mini = get_profile("mini")
+    assert robot.raw("body_z")[0] == mini.register("body_z").to_byte(110.0)
+    assert robot.raw("roll")[0] == mini.register("roll").to_byte(12.0)
+
+
+def test_action_interrupting_a_move_stops_its_samples_at_the_action(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    show = make_show({"rex": ("mini", [
+        MotionCue(0.0, o("rise"), {"body_z": 115.0, "pitch": 10.0}, duration=2.0),
+        MotionCue(0.5, o("lean"), {"roll": -15.0}, duration=2.0),
+        ActionCue(3 * BEAT_132, o("wave"), 13, "wave", 7.0, interrupts=True),
+    ])})
+    frames = _frames(show)
+    assert frames[-1].origin == o("wave")
+    assert any("roll=" in f.label for f in frames[:-1])  # lean's samples (merged with rise's)
+    assert all(f.t < 3 * BEAT_132 for f in frames[:-1])
+    (wave,) = _replay("mini", frames).actions
+    assert wave["interrupted_at"] is None
+
+
+def test_set_right_at_an_off_grid_move_end_is_not_overwritten(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    show = make_show({"rex": ("mini", [
+        MotionCue(0.0, o("lean"), {"roll": 12.0}, duration=2 * BEAT_132),
+        SetCue(2 * BEAT_132, o("level"), {"roll": -5.0}),
+    ])})
+    frames = _frames(show)
+    assert frames[-1].origin == o("level")
+    roll = get_profile("mini").register("roll")
+    assert _replay("mini", frames).raw("roll")[0] == roll.to_byte(-5.0)
+
+
+def test_fade_ending_off_grid_ends_at_its_end_not_over_a_set_there(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    show = make_show({"wheels": ("rider", [
+        FadeCue(0.0, o("glow"), "led1", (255, 0, 0), BEAT_132),
+        SetCue(2 * BEAT_132, o("blue"), {"led1": (0, 0, 255)}),
+    ])})
+    glow = [f for f in _frames(show) if f.origin == o("glow")]
+    assert glow[-1].t == pytest.approx(BEAT_132, abs=1e-6)  # not at the next tick, 0.46 s
+    assert glow[-1].label == "led1=#FF0000"
+    show = make_show({"wheels": ("rider", [
+        FadeCue(0.0, o("glow"), "led1", (255, 0, 0), BEAT_132),
+        SetCue(BEAT_132, o("blue"), {"led1": (0, 0, 255)}),
+    ])})
+    frames = _frames(show)
+    assert frames[-1].origin == o("blue")
+    assert _replay("rider", frames).raw("led1") == bytes((0, 0, 255))
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    start=st.integers(0, 2000).map(lambda ms: ms / 1000),
+    duration=st.integers(700, 2500).map(lambda ms: ms / 1000),
+    rate=st.sampled_from([25.0, 40.0, 50.0, 60.0, 100.0]),
+)
+def test_move_samples_lie_on_the_grid_and_the_target_lands_at_the_end(
+    start: float, duration: float, rate: float
+) -> None:
+    from tests.compiler.conftest import origin
+    from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
+
+    # A move, and a preset action right at its end: every write of the move goes out by then.
+    cues = (
+        MotionCue(start, origin("m"), {"roll": 15.0, "body_z": 80.0}, duration=duration),
+        ActionCue(start + duration, origin("a"), 13, "wave", 7.0),
+    )
+    show = ResolvedShow("t", "t.yaml", (ResolvedTrack("rex", "mini", cues),), control_rate=rate)
+    frames = compile_show(show).performers[0].frames
+    assert frames[-1].origin == origin("a")
+    end_us = round((start + duration) * 1e6)
+    for f in frames[:-1]:
+        t_us = round(f.t * 1e6)
+        assert t_us <= end_us
+        on_grid = t_us == round(round(t_us * rate / 1e6) * 1e6 / rate)
+        assert on_grid or t_us == end_us
+    robot = _replay("mini", frames)
+    assert robot.actions[0]["interrupted_at"] is None
+    mini = get_profile("mini")
+    assert robot.raw("roll")[0] == mini.register("roll").to_byte(15.0)
+    assert robot.raw("body_z")[0] == mini.register("body_z").to_byte(80.0)

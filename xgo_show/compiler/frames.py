@@ -454,6 +454,12 @@ class _XgoPlanner:
             return
         data = self.action_reg.encode_value(cue.action_id)
         t_us = to_us(cue.start)
+        # Any motion write cuts a running action on the robot: moves still under way (the cue
+        # interrupts them, on purpose) stop sampling before the action's command goes out.
+        for name in self.active:
+            reached = self._take_over(name, cue.start)
+            if reached is not None:
+                self.commanded[name] = reached.position  # the move stopped about here
         self._emit(t_us, [
             Write(t_us, self.action_reg.address, data, cue.origin, order, False, cue.duration)
         ])
@@ -474,20 +480,20 @@ class _XgoPlanner:
         start = self.colours.get(cue.register, (0, 0, 0))
         self.colours[cue.register] = cue.to
         self.end = max(self.end, cue.start + cue.duration)
-        k0 = first_tick(cue.start, self.rate)
-        k1 = first_tick(cue.start + cue.duration, self.rate)
+        # Steps on the tick grid strictly before the end, then the exact colour at the end
+        # itself (as a move's last sample: never after it, over a cue starting there).
+        rate, t0, duration = self.rate, cue.start, cue.duration
+        end_us = to_us(t0 + duration)
         (r0, g0, b0), (r1, g1, b1) = start, cue.to
         dr, dg, db = r1 - r0, g1 - g0, b1 - b0
-        rate, t0, duration = self.rate, cue.start, cue.duration
         address, origin = reg.address, cue.origin
-        for k in range(k0, k1 + 1):
-            if k == k1 or duration <= 0:
-                frac = 1.0
-            else:
-                frac = min(max((k / rate - t0) / duration, 0.0), 1.0)
+        k = first_tick(t0, rate)
+        while duration > 0 and (t_us := tick_us(k, rate)) < end_us:
+            frac = min(max((k / rate - t0) / duration, 0.0), 1.0)
             rgb = bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac)))
-            t_us = tick_us(k, rate)
             self._emit(t_us, [Write(t_us, address, rgb, origin, order, True)])
+            k += 1
+        self._emit(end_us, [Write(end_us, address, bytes(cue.to), origin, order, True)])
 
     def _motion(self, cue: MotionCue, order: int) -> None:
         diag = self.diag
@@ -550,16 +556,24 @@ class _XgoPlanner:
     # -- sampling ---------------------------------------------------------------------------
 
     def _sample_run(self, run: _Run) -> None:
-        """Sample a trajectory on the tick grid, from its start to the first tick at its end.
+        """Sample a trajectory on the tick grid from its start, then its exact end.
 
-        A DoF another cue took over stops before that cue's start; otherwise its last sample is
-        the exact target, so rounding never leaves a register one byte short.
+        Ticks strictly before the move's end carry samples; the last sample is the exact target
+        (rounding never leaves a register one byte short) and goes out at the end itself, on the
+        grid or not: never after it, where it would overwrite a cue starting right at the end
+        (and a motion write would cut a preset action starting there). A DoF another cue took
+        over stops before that cue's start and sends no final target.
         """
         plan, rate = run.plan, self.rate
         k0 = first_tick(plan.start, rate)
+        end_us = to_us(plan.end)
+        # k_end: index of the final sample, at end_us; on the grid it is the tick at the end.
         k_end = first_tick(plan.end, rate)
+        if k_end > k0 and tick_us(k_end - 1, rate) >= end_us:  # the end a hair past a tick
+            k_end -= 1
         stops = [
-            (k_end if cut is None else first_tick(cut, rate) - 1) for cut in run.cuts
+            (k_end if cut is None else min(first_tick(cut, rate), k_end) - 1)
+            for cut in run.cuts
         ]
         targets = plan.targets
         last = max(stops, default=k0 - 1)
@@ -584,8 +598,11 @@ class _XgoPlanner:
         emit = self._emit
         new = tuple.__new__
         for k in range(k0, last + 1):
-            pos = targets if k >= k_end else at_time(max(k / rate - start, 0.0))[0]
-            t_us = round(k * 1_000_000 / rate)  # tick_us(k, rate), inlined
+            if k >= k_end:
+                pos, t_us = targets, end_us
+            else:
+                pos = at_time(max(k / rate - start, 0.0))[0]
+                t_us = round(k * 1_000_000 / rate)  # tick_us(k, rate), inlined
             if k <= full:
                 data = map(bisect_right, padded, pos)
                 writes = [
