@@ -25,8 +25,10 @@ def test_percentiles_interpolate() -> None:
     assert error_stats([]).format() == "no frames sent"
 
 
-def _progress(t: float, state: ExecutorState = ExecutorState.RUNNING) -> ShowProgress:
-    rex = Progress("rex", state, t, 3, 10, "rex: walk", "vx=10")
+def _progress(
+    t: float, state: ExecutorState = ExecutorState.RUNNING, cue: str = "rex: walk"
+) -> ShowProgress:
+    rex = Progress("rex", state, t, 3, 10, cue, "vx=10")
     return ShowProgress(t, 20.0, (rex,), {"rex": {"battery": 87.0}})
 
 
@@ -36,6 +38,14 @@ def test_progress_line_shows_time_bar_beat_cue_and_battery() -> None:
     assert printer.line(_progress(5.25)) == "   5.2/20.0s | bar 3:3 | rex: walk (battery 87%)"
     paused = printer.line(_progress(5.25, ExecutorState.PAUSED))
     assert "rex: walk [paused]" in paused
+
+
+def test_progress_line_leaves_out_where_phrases_were_called() -> None:
+    printer = ProgressPrinter(out=io.StringIO(), tty=False)
+    line = printer.line(_progress(1.0, cue="rex: move roll (phrase sway at shows/a b.yaml:275)"))
+    assert "rex: move roll (phrase sway) (battery" in line
+    line = printer.line(_progress(1.0, cue="rex: periodic roll (phrase unison at line 28)"))
+    assert "rex: periodic roll (phrase unison) (battery" in line
 
 
 def test_progress_bars_follow_tempo_changes() -> None:

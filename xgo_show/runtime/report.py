@@ -7,6 +7,7 @@ Send-time error is the actual send time minus the planned one, for scheduled fra
 from __future__ import annotations
 
 import math
+import re
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -153,6 +154,9 @@ def format_report(result: ShowResult) -> str:
     return "\n".join([head, *(r.format() for r in build_report(result))])
 
 
+_WHERE = re.compile(r" at (?:line \d+|[^()]+:\d+)(?=\))")
+
+
 class ProgressPrinter:
     """The live progress line: show time, bar:beat, cue and battery per performer.
 
@@ -184,6 +188,8 @@ class ProgressPrinter:
             parts.append(f"bar {bar}:{int(beat + 1e-9)}")
         for p in progress.performers:
             cue = p.cue.removeprefix(f"{p.performer}: ") if p.cue else "-"
+            # "(phrase sway at show.yaml:275)" -> "(phrase sway)": the line stays readable.
+            cue = _WHERE.sub("", cue)
             text = f"{p.performer}: {cue}"
             if p.state.value not in ("running",):
                 text += f" [{p.state.value}]"
