@@ -151,6 +151,10 @@ def build_report(result: ShowResult) -> list[PerformerReport]:
 def format_report(result: ShowResult) -> str:
     """The whole end-of-show report as text."""
     head = "show completed" if result.completed else f"show stopped: {result.reason}"
+    if result.stop_latency is not None:
+        # The safety target: every robot stopped within 100 ms of the stop request (or fault).
+        head += (f"; safe stop finished {result.stop_latency * 1000:.1f} ms after the "
+                 "request (target 100 ms)")
     return "\n".join([head, *(r.format() for r in build_report(result))])
 
 
