@@ -8,8 +8,9 @@
 
 from __future__ import annotations
 
+from xgo_show.client.base import DEFAULT_TIMEOUT
 from xgo_show.client.connect import model_hint, open_client
 from xgo_show.client.xarm import XarmClient
-from xgo_show.client.xgo import DEFAULT_TIMEOUT, XgoClient
+from xgo_show.client.xgo import XgoClient
 
 __all__ = ["DEFAULT_TIMEOUT", "XarmClient", "XgoClient", "model_hint", "open_client"]

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
+from xgo_show.client.base import DEFAULT_TIMEOUT
 from xgo_show.client.xarm import XarmClient
-from xgo_show.client.xgo import DEFAULT_TIMEOUT, XgoClient
+from xgo_show.client.xgo import XgoClient
 from xgo_show.errors import ProfileError, TransportTimeout
 from xgo_show.profiles import get_profile, model_from_firmware
 from xgo_show.transports import open_transport, split_wrappers

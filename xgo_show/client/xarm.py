@@ -9,10 +9,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
-from types import TracebackType
 
-from xgo_show.client.exchange import Exchange
-from xgo_show.client.xgo import DEFAULT_TIMEOUT
+from xgo_show.client.base import DEFAULT_TIMEOUT, ClientBase
 from xgo_show.errors import ProfileError, ProtocolError
 from xgo_show.profiles import Profile, get_profile
 from xgo_show.transports.base import Transport
@@ -22,13 +20,17 @@ from xgo_show.wire.xarm import XarmCommand, XarmDecoder, XarmPacket
 __all__ = ["XarmClient"]
 
 
-class XarmClient:
+class XarmClient(ClientBase[XarmPacket]):
     """Read the xArm's battery voltage and servo positions through ``transport`` (open).
 
     ``profile`` defaults to the "xarm" profile (servo ids, 9600-baud link). As a context
     manager the client closes the transport at the end. Not thread-safe, like
     :class:`~xgo_show.client.XgoClient`.
     """
+
+    family = "xarm"
+    protocol = "xArm"
+    robots = "the xArm"
 
     def __init__(
         self,
@@ -39,33 +41,8 @@ class XarmClient:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
-        profile = get_profile("xarm") if profile is None else profile
-        if profile.family != "xarm":
-            raise ProfileError(f"XarmClient talks to the xArm, not {profile.model!r}")
-        self.transport = transport
-        self.profile = profile
-        self._exchange = Exchange(
-            transport,
-            XarmDecoder(),
-            profile.link,
-            protocol="xArm",
-            timeout=timeout,
-            clock=clock,
-            sleep=sleep,
-        )
-
-    @property
-    def model(self) -> str:
-        return self.profile.model
-
-    @property
-    def timeout(self) -> float:
-        """Seconds a request waits for its reply (settable)."""
-        return self._exchange.timeout
-
-    @timeout.setter
-    def timeout(self, seconds: float) -> None:
-        self._exchange.timeout = seconds
+        super().__init__(transport, get_profile("xarm") if profile is None else profile,
+                         XarmDecoder(), timeout=timeout, clock=clock, sleep=sleep)
 
     def battery_mv(self) -> int:
         """Battery voltage in millivolts (GetBatteryVoltage)."""
@@ -95,23 +72,6 @@ class XarmClient:
             listed = ", ".join(map(str, found)) or "none"
             raise ProtocolError(f"reply from {self.transport.url} to {label} lists servos {listed}")
         return {servo: found[servo] for servo in wanted}
-
-    def close(self) -> None:
-        """Close the transport."""
-        self.transport.close()
-
-    def __enter__(self) -> XarmClient:
-        if not self.transport.is_open:
-            self.transport.open()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f"<XarmClient on {self.transport.url}>"

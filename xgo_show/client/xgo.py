@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from types import TracebackType
 
-from xgo_show.client.exchange import Exchange
+from xgo_show.client.base import DEFAULT_TIMEOUT, ClientBase
 from xgo_show.errors import ProfileError
 from xgo_show.profiles import Action, Profile, Register, model_from_firmware
 from xgo_show.transports.base import Transport
@@ -21,11 +20,8 @@ from xgo_show.wire.xgo import XgoDecoder, XgoFrame, read_frame, write_frame
 
 __all__ = ["DEFAULT_TIMEOUT", "XgoClient"]
 
-#: Seconds to wait for a reply (a real robot answers within a few milliseconds).
-DEFAULT_TIMEOUT = 0.5
 
-
-class XgoClient:
+class XgoClient(ClientBase[XgoFrame]):
     """Read and write an XGO robot's registers by name through ``transport``.
 
     The transport must be open (``with open_transport(url) as link: XgoClient(link, profile)``);
@@ -41,6 +37,10 @@ class XgoClient:
     thread is lost to this one).
     """
 
+    family = "xgo"
+    protocol = "XGO"
+    robots = "XGO robots"
+
     def __init__(
         self,
         transport: Transport,
@@ -50,32 +50,8 @@ class XgoClient:
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
-        if profile.family != "xgo":
-            raise ProfileError(f"XgoClient talks to XGO robots, not {profile.model!r}")
-        self.transport = transport
-        self.profile = profile
-        self._exchange = Exchange(
-            transport,
-            XgoDecoder(),
-            profile.link,
-            protocol="XGO",
-            timeout=timeout,
-            clock=clock,
-            sleep=sleep,
-        )
-
-    @property
-    def model(self) -> str:
-        return self.profile.model
-
-    @property
-    def timeout(self) -> float:
-        """Seconds a read waits for its reply (settable)."""
-        return self._exchange.timeout
-
-    @timeout.setter
-    def timeout(self, seconds: float) -> None:
-        self._exchange.timeout = seconds
+        super().__init__(transport, profile, XgoDecoder(), timeout=timeout, clock=clock,
+                         sleep=sleep)
 
     # ------------------------------------------------------------------ reads
     def read(
@@ -151,24 +127,6 @@ class XgoClient:
         act = self.profile.action(key)
         self.write("action", act.id)
         return act
-
-    # ------------------------------------------------------------------ lifetime
-    def close(self) -> None:
-        """Close the transport."""
-        self.transport.close()
-
-    def __enter__(self) -> XgoClient:
-        if not self.transport.is_open:
-            self.transport.open()
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f"<XgoClient {self.model} on {self.transport.url}>"
