@@ -11,7 +11,8 @@ import dataclasses
 from pathlib import Path
 
 from xgo_show.choreo.checks import check_show
-from xgo_show.choreo.model import CueList, PartMapping, ShowFile
+from xgo_show.choreo.model import CueList, ParamPartMapping, PartMapping, ShowFile
+from xgo_show.choreo.params import Argument, substitute
 from xgo_show.choreo.resolve import resolve_show
 from xgo_show.choreo.resolved import ResolvedShow
 from xgo_show.choreo.source import Document, read_yaml
@@ -92,9 +93,33 @@ _PART_NOTE = (
 def _check_part(doc: Document) -> list[Diagnostic]:
     if isinstance(doc.data, list):
         _, diags = validate(CueList, doc, doc.data, (), wrap="cues")
+    elif isinstance(doc.data, dict) and "params" in doc.data:
+        part, diags = validate(ParamPartMapping, doc, doc.data)
+        if part is not None:
+            diags = _check_param_cues(doc, part)
     else:
         _, diags = validate(PartMapping, doc, doc.data)
     return _sorted([Diagnostic("warning", _PART_NOTE, doc.origin(())), *diags])
+
+
+def _check_param_cues(doc: Document, part: ParamPartMapping) -> list[Diagnostic]:
+    """Check a part's cues with its parameters' defaults put in. A parameter without a default
+    has no value yet: what its uses need is checked when a routine includes the part."""
+    args = {
+        name: None if default is None else Argument(default, doc, ("params", name))
+        for name, default in part.params.items()
+    }
+    done = substitute(doc.data["cues"] if isinstance(doc.data, dict) else None, args,
+                      at=("cues",), label="include", base=(), owner="this part")
+    inst = doc.view(links=done.links)
+    diags = [Diagnostic("error", message, inst.origin(loc, key=key), inst.path(loc))
+             for loc, message, key in done.problems]
+    _, found = validate(CueList, inst, done.data, ("cues",), wrap="cues")
+    # Errors on a use of a valueless parameter, or on the value holding it (an 'at' mapping,
+    # a list of targets), are not errors yet; the cue's own shape still is.
+    open_ends = {inst.origin(hole[:n]) for hole in done.holes for n in range(3, len(hole) + 1)}
+    open_ends |= {inst.origin(loc) for loc, _, _ in done.problems}  # reported already
+    return diags + [d for d in found if d.origin not in open_ends]
 
 
 def _summary(path: str | Path, diags: list[Diagnostic]) -> str:

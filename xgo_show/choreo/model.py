@@ -42,6 +42,8 @@ __all__ = [
     "LengthField",
     "LimitsOverride",
     "MoveCueModel",
+    "ParamPartMapping",
+    "ParamValue",
     "PartMapping",
     "PerformerModel",
     "PeriodicCueModel",
@@ -67,6 +69,33 @@ NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$")]
 Scalar = Union[float, str, bool]  # noqa: UP007  (a runtime union for pydantic)
+
+
+def _param_value(value: object) -> object:
+    # Any YAML value keeps its own type (an int stays an int): the place of use checks it.
+    if value is None:
+        raise PydanticCustomError(
+            "param", "a parameter value cannot be null (null in params: means 'must be given')",
+            {},
+        )
+    return value
+
+
+ParamValue = Annotated[
+    Any,
+    PlainValidator(_param_value),
+    WithJsonSchema({
+        "description": "A parameter's value: any YAML value (number, string, list, mapping); "
+        "it keeps its type and is checked where the cues use it.",
+        "not": {"type": "null"},
+    }),
+]
+ParamDefault = Annotated[
+    Any,
+    WithJsonSchema({
+        "description": "The parameter's default value (any YAML value); null = must be given."
+    }),
+]
 
 _BAR_BEAT = re.compile(r"^\s*(\d+)\s*\.\s*(\d+)\s*$")
 
@@ -389,7 +418,9 @@ class PhraseCueModel(_BlockTiming):
     """Play a phrase defined under ``phrases:``, with parameter values."""
 
     phrase: Name
-    with_: dict[str, Scalar] = Field(default_factory=dict, alias="with")
+    with_: dict[str, ParamValue] = Field(
+        default_factory=dict, alias="with", description="Parameter values (name -> value)."
+    )
 
     model_config = ConfigDict(populate_by_name=True)
 
@@ -402,9 +433,15 @@ class RepeatCueModel(_BlockTiming):
 
 
 class IncludeCueModel(_BlockTiming):
-    """Play the cues of another file (path relative to this file)."""
+    """Play the cues of another file (path relative to this file), with parameter values."""
 
     include: Annotated[str, Field(min_length=1)]
+    with_: dict[str, ParamValue] = Field(
+        default_factory=dict, alias="with",
+        description="Values of the part's parameters (its params:).",
+    )
+
+    model_config = ConfigDict(populate_by_name=True)
 
 
 _CUE_CLASSES: dict[str, type[BaseModel]] = {
@@ -540,7 +577,7 @@ class PerformerModel(_Model):
 class PhraseModel(_Model):
     """A reusable sequence of cues with parameters (``$name`` in the cues)."""
 
-    params: dict[Name, Scalar | None] = Field(
+    params: dict[Name, ParamDefault] = Field(
         default_factory=dict, description="Parameter defaults; null = must be given."
     )
     cues: Annotated[list[Any], Field(min_length=1)] = Field(
@@ -567,6 +604,19 @@ class PartMapping(_Model):
 
     phrases: dict[Name, PhraseModel] = Field(default_factory=dict)
     cues: list[CueModel] = Field(default_factory=list)
+
+
+class ParamPartMapping(_Model):
+    """An included file with parameters: ``$name`` in its cues stands for a value given with
+    ``{include: FILE, with: {...}}``. The cues are checked once the values are known."""
+
+    params: dict[Name, ParamDefault] = Field(
+        description="Parameter defaults; null = must be given."
+    )
+    phrases: dict[Name, PhraseModel] = Field(default_factory=dict)
+    cues: list[Any] = Field(
+        default_factory=list, json_schema_extra={"items": {"type": "object"}}
+    )
 
 
 class CueList(_Model):

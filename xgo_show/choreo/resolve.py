@@ -8,7 +8,6 @@ are left to :mod:`xgo_show.choreo.checks`, which reads the :class:`CueSource` ke
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +24,7 @@ from xgo_show.choreo.model import (
     LedCueModel,
     Length,
     MoveCueModel,
+    ParamPartMapping,
     PartMapping,
     PerformerModel,
     PeriodicCueModel,
@@ -40,6 +40,7 @@ from xgo_show.choreo.model import (
     WalkCueModel,
     cue_kind,
 )
+from xgo_show.choreo.params import Argument, substitute
 from xgo_show.choreo.resolved import (
     ActionCue,
     ArmCue,
@@ -50,7 +51,7 @@ from xgo_show.choreo.resolved import (
     ResolvedTrack,
     SetCue,
 )
-from xgo_show.choreo.source import Document, Loc, format_path, parse_yaml, read_text
+from xgo_show.choreo.source import Document, Loc, parse_yaml, read_text
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.choreo.validation import did_you_mean, validate
 from xgo_show.diagnostics import Diagnostic, Origin
@@ -63,7 +64,6 @@ __all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "min_duration",
 _RESET_ACTION = 255
 MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
 MAX_SECONDS = 3600.0  # a show longer than an hour is a typo (or needs splitting)
-_PARAM = re.compile(r"^(-?)\$([A-Za-z_][A-Za-z0-9_]*)$")
 
 
 @dataclass(frozen=True)
@@ -101,6 +101,20 @@ class _Phrase:
     loc: Loc
 
 
+_Part = CueList | PartMapping | ParamPartMapping  # an included file, parsed
+
+
+@dataclass(frozen=True)
+class _Body:
+    """Cues played with parameters: a phrase's, or a part file's with ``params:``."""
+
+    title: str  # for messages: "phrase 'nod'", "parts/a.yaml"
+    label: str  # for field paths: "phrase nod", "include parts/a.yaml"
+    params: Mapping[str, object]  # name -> default (None: must be given)
+    doc: Document
+    base: Loc  # the block's own place in doc (paths inside it read relative to it)
+
+
 @dataclass
 class _Block:
     """Where a list of cues is being resolved."""
@@ -130,7 +144,7 @@ class _Resolver:
         self.diags: list[Diagnostic] = []
         self.sources: dict[int, CueSource] = {}
         self.tempo: TempoMap | None = None
-        self.parts: dict[Path, tuple[Document | None, PartMapping | CueList | None, str]] = {}
+        self.parts: dict[Path, tuple[Document | None, _Part | None, str]] = {}
         self.count = 0
         self.too_many = False
         self.phrase_stack: list[str] = []
@@ -139,10 +153,10 @@ class _Resolver:
     # -- diagnostics ----------------------------------------------------------------------
 
     def error(self, doc: Document, loc: Loc, message: str, *, key: bool = False) -> None:
-        self.diags.append(Diagnostic("error", message, doc.origin(loc, key=key), format_path(loc)))
+        self.diags.append(Diagnostic("error", message, doc.origin(loc, key=key), doc.path(loc)))
 
     def warning(self, doc: Document, loc: Loc, message: str) -> None:
-        self.diags.append(Diagnostic("warning", message, doc.origin(loc), format_path(loc)))
+        self.diags.append(Diagnostic("warning", message, doc.origin(loc), doc.path(loc)))
 
     # -- time -----------------------------------------------------------------------------
 
@@ -287,11 +301,12 @@ class _Resolver:
             if part is None:
                 continue
             pdoc, pmodel, _ = part
-            if isinstance(pmodel, PartMapping):
-                if pmodel.cues:
-                    self.error(pdoc, ("cues",),
-                               "a phrase library (the show's 'include:') holds phrases only; "
-                               "play cues with a cue {include: FILE} in a track")
+            if isinstance(pmodel, (PartMapping, ParamPartMapping)):
+                for name in ("params", "cues"):
+                    if name in pmodel.model_fields_set and getattr(pmodel, name):
+                        self.error(pdoc, (name,),
+                                   "a phrase library (the show's 'include:') holds phrases only; "
+                                   "play cues with a cue {include: FILE} in a track")
                 self.add_phrases(phrases, pmodel.phrases, pdoc, ("phrases",))
             else:
                 self.error(self.doc, loc, f"{include} is a list of cues; the show's 'include:' "
@@ -388,38 +403,15 @@ class _Resolver:
             chain = " -> ".join([*self.phrase_stack, cue.phrase])
             self.error(doc, (*loc, "phrase"), f"phrase {cue.phrase!r} plays itself ({chain})")
             return None
-        params = found.model.params
-        values: dict[str, object] = {}
-        ok = True
-        for name, value in cue.with_.items():
-            if name not in params:
-                listing = ", ".join(params) or "none"
-                self.error(doc, (*loc, "with", name), f"phrase {cue.phrase!r} has no parameter "
-                           f"{name!r}{did_you_mean(name, list(params))}; parameters: {listing}",
-                           key=True)
-                ok = False
-            values[name] = value
-        for name, default in params.items():
-            if name not in values:
-                if default is None:
-                    self.error(doc, (*loc, "phrase"), f"phrase {cue.phrase!r} needs parameter "
-                               f"{name!r} (with: {{{name}: ...}})")
-                    ok = False
-                values[name] = default
-        if not ok:
+        body = _Body(f"phrase {cue.phrase!r}", f"phrase {cue.phrase}", found.model.params,
+                     found.doc, found.loc)
+        bound = self.bind(body, cue.with_, doc, loc, (*loc, "phrase"))
+        if bound is None:
             return None
-        body_loc: Loc = (*found.loc, "cues")
-        raw = _lookup(found.doc.data, body_loc)
-        substituted = self.substitute(raw, values, found, body_loc)
-        if substituted is None:
-            return None
-        parsed, diags = validate(CueList, found.doc, substituted, body_loc, wrap="cues")
-        self.diags.extend(diags)
-        if parsed is None:
-            return None
+        inst, parsed = bound
         here = doc.origin(loc)
         where = f"line {here.line}" if here.file == found.doc.file else f"{here.file}:{here.line}"
-        sub = _Block(found.doc, body_loc, start, False, block.phrases, block.includes,
+        sub = _Block(inst, (*found.loc, "cues"), start, False, block.phrases, block.includes,
                      f"phrase {cue.phrase} at {where}")
         self.phrase_stack.append(cue.phrase)
         try:
@@ -427,63 +419,86 @@ class _Resolver:
         finally:
             self.phrase_stack.pop()
 
-    def substitute(
-        self, raw: object, values: Mapping[str, object], phrase: _Phrase, loc: Loc
-    ) -> object | None:
+    def bind(
+        self, body: _Body, given: Mapping[str, object], doc: Document, loc: Loc, name_loc: Loc
+    ) -> tuple[Document, CueList] | None:
+        """Check a call's ``with:`` against ``body``'s parameters, put the values into its cues
+        and validate them: the instance's document (a view linking each filled-in node to its
+        value) and cues, or None after reporting why not."""
+        args: dict[str, Argument] = {}
         ok = True
-
-        def walk(node: object, here: Loc) -> object:
-            nonlocal ok
-            if isinstance(node, dict):
-                return {k: walk(v, (*here, k)) for k, v in node.items()}
-            if isinstance(node, list):
-                return [walk(v, (*here, i)) for i, v in enumerate(node)]
-            if isinstance(node, str):
-                match = _PARAM.match(node)
-                if match:
-                    name = match[2]
-                    if name not in values:
-                        names = ", ".join(values) or "none"
-                        self.error(phrase.doc, here, f"unknown parameter ${name} in phrase "
-                                   f"{phrase.name!r}{did_you_mean(name, list(values))}; "
-                                   f"parameters: {names}")
-                        ok = False
-                        return node
-                    value = values[name]
-                    if match[1]:
-                        if isinstance(value, (int, float)) and not isinstance(value, bool):
-                            return -value
-                        self.error(phrase.doc, here, f"-${name} needs a number, but {name} is "
-                                   f"{value!r}")
-                        ok = False
-                    return value
-            return node
-
-        out = walk(raw, loc)
-        return out if ok else None
+        names = list(body.params)
+        for name, value in given.items():
+            if name not in body.params:
+                listing = ", ".join(names) or "none"
+                if not names and body.label.startswith("include"):
+                    listing += " (a part file declares them under params:)"
+                self.error(doc, (*loc, "with", name), f"{body.title} has no parameter {name!r}"
+                           f"{did_you_mean(name, names)}; parameters: {listing}", key=True)
+                ok = False
+                continue
+            args[name] = Argument(value, doc, (*loc, "with", name))
+        for name, default in body.params.items():
+            if name in args:
+                continue
+            if default is None:
+                self.error(doc, name_loc, f"{body.title} needs parameter {name!r} "
+                           f"(with: {{{name}: ...}})")
+                ok = False
+            else:
+                args[name] = Argument(default, body.doc, (*body.base, "params", name))
+        if not ok:
+            return None
+        cues_loc: Loc = (*body.base, "cues")
+        done = substitute(_lookup(body.doc.data, cues_loc), args, at=cues_loc,
+                          label=body.label, base=body.base, owner=body.title)
+        inst = body.doc.view(links={**body.doc.links, **done.links})
+        for where, message, key in done.problems:
+            self.error(inst, where, message, key=key)
+        parsed, diags = validate(CueList, inst, done.data, cues_loc, wrap="cues")
+        reported = {inst.origin(where) for where, _, _ in done.problems}
+        self.diags.extend(d for d in diags if d.origin not in reported)
+        if parsed is None or done.problems:
+            return None
+        return inst, parsed
 
     def include(
         self, perf: _Performer, cue: IncludeCueModel, start: float, block: _Block, loc: Loc
     ) -> float | None:
-        part = self.load_part(cue.include, block.doc, (*loc, "include"), block.includes)
+        via = f"{block.doc.path(loc)} -> include {cue.include}"
+        part = self.load_part(cue.include, block.doc, (*loc, "include"), block.includes, via)
         if part is None:
             return None
         pdoc, pmodel, path = part
+        pdoc = pdoc.view(via=via)
+        phrases = dict(block.phrases)
         cues_loc: Loc = ()
-        if isinstance(pmodel, PartMapping):
-            phrases = dict(block.phrases)
+        if not isinstance(pmodel, CueList):
             self.add_phrases(phrases, pmodel.phrases, pdoc, ("phrases",))
-            cues, cues_loc = pmodel.cues, ("cues",)
-        else:
-            phrases, cues = dict(block.phrases), pmodel.cues
+            cues_loc = ("cues",)
+        params = pmodel.params if isinstance(pmodel, ParamPartMapping) else {}
+        body = _Body(cue.include, f"include {cue.include}", params, pdoc, ())
+        cues: Sequence[object] = pmodel.cues
+        if isinstance(pmodel, ParamPartMapping):
+            bound = self.bind(body, cue.with_, block.doc, loc, (*loc, "include"))
+            if bound is None:
+                return None
+            pdoc, parsed = bound
+            cues = parsed.cues
+        elif cue.with_:
+            self.bind(body, cue.with_, block.doc, loc, (*loc, "include"))  # reports each one
+            return None
         sub = _Block(pdoc, cues_loc, start, False, phrases, (*block.includes, path),
                      block.context)
         return self.sequence(perf, cues, sub)
 
     def load_part(
-        self, name: str, doc: Document, loc: Loc, stack: tuple[Path, ...]
-    ) -> tuple[Document, PartMapping | CueList, Path] | None:
-        """Read, parse and validate an included file (once; later uses hit the cache)."""
+        self, name: str, doc: Document, loc: Loc, stack: tuple[Path, ...], via: str = ""
+    ) -> tuple[Document, _Part, Path] | None:
+        """Read, parse and validate an included file (once; later uses hit the cache).
+
+        ``via`` names the first include in the field paths of the file's own errors.
+        """
         try:
             path = (Path(doc.file).parent / name).resolve()
         except (OSError, ValueError) as exc:  # a NUL in the name, a symlink loop, ...
@@ -494,7 +509,7 @@ class _Resolver:
             self.error(doc, loc, f"include cycle: {chain}")
             return None
         if path not in self.parts:
-            self.parts[path] = self.parse_part(path, str(Path(doc.file).parent / name))
+            self.parts[path] = self.parse_part(path, str(Path(doc.file).parent / name), via)
         pdoc, model, problem = self.parts[path]
         if problem:
             self.error(doc, loc, f"cannot include {name!r}: {problem}")
@@ -503,18 +518,21 @@ class _Resolver:
         return pdoc, model, path
 
     def parse_part(
-        self, path: Path, shown: str
-    ) -> tuple[Document | None, PartMapping | CueList | None, str]:
+        self, path: Path, shown: str, via: str
+    ) -> tuple[Document | None, _Part | None, str]:
         text = read_text(path)
         if isinstance(text, tuple):
             return None, None, text[0]
         pdoc, errors = parse_yaml(text, shown)
-        model: PartMapping | CueList | None = None
+        model: _Part | None = None
         if not errors:
+            seen = pdoc.view(via=via)
             if isinstance(pdoc.data, list):
-                model, errors = validate(CueList, pdoc, pdoc.data, (), wrap="cues")
+                model, errors = validate(CueList, seen, pdoc.data, (), wrap="cues")
+            elif isinstance(pdoc.data, dict) and "params" in pdoc.data:
+                model, errors = validate(ParamPartMapping, seen, pdoc.data)
             elif isinstance(pdoc.data, dict):
-                model, errors = validate(PartMapping, pdoc, pdoc.data)
+                model, errors = validate(PartMapping, seen, pdoc.data)
             else:
                 return None, None, "it must hold a list of cues or a mapping with phrases/cues"
         self.diags.extend(errors)
@@ -583,28 +601,26 @@ class _Emitter:
         self.origin = origin
         self.doc = block.doc
         self.profile = perf.profile
-        self.paths: dict[Origin, str] = {}
 
-    def at(self, *parts: str | int) -> Origin:
-        """Origin of a node inside this cue (its field path is remembered for messages)."""
-        loc = (*self.loc, *parts)
-        origin = self.doc.origin(loc, self.origin.cue)
-        self.paths[origin] = format_path(loc)
-        return origin
+    def at(self, *parts: str | int) -> Loc:
+        """A node inside this cue (a register's value, an LED's colour...)."""
+        return (*self.loc, *parts)
 
     def error(self, message: str, *parts: str | int, key: bool = False) -> None:
         self.res.error(self.doc, (*self.loc, *parts), message, key=key)
 
     def add(
-        self, cue: Cue, end: float, values: Mapping[str, Origin] | None = None,
+        self, cue: Cue, end: float, values: Mapping[str, Loc] | None = None,
         running: float = 0.0,
     ) -> None:
+        """Emit ``cue``; ``values`` are the nodes each register's value came from."""
         self.perf.cues.append(cue)
-        values = dict(values or {})
-        path = format_path(self.loc)
-        paths = {name: self.paths.get(o, path) for name, o in values.items()}
+        values = values or {}
+        origins = {name: self.doc.origin(loc, self.origin.cue) for name, loc in values.items()}
+        paths = {name: self.doc.path(loc) for name, loc in values.items()}
         self.res.sources[id(cue)] = CueSource(
-            self.perf.name, self.kind, path, self.origin, values, paths, running, end
+            self.perf.name, self.kind, self.doc.path(self.loc), self.origin, origins, paths,
+            running, end,
         )
 
     def cue(self, cue: object, start: float) -> float | None:
@@ -671,7 +687,7 @@ class _Emitter:
         return out
 
     def motion(
-        self, points: Mapping[str, Sequence[float]], origins: Mapping[str, Sequence[Origin]],
+        self, points: Mapping[str, Sequence[float]], origins: Mapping[str, Sequence[Loc]],
         start: float, length: float | None, cue: MoveCueModel | None,
     ) -> float | None:
         counts = {len(v) for v in points.values() if len(v) > 1}
@@ -691,7 +707,7 @@ class _Emitter:
         t = start
         for k in range(segments):
             targets: dict[str, float] = {}
-            values: dict[str, Origin] = {}
+            values: dict[str, Loc] = {}
             for name, seq in points.items():
                 if len(seq) > 1 or k == 0:
                     targets[name] = seq[k] if len(seq) > 1 else seq[0]
@@ -711,7 +727,7 @@ class _Emitter:
 
     def on_move(self, cue: MoveCueModel, start: float, length: float | None) -> float | None:
         points: dict[str, list[float]] = {}
-        origins: dict[str, list[Origin]] = {}
+        origins: dict[str, list[Loc]] = {}
         for name, value in cue.move.items():
             if isinstance(value, list):
                 points[name] = list(value)
@@ -731,7 +747,7 @@ class _Emitter:
 
     def on_arm(self, cue: ArmCueModel, start: float, length: float | None) -> float | None:
         points: dict[str, list[float]] = {}
-        origins: dict[str, list[Origin]] = {}
+        origins: dict[str, list[Loc]] = {}
         for axis in ("x", "z"):
             value = getattr(cue.arm, axis)
             if value is not None:
@@ -789,7 +805,7 @@ class _Emitter:
             self.error(f"the {self.profile.title} has no LEDs", "led", key=True)
             return None
         colors: dict[str, tuple[int, int, int]] = {}
-        origins: dict[str, Origin] = {}
+        origins: dict[str, Loc] = {}
         ok = True
         for key, value in cue.led.items():
             targets = leds if key == "all" else [key]
@@ -822,7 +838,7 @@ class _Emitter:
         return end
 
     def pose(
-        self, positions: dict[int, int], origins: dict[int, Origin], start: float,
+        self, positions: dict[int, int], origins: dict[int, Loc], start: float,
         length: float | None,
     ) -> float | None:
         if self.profile.family != "xarm":

@@ -3,7 +3,7 @@
 Editors that speak the YAML language server use them through a modeline on the first line:
 ``# yaml-language-server: $schema=../schemas/choreography.schema.json`` for a routine, and
 ``...$schema=../../schemas/choreography-part.schema.json`` for a part (an included file: a list
-of cues, or a mapping with phrases and cues). Regenerate with
+of cues, or a mapping with phrases, cues and optionally params). Regenerate with
 ``python -m xgo_show.choreo.schema > schemas/choreography.schema.json`` and
 ``python -m xgo_show.choreo.schema --part > schemas/choreography-part.schema.json``.
 """
@@ -16,7 +16,7 @@ from typing import Any
 
 from pydantic import TypeAdapter
 
-from xgo_show.choreo.model import CueModel, PartMapping, ShowFile
+from xgo_show.choreo.model import CueModel, ParamPartMapping, PartMapping, ShowFile
 
 __all__ = [
     "PART_SCHEMA_ID",
@@ -40,9 +40,10 @@ def choreography_json_schema() -> dict[str, Any]:
 
 
 def choreography_part_json_schema() -> dict[str, Any]:
-    """The JSON schema of an included part file: a list of cues, or phrases and cues."""
-    adapter: TypeAdapter[list[CueModel] | PartMapping] = TypeAdapter(
-        list[CueModel] | PartMapping
+    """The JSON schema of an included part file: a list of cues, or phrases and cues (and
+    parameters, whose ``$name`` uses make its cues checkable only once values are given)."""
+    adapter: TypeAdapter[list[CueModel] | PartMapping | ParamPartMapping] = TypeAdapter(
+        list[CueModel] | PartMapping | ParamPartMapping
     )
     schema = adapter.json_schema()
     schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"

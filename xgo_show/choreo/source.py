@@ -9,7 +9,7 @@ and a duplicate key is an error. Only the safe YAML subset is understood (no Pyt
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import yaml
@@ -18,27 +18,71 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from xgo_show.diagnostics import Diagnostic, Origin
 
-__all__ = ["Document", "Loc", "format_path", "parse_yaml", "read_text", "read_yaml"]
+__all__ = ["Document", "Link", "Loc", "format_path", "parse_yaml", "read_text", "read_yaml"]
 
 Loc = tuple[str | int, ...]
 
 _MERGE_TAG = "tag:yaml.org,2002:merge"
 
 
+@dataclass(frozen=True)
+class Link:
+    """A node of a block whose value was written elsewhere: a parameter's value, at its use.
+
+    ``doc``/``loc`` is where the value was written (a call's ``with:`` entry or the parameter's
+    default), ``label`` names the block it was passed into (``phrase nod``, ``include
+    parts/a.yaml``) and ``base`` is that block's own place, so paths inside it read relative.
+    """
+
+    doc: Document
+    loc: Loc
+    label: str
+    base: Loc
+
+
 @dataclass
 class Document:
-    """A parsed YAML file: its data and where each value (and each mapping key) starts."""
+    """A parsed YAML file: its data and where each value (and each mapping key) starts.
+
+    A *view* of a document (:meth:`view`) shares its data and marks but knows how it was
+    reached: ``via`` is the field path of the include that played it, and ``links`` map the
+    nodes filled in from parameters to where their values were written. Diagnostics then point
+    at the value's own ``file:line:col`` and show the whole chain in the field path.
+    """
 
     file: str
     data: object
     marks: dict[Loc, tuple[int, int]] = field(default_factory=dict)  # value node, 1-based
     key_marks: dict[Loc, tuple[int, int]] = field(default_factory=dict)  # key of that value
+    via: str = ""  # "tracks.rex[3] -> include parts/a.yaml": how this view was reached
+    links: dict[Loc, Link] = field(default_factory=dict)
+
+    def view(self, *, via: str | None = None, links: dict[Loc, Link] | None = None) -> Document:
+        """The same file reached another way (an include, a parameterised block)."""
+        return replace(self, via=self.via if via is None else via,
+                       links=self.links if links is None else links)
+
+    def linked(self, loc: Sequence[str | int]) -> tuple[Link, Loc] | None:
+        """The parameter link ``loc`` lies in (and the rest of ``loc`` inside the value)."""
+        if not self.links:
+            return None
+        path = tuple(loc)
+        for n in range(len(path), -1, -1):
+            link = self.links.get(path[:n])
+            if link is not None:
+                return link, path[n:]
+        return None
 
     def origin(self, loc: Sequence[str | int], cue: str = "", *, key: bool = False) -> Origin:
         """Where ``loc`` is in the file; the nearest enclosing node if ``loc`` is not there.
 
-        ``key=True`` points at the mapping key rather than its value (for unknown fields).
+        ``key=True`` points at the mapping key rather than its value (for unknown fields). A
+        node filled in from a parameter is where the parameter's value was written.
         """
+        found = self.linked(loc)
+        if found is not None and (found[1] or not key):  # the key itself is this block's
+            link, rest = found
+            return link.doc.origin((*link.loc, *rest), cue, key=key)
         path = tuple(loc)
         while path:
             table = self.key_marks if key else self.marks
@@ -49,6 +93,19 @@ class Document:
             key = False
         line, col = self.marks.get((), (1, 1))
         return Origin(self.file, line, col, cue)
+
+    def path(self, loc: Sequence[str | int]) -> str:
+        """The field path of ``loc`` for messages, with the includes and parameters that led
+        there: ``tracks.rex[1].with.depth -> phrase nod cues[0].move.pitch``."""
+        found = self.linked(loc)
+        if found is not None:
+            link, rest = found
+            inner = tuple(loc)
+            if inner[:len(link.base)] == link.base:
+                inner = inner[len(link.base):]
+            return f"{link.doc.path((*link.loc, *rest))} -> {link.label} {format_path(inner)}"
+        here = format_path(loc)
+        return f"{self.via} {here}" if self.via else here
 
 
 def format_path(loc: Sequence[str | int]) -> str:

@@ -17,7 +17,7 @@ from typing import Any, TypeVar
 from pydantic import BaseModel, Tag, ValidationError
 
 from xgo_show.choreo.model import CUE_KINDS
-from xgo_show.choreo.source import Document, Loc, format_path
+from xgo_show.choreo.source import Document, Loc
 from xgo_show.diagnostics import Diagnostic
 
 __all__ = ["data_loc", "did_you_mean", "validate"]
@@ -105,7 +105,23 @@ def _describe(value: object) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
+_PARAM_LIKE = re.compile(r"^-?\$[A-Za-z_][A-Za-z0-9_]*$")
+_PARAM_HINT = (
+    " (parameters ($name) work in the cues of a phrase, or of a part file with params:)"
+)
+
+
 def _message(err: Any, root: type[BaseModel]) -> str:
+    msg = _plain_message(err, root)
+    value = err.get("input")
+    if isinstance(value, str) and _PARAM_LIKE.match(value) and err["type"] not in (
+        "extra_forbidden", "missing",
+    ):
+        msg += _PARAM_HINT
+    return msg
+
+
+def _plain_message(err: Any, root: type[BaseModel]) -> str:
     kind = err["type"]
     raw_loc = err["loc"]
     if kind == "extra_forbidden":
@@ -219,5 +235,5 @@ def validate(
         seen.add((full, msg))
         key = err["type"] == "extra_forbidden"
         origin = doc.origin(full, key=key)
-        diags.append(Diagnostic("error", msg, origin, format_path(full)))
+        diags.append(Diagnostic("error", msg, origin, doc.path(full)))
     return None, diags
