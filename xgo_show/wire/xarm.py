@@ -74,6 +74,7 @@ from enum import IntEnum
 from typing import NamedTuple, TypeAlias
 
 from xgo_show.errors import ProtocolError
+from xgo_show.wire.stream import StreamDecoder
 
 __all__ = [
     "ALL_GROUPS",
@@ -300,42 +301,19 @@ def decode_one(buf: bytes | bytearray) -> tuple[int, XarmPacket | None]:
     return length + 2, XarmPacket(XarmCommand(command), bytes(buf[4 : length + 2]))
 
 
-class XarmDecoder:
-    """Streaming decoder: ``feed()`` any chunks, get complete packets out.
+class XarmDecoder(StreamDecoder[XarmPacket]):
+    """Streaming decoder: ``feed()`` any chunks, get complete packets out; never raises.
 
-    ``discarded`` counts bytes thrown away as junk (line noise, unknown commands, torn packets).
+    ``discarded`` counts bytes thrown away as junk (line noise, torn or corrupt packets).
     """
 
     def __init__(self) -> None:
-        self._buf = bytearray()
-        self.discarded = 0
-        self.packets = 0
+        super().__init__(decode_one)
 
     @property
-    def pending(self) -> int:
-        """Bytes held while waiting for the rest of a packet."""
-        return len(self._buf)
-
-    def feed(self, chunk: bytes | bytearray) -> list[XarmPacket]:
-        """Add bytes and return every complete packet they finish, in order."""
-        self._buf += chunk
-        out: list[XarmPacket] = []
-        while self._buf:
-            used, packet = decode_one(self._buf)
-            if used == 0:
-                break
-            del self._buf[:used]
-            if packet is None:
-                self.discarded += used
-            else:
-                self.packets += 1
-                out.append(packet)
-        return out
-
-    def reset(self) -> None:
-        """Forget any partial packet (its bytes count as discarded); call before a request."""
-        self.discarded += len(self._buf)
-        self._buf.clear()
+    def packets(self) -> int:
+        """Packets decoded so far."""
+        return self.decoded
 
 
 # --- Value checks ---------------------------------------------------------------------------------

@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from xgo_show.errors import ProtocolError
+from xgo_show.wire.stream import StreamDecoder
 
 __all__ = [
     "HEADER",
@@ -191,39 +192,16 @@ def _complete_frame_at(buf: bytes | bytearray, pos: int) -> bool:
     )
 
 
-class XgoDecoder:
-    """Streaming decoder: ``feed()`` any chunks, get complete frames out.
+class XgoDecoder(StreamDecoder[XgoFrame]):
+    """Streaming decoder: ``feed()`` any chunks, get complete frames out; never raises.
 
     ``discarded`` counts bytes thrown away as junk (line noise, torn or corrupt frames).
     """
 
     def __init__(self) -> None:
-        self._buf = bytearray()
-        self.discarded = 0
-        self.frames = 0
+        super().__init__(decode_one)
 
     @property
-    def pending(self) -> int:
-        """Bytes held while waiting for the rest of a frame."""
-        return len(self._buf)
-
-    def feed(self, chunk: bytes | bytearray) -> list[XgoFrame]:
-        """Add bytes and return every complete frame they finish, in order."""
-        self._buf += chunk
-        out: list[XgoFrame] = []
-        while self._buf:
-            used, frame = decode_one(self._buf)
-            if used == 0:
-                break
-            del self._buf[:used]
-            if frame is None:
-                self.discarded += used
-            else:
-                self.frames += 1
-                out.append(frame)
-        return out
-
-    def reset(self) -> None:
-        """Forget any partial frame (its bytes count as discarded)."""
-        self.discarded += len(self._buf)
-        self._buf.clear()
+    def frames(self) -> int:
+        """Frames decoded so far."""
+        return self.decoded
