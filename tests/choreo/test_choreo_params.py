@@ -528,3 +528,56 @@ tracks:
 """)
     (err,) = errors(path)
     assert where(err) == spot(path, value) and "-$d needs a number" in err.message
+
+
+def test_a_mapping_parameter_and_an_error_inside_it(write: WriteFn) -> None:
+    body = MINI + """
+phrases:
+  go:
+    params: {target: null}
+    cues: [{move: $target, duration: 1}]
+tracks:
+  rex:
+"""
+    good = write(body + "    - {phrase: go, with: {target: {body_z: 100, pitch: 5}}}\n", "ok.yaml")
+    (move,) = cues(load_show(good), "rex")
+    assert isinstance(move, MotionCue) and move.targets == {"body_z": 100, "pitch": 5}
+    path = write(body + "    - {phrase: go, with: {target: {body_z: 500}}}\n")
+    (err,) = errors(path)
+    assert where(err) == spot(path, "500")
+    assert err.path == "tracks.rex[0].with.target.body_z -> phrase go cues[0].move.body_z"
+
+
+def test_the_documented_parametrised_part_works(write: WriteFn) -> None:
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "choreography.md").read_text("utf-8")
+    part = doc.split("```yaml\n# parts/greet.yaml\n", 1)[1].split("```", 1)[0]
+    write(part, "parts/greet.yaml")
+    path = write(MINI + """
+tracks:
+  rex:
+    - {include: parts/greet.yaml, with: {height: 110}}
+    - {include: parts/greet.yaml, with: {height: 90, look: 12}}
+""")
+    targets = [m.targets for m in cues(load_show(path), "rex")]  # type: ignore[attr-defined]
+    assert targets == [{"body_z": 110}, {"yaw": 0}, {"yaw": 0}, {"yaw": 0},
+                       {"body_z": 90}, {"yaw": 12}, {"yaw": -12}, {"yaw": 0}]
+
+
+def test_schemas_accept_parameters_and_parametrised_parts() -> None:
+    jsonschema = pytest.importorskip("jsonschema")
+    from xgo_show.choreo.schema import choreography_json_schema, choreography_part_json_schema
+
+    part = yaml.safe_load(PART)
+    assert jsonschema.Draft202012Validator(choreography_part_json_schema()).is_valid(part)
+    show = yaml.safe_load(MINI + """
+phrases:
+  p: {params: {rgb: [1, 2, 3], n: 2}, cues: [{repeat: $n, cues: [{rest: 1}]}]}
+tracks:
+  rex:
+    - {phrase: p, with: {rgb: [0, 0, 0], n: 3}}
+    - {include: parts/greet.yaml, with: {height: 100}}
+""")
+    validator = jsonschema.Draft202012Validator(choreography_json_schema())
+    assert validator.is_valid(show)
+    show["tracks"]["rex"][0]["with"]["n"] = None
+    assert not validator.is_valid(show)
