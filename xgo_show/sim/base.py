@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import abc
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Generic, Protocol, TypeVar
 
-__all__ = ["ReceivedFrame", "SimulatedRobot"]
+from xgo_show.wire.stream import StreamDecoder
+
+__all__ = ["FrameRobot", "ReceivedFrame", "Rejected", "SimulatedRobot"]
 
 
 @dataclass(frozen=True)
@@ -55,3 +57,66 @@ class SimulatedRobot(abc.ABC):
     @abc.abstractmethod
     def snapshot(self) -> dict[str, Any]:
         """A JSON-able summary of the robot's state (registers by name, actions run, …)."""
+
+
+class Rejected(Exception):
+    """A well-formed frame the robot refuses; the message is the recorded reason."""
+
+
+class _Encodable(Protocol):
+    def encode(self) -> bytes: ...
+
+
+F = TypeVar("F", bound=_Encodable)
+
+
+class FrameRobot(SimulatedRobot, Generic[F]):
+    """A simulated robot that decodes frames with ``decoder`` and handles them one by one.
+
+    Subclasses implement ``_advance(now)`` (time-driven state) and ``_handle(frame, now)``,
+    which raises :class:`Rejected` for a frame the robot refuses; replies go to ``_outbox``.
+    ``_emit(now)`` may add unsolicited bytes (e.g. automatic feedback) when polled.
+    """
+
+    def __init__(self, decoder: StreamDecoder[F]) -> None:
+        self._decoder = decoder
+        self._received: list[ReceivedFrame] = []
+        self._outbox = bytearray()
+
+    @abc.abstractmethod
+    def _advance(self, now: float) -> None:
+        """Bring time-driven state (moves, actions, battery) up to ``now``."""
+
+    @abc.abstractmethod
+    def _handle(self, frame: F, now: float) -> None:
+        """Act on one frame received at ``now``; raise :class:`Rejected` to refuse it."""
+
+    def _emit(self, now: float) -> None:
+        """Queue unsolicited bytes due by ``now`` (none by default)."""
+
+    def receive(self, data: bytes, now: float) -> None:
+        """Decode ``data`` and act on every complete frame at time ``now``."""
+        self._advance(now)
+        for frame in self._decoder.feed(data):
+            try:
+                self._handle(frame, now)
+            except Rejected as exc:
+                self._received.append(ReceivedFrame(now, frame.encode(), False, str(exc)))
+            else:
+                self._received.append(ReceivedFrame(now, frame.encode()))
+
+    def poll(self, now: float) -> bytes:
+        """Advance to ``now``; return pending replies and anything else due."""
+        self._advance(now)
+        self._emit(now)
+        out = bytes(self._outbox)
+        self._outbox.clear()
+        return out
+
+    @property
+    def received(self) -> list[ReceivedFrame]:
+        return self._received
+
+    @property
+    def discarded_bytes(self) -> int:
+        return self._decoder.discarded

@@ -37,7 +37,7 @@ from typing import Any
 
 from xgo_show.errors import ProfileError, ProtocolError, ValueRangeError
 from xgo_show.profiles.model import Profile
-from xgo_show.sim.base import ReceivedFrame, SimulatedRobot
+from xgo_show.sim.base import FrameRobot, Rejected
 from xgo_show.wire.xarm import (
     POSITION_MAX,
     GetBatteryVoltage,
@@ -104,11 +104,7 @@ class _Servo:
         self.duration = 0.0
 
 
-class _Rejected(Exception):
-    """A well-formed packet the arm refuses; the message is the recorded reason."""
-
-
-class XarmRobot(SimulatedRobot):
+class XarmRobot(FrameRobot[XarmPacket]):
     """A simulated xArm (see the module docstring for its behaviour).
 
     ``profile`` must be the xArm profile (family "xarm"). Options (keyword-only):
@@ -147,9 +143,7 @@ class XarmRobot(SimulatedRobot):
             sid: _Servo(float(start.get(sid, HOME_POSITION)), float(start.get(sid, HOME_POSITION)))
             for sid in profile.xarm_servos
         }
-        self._decoder = XarmDecoder()
-        self._received: list[ReceivedFrame] = []
-        self._outbox = bytearray()
+        super().__init__(XarmDecoder())
         self._t: float | None = None
         self._moves: list[dict[str, Any]] = []
         self._group_running: dict[str, Any] | None = None
@@ -159,32 +153,6 @@ class XarmRobot(SimulatedRobot):
         self._stops: list[float] = []
 
     # ------------------------------------------------------------------ SimulatedRobot
-    def receive(self, data: bytes, now: float) -> None:
-        """Decode ``data`` and act on every complete packet at time ``now``."""
-        self._advance(now)
-        for packet in self._decoder.feed(data):
-            try:
-                self._handle(packet, now)
-            except _Rejected as exc:
-                self._received.append(ReceivedFrame(now, packet.encode(), False, str(exc)))
-            else:
-                self._received.append(ReceivedFrame(now, packet.encode()))
-
-    def poll(self, now: float) -> bytes:
-        """Advance to ``now`` and return pending replies."""
-        self._advance(now)
-        out = bytes(self._outbox)
-        self._outbox.clear()
-        return out
-
-    @property
-    def received(self) -> list[ReceivedFrame]:
-        return self._received
-
-    @property
-    def discarded_bytes(self) -> int:
-        return self._decoder.discarded
-
     def snapshot(self) -> dict[str, Any]:
         """State as JSON-able data.
 
@@ -254,11 +222,11 @@ class XarmRobot(SimulatedRobot):
     # ------------------------------------------------------------------ packets
     def _handle(self, packet: XarmPacket, now: float) -> None:
         if packet.is_reply:
-            raise _Rejected(f"{packet.command.label} reply sent to the arm")
+            raise Rejected(f"{packet.command.label} reply sent to the arm")
         try:
             request = parse_request(packet)
         except ProtocolError as exc:
-            raise _Rejected(str(exc)) from exc
+            raise Rejected(str(exc)) from exc
         self._apply(request, now)
 
     def _apply(self, req: XarmRequest, now: float) -> None:
@@ -321,7 +289,7 @@ class XarmRobot(SimulatedRobot):
         for sid in ids:
             if sid not in self._servos:
                 valid = ", ".join(map(str, self._servos))
-                raise _Rejected(f"{self.model} has no servo {sid}; valid: {valid}")
+                raise Rejected(f"{self.model} has no servo {sid}; valid: {valid}")
 
     # ------------------------------------------------------------------ time
     def _advance(self, now: float) -> None:

@@ -56,7 +56,7 @@ from typing import Any
 
 from xgo_show.errors import ProfileError, ProtocolError, ValueRangeError
 from xgo_show.profiles.model import Encoding, Profile, Register
-from xgo_show.sim.base import ReceivedFrame, SimulatedRobot
+from xgo_show.sim.base import FrameRobot, Rejected
 from xgo_show.wire.xgo import XgoDecoder, XgoFrame, reply_frame
 
 __all__ = [
@@ -107,11 +107,7 @@ class _ActionRun:
         }
 
 
-class _Rejected(Exception):
-    """A well-formed frame the robot refuses; the message is the recorded reason."""
-
-
-class XgoRobot(SimulatedRobot):
+class XgoRobot(FrameRobot[XgoFrame]):
     """A simulated XGO Mini, Lite or Rider (see the module docstring for its behaviour).
 
     ``profile`` must be an XGO-family profile. Options (keyword-only): ``battery`` start level
@@ -150,9 +146,7 @@ class XgoRobot(SimulatedRobot):
         self._tau = attitude_time_constant
         self._default_duration = default_action_duration
 
-        self._decoder = XgoDecoder()
-        self._received: list[ReceivedFrame] = []
-        self._outbox = bytearray()
+        super().__init__(XgoDecoder())
         self._memory: dict[int, bytes] = {}
         self._by_name: dict[str, Register] = {reg.name: reg for reg in profile.registers}
         for reg in profile.registers:
@@ -176,33 +170,6 @@ class XgoRobot(SimulatedRobot):
         self._write_imu(0.0, 0.0, 0.0)
 
     # ------------------------------------------------------------------ SimulatedRobot
-    def receive(self, data: bytes, now: float) -> None:
-        """Decode ``data`` and act on every complete frame at time ``now``."""
-        self._advance(now)
-        for frame in self._decoder.feed(data):
-            try:
-                self._handle(frame, now)
-            except _Rejected as exc:
-                self._received.append(ReceivedFrame(now, frame.encode(), False, str(exc)))
-            else:
-                self._received.append(ReceivedFrame(now, frame.encode()))
-
-    def poll(self, now: float) -> bytes:
-        """Advance to ``now``; return pending replies and due Rider feedback frames."""
-        self._advance(now)
-        self._emit_feedback(now)
-        out = bytes(self._outbox)
-        self._outbox.clear()
-        return out
-
-    @property
-    def received(self) -> list[ReceivedFrame]:
-        return self._received
-
-    @property
-    def discarded_bytes(self) -> int:
-        return self._decoder.discarded
-
     def snapshot(self) -> dict[str, Any]:
         """State as JSON-able data.
 
@@ -296,24 +263,24 @@ class XgoRobot(SimulatedRobot):
         elif frame.is_write:
             self._handle_write(frame, now)
         else:
-            raise _Rejected(f"frame type 0x{frame.type:02X} is not a read or write request")
+            raise Rejected(f"frame type 0x{frame.type:02X} is not a read or write request")
 
     def _handle_read(self, frame: XgoFrame) -> None:
         if len(frame.data) != 1:
-            raise _Rejected(f"read frame carries {len(frame.data)} data bytes; expected 1 count")
+            raise Rejected(f"read frame carries {len(frame.data)} data bytes; expected 1 count")
         count = frame.data[0]
         if count == 0:
-            raise _Rejected("read of 0 bytes")
+            raise Rejected("read of 0 bytes")
         fields = self._walk(frame.address, count)
         data = b"".join(self._memory[reg.address] for reg in fields)
         try:
             self._outbox += reply_frame(frame.address, data)
         except ProtocolError as exc:
-            raise _Rejected(str(exc)) from exc
+            raise Rejected(str(exc)) from exc
 
     def _handle_write(self, frame: XgoFrame, now: float) -> None:
         if not frame.data:
-            raise _Rejected("write frame carries no data")
+            raise Rejected("write frame carries no data")
         fields = self._walk(frame.address, len(frame.data))
         chunks: list[tuple[Register, bytes]] = []
         offset = 0
@@ -321,9 +288,9 @@ class XgoRobot(SimulatedRobot):
             chunk = frame.data[offset : offset + reg.size]
             offset += reg.size
             if not reg.access.writable:
-                raise _Rejected(f"{reg.name} (0x{reg.address:02X}) is read-only")
+                raise Rejected(f"{reg.name} (0x{reg.address:02X}) is read-only")
             if reg.encoding is Encoding.ENUM and chunk[0] not in reg.choices.values():
-                raise _Rejected(
+                raise Rejected(
                     f"{reg.name} (0x{reg.address:02X}): 0x{chunk[0]:02X} is not one of "
                     f"{dict(reg.choices)}"
                 )
@@ -342,7 +309,7 @@ class XgoRobot(SimulatedRobot):
         try:
             return self.profile.walk(address, nbytes)
         except ProfileError as exc:
-            raise _Rejected(str(exc)) from exc
+            raise Rejected(str(exc)) from exc
 
     def _check_action(self, action_id: int) -> None:
         if action_id in (0, RESTORE_POSTURE):
@@ -350,7 +317,7 @@ class XgoRobot(SimulatedRobot):
         try:
             self.profile.action(action_id)
         except ProfileError as exc:
-            raise _Rejected(str(exc)) from exc
+            raise Rejected(str(exc)) from exc
 
     def _after_write(self, reg: Register, first: int, now: float) -> None:
         if reg.name == "action":
@@ -504,7 +471,8 @@ class XgoRobot(SimulatedRobot):
         return self._rng.gauss(0.0, self._noise) if self._noise else 0.0
 
     # ------------------------------------------------------------------ feedback
-    def _emit_feedback(self, now: float) -> None:
+    def _emit(self, now: float) -> None:
+        """Queue the Rider's automatic feedback frames due by ``now`` (when switched on)."""
         start = self._feedback_start
         if start is None:
             return
