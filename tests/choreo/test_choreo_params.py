@@ -581,3 +581,32 @@ tracks:
     assert validator.is_valid(show)
     show["tracks"]["rex"][0]["with"]["n"] = None
     assert not validator.is_valid(show)
+
+
+def test_a_phrase_passes_its_parameter_on_to_an_include(write: WriteFn) -> None:
+    write(PART, "parts/greet.yaml")
+    path = write(MINI + """
+phrases:
+  p:
+    params: {h: 100}
+    cues: [{include: parts/greet.yaml, with: {height: $h}}]
+tracks:
+  rex: [{phrase: p}, {phrase: p, with: {h: 300}}]
+""")
+    (err,) = errors(path)
+    assert where(err) == spot(path, "300")
+    assert err.path == ("tracks.rex[1].with.h -> phrase p cues[0].with.height -> include "
+                        "parts/greet.yaml cues[0].move.body_z")
+
+
+def test_a_parameter_inside_a_bar_beat_string_gets_a_hint(write: WriteFn) -> None:
+    path = write(MINI + """
+phrases:
+  p:
+    params: {bar: 2}
+    cues: [{at: "$bar.1", move: {pitch: 5}, duration: 1}]
+tracks:
+  rex: [{phrase: p}]
+""")
+    (err,) = errors(path)
+    assert "a parameter goes in whole: {bar: $bar, beat: 1}" in err.message

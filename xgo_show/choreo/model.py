@@ -140,11 +140,13 @@ def _parse_position(value: object) -> Position:
     if isinstance(value, str):
         match = _BAR_BEAT.match(value)
         if not match:
+            # A parameter is a whole value, never a piece of a string.
+            hint = " (a parameter goes in whole: {bar: $bar, beat: 1})" if "$" in value else ""
             raise PydanticCustomError(
                 "position",
                 "{value!r} is not a time: write seconds (12.5), \"BAR.BEAT\" (\"5.3\") or "
-                "{bar: 5, beat: 3.5}",
-                {"value": value, "value!r": repr(value)},
+                "{bar: 5, beat: 3.5}{hint}",
+                {"value": value, "value!r": repr(value), "hint": hint},
             )
         bar, beat = int(match[1]), int(match[2])
         return _bar_beat(bar, beat)
