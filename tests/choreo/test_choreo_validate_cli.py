@@ -80,3 +80,27 @@ def test_help_mentions_exit_status(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit):
         main(["validate", "--help"])
     assert "Exits 1" in capsys.readouterr().out
+
+
+def test_a_part_included_twice_says_which_include(
+    write: WriteFn, capsys: pytest.CaptureFixture[str]
+) -> None:
+    part = write("- {move: {pitch: 5}, duration: 1}\n- {move: {pitch: 99}, duration: 1}\n",
+                 "parts/wave.yaml")
+    show = write("""
+show: two
+performers:
+  rex: {model: mini}
+  ace: {model: mini}
+tracks:
+  rex: [{include: parts/wave.yaml}]
+  ace: [{rest: 1}, {include: parts/wave.yaml}]
+""")
+    assert main(["validate", str(show)]) == 1
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[:2] == [
+        f"{part}:2:18: error: tracks.rex[0] -> include parts/wave.yaml [1].move.pitch: "
+        "pitch = 99 deg is out of range [-22, 22] deg",
+        f"{part}:2:18: error: tracks.ace[1] -> include parts/wave.yaml [1].move.pitch: "
+        "pitch = 99 deg is out of range [-22, 22] deg",
+    ]  # the same place, once per include, in track order
