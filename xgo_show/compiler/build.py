@@ -21,8 +21,8 @@ from xgo_show.compiler.frames import (
 )
 from xgo_show.compiler.pacing import PaceResult, pace
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
-from xgo_show.compiler.state import describe_frame, field_label, format_fields, layout_of
-from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.compiler.state import FrameLabels, layout_of
+from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import CompileError, ProfileError
 from xgo_show.profiles.model import Link, Profile
 from xgo_show.profiles.registry import get_profile
@@ -100,7 +100,8 @@ def _compile_track(
         remerge = None
     else:
         layout = layout_of(profile)
-        plan = plan_xgo_track(layout, track, rate=show.control_rate, link=link, gap=gap)
+        plan = plan_xgo_track(layout, track, rate=show.control_rate, link=link, gap=gap,
+                              details=show.decimate)
 
         def remerge(t_us: int, writes: list[Write]) -> list[PlannedFrame]:
             action = layout.by_name.get("action")
@@ -140,63 +141,38 @@ def _compile_track(
             "went out with later frames",
             None, path,
         ))
-    if profile.family == "xarm":
-        def label(f: PlannedFrame) -> str:
-            return format_fields(profile, describe_frame(profile, f.data))
+    # Labels are made from the bytes when first read (see ScheduledFrame.label): most never are.
+    labels = FrameLabels(profile)
+    frames: list[ScheduledFrame] = []
+    append = frames.append
+    if _FAST_SF:
+        new_frame = object.__new__
+        for start_us, f in paced.frames:
+            frame = new_frame(ScheduledFrame)
+            # What the frozen dataclass's __init__ would set, without its per-field
+            # object.__setattr__ (most of the cost of a few hundred thousand frames).
+            frame.__dict__.update(t=start_us / 1_000_000, data=f.data, origin=f.origin,
+                                  label=labels, duration=f.duration)
+            append(frame)
     else:
-        # The same text as format_fields(describe_frame(...)), built from the fields the frame
-        # was made of (a test checks they agree) without decoding every frame again; each
-        # distinct (address, bytes) field is formatted once.
-        texts = _FieldTexts(profile)
-        get_text = texts.__getitem__
-
-        def label(f: PlannedFrame) -> str:
-            return " ".join(map(get_text, f.fields))
-
-    frames = tuple([
-        _scheduled_frame(p.start_us / 1_000_000, p.frame.data, p.frame.origin, label(p.frame),
-                         p.frame.duration)
-        for p in paced.frames
-    ])
+        for start_us, f in paced.frames:
+            append(ScheduledFrame(start_us / 1_000_000, f.data, f.origin, labels(f.data),
+                                  f.duration))
     end = plan.end if show.end is None else show.end
     if frames:
         end = max(end, frames[-1].t)
     performer = PerformerSchedule(
-        name=track.performer, model=profile.model, link=link, frames=frames, end=end,
+        name=track.performer, model=profile.model, link=link, frames=tuple(frames), end=end,
         port=track.port,
     )
     return performer, errors, warnings
 
 
-class _FieldTexts(dict[tuple[int, bytes], str]):
-    """``(address, bytes) -> "name=value"`` for one profile, formatted on first use."""
-
-    def __init__(self, profile: Profile) -> None:
-        super().__init__()
-        self.profile = profile
-
-    def __missing__(self, key: tuple[int, bytes]) -> str:
-        text = self[key] = field_label(self.profile, key[0], key[1])
-        return text
-
-
-# A frozen dataclass's __init__ sets each field through object.__setattr__, which is most of
-# the cost of building a few hundred thousand frames; filling the instance dict directly makes
-# the same object (equal, same repr) in half the time. Only while ScheduledFrame stays a plain
-# frozen dataclass without __slots__ or __post_init__; otherwise the constructor.
-_SF_FIELDS = ("t", "data", "origin", "label", "duration")
+# The direct construction above only while ScheduledFrame stays a plain frozen dataclass with
+# these fields, without __slots__ or __post_init__, and with its lazy label; else the constructor.
 _FAST_SF = (
-    tuple(f.name for f in fields(ScheduledFrame)) == _SF_FIELDS
+    tuple(f.name for f in fields(ScheduledFrame)) == ("t", "data", "origin", "label", "duration")
     and not hasattr(ScheduledFrame, "__slots__")
     and not hasattr(ScheduledFrame, "__post_init__")
+    and hasattr(ScheduledFrame.__dict__.get("label"), "__set__")
 )
-
-
-def _scheduled_frame(
-    t: float, data: bytes, origin: Origin | None, label: str, duration: float
-) -> ScheduledFrame:
-    if not _FAST_SF:
-        return ScheduledFrame(t, data, origin, label, duration)
-    frame = object.__new__(ScheduledFrame)
-    frame.__dict__.update(t=t, data=data, origin=origin, label=label, duration=duration)
-    return frame

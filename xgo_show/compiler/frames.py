@@ -19,6 +19,7 @@ import math
 from bisect import bisect_right
 from collections.abc import Container, Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from operator import ne
 from typing import NamedTuple
 
 from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
@@ -102,6 +103,72 @@ class TrackPlan:
     samples: int = 0  # planned frames that hold only samples
 
 
+class _Source:
+    """A cue that writes the same registers tick after tick: a move (one byte a register) or a fade.
+
+    Its sample at a tick is one ``bytes`` of every register's bytes in address order, not a
+    :class:`Write` per register: ticks that only sources write (nearly all of a long show) are
+    turned into frames straight from those bytes (see ``_frames_from_ticks``).
+    """
+
+    __slots__ = ("address_set", "addresses", "one", "order", "origin", "prev", "spans", "unit")
+
+    def __init__(self, regs: Sequence[Register], origin: Origin | None, order: int) -> None:
+        self.addresses = tuple(r.address for r in regs)  # ascending
+        self.address_set = frozenset(self.addresses)
+        spans: list[tuple[int, int]] = []
+        at = 0
+        for r in regs:
+            spans.append((at, at + r.size))
+            at += r.size
+        self.spans = tuple(spans)  # each register's bytes within a sample
+        self.unit = at == len(regs)  # one byte a register: a sample compares byte by byte
+        self.one = len(regs) == 1  # one register (a fade): a sample compares whole
+        self.origin = origin
+        self.order = order
+        # While "live" (see _frames_from_ticks): the bytes its registers were last sent, which
+        # the sent/known dictionaries are only told later. None otherwise.
+        self.prev: bytes | None = None
+
+    def writes(self, t_us: int, sample: bytes) -> list[Write]:
+        """The sample as one Write per register (for ticks other cues write too)."""
+        origin, order = self.origin, self.order
+        return [
+            Write(t_us, address, sample[b:e], origin, order, True)
+            for address, (b, e) in zip(self.addresses, self.spans, strict=True)
+        ]
+
+
+class _Samples(list[tuple[_Source, bytes]]):
+    """A tick several sources write, none of them the same register (e.g. a move and fades)."""
+
+
+# What one tick holds: one source's sample (the common case), several sources' samples, or
+# Writes (settings, actions, cut moves, and any tick where those meet samples).
+_Entry = tuple[_Source, bytes] | _Samples | list[Write]
+
+
+def _entry_writes(t_us: int, entry: _Entry) -> list[Write]:
+    """Any tick entry as a list of Writes."""
+    if isinstance(entry, tuple):
+        return entry[0].writes(t_us, entry[1])
+    if isinstance(entry, _Samples):
+        return [w for src, sample in entry for w in src.writes(t_us, sample)]
+    return entry
+
+
+class _SampleFrame(NamedTuple):
+    """One frame of a merge plan for a tick only sources write, by where its bytes come from."""
+
+    address: int
+    one: tuple[int, int, int] | None  # (chunk, begin, end): all its data from one sample slice
+    pieces: tuple[tuple[int, int, int], ...]  # (chunk, begin, end), or (-1, address, 0): known
+    prefix: bytes  # frame bytes before the data
+    check_base: int  # length + type + address: the checksum's part that is not data
+    lead: int  # the chunk whose cue the frame is filed under (the earliest cue in it)
+    refills: tuple[int, ...]  # registers re-sent from ``known`` (they now count as sent)
+
+
 def _link_cost_us(link: Link, nbytes: int) -> float:
     return link.wire_time(nbytes) * 1_000_000
 
@@ -155,10 +222,61 @@ class _Merger:
         self.gap = gap
         self.action_address = action_address
         self.plans: dict[tuple[int, ...], tuple[_FramePlan, ...]] = {}
+        self.sample_plans: dict[object, tuple[_SampleFrame, ...]] = {}
 
     def forget_plans(self) -> None:
         """Call when registers become known or unknown: fillers depend on that."""
         self.plans.clear()
+        self.sample_plans.clear()
+
+    def sample_plan(
+        self,
+        chunks: Sequence[tuple[_Source, bytes]],
+        masks: Sequence[tuple[bool, ...]],
+        known: Mapping[int, bytes],
+    ) -> tuple[_SampleFrame, ...]:
+        """The frames for a tick only sources write, given which registers changed (masks).
+
+        The same grouping as :meth:`merge` on the changed registers' Writes; only, each field's
+        bytes are located in the tick's samples (gap fillers too, when a source of the tick owns
+        the register: its bytes there are the ones sent last) or else in ``known``. The plan
+        depends on the sources' registers and their cues' order, not on the cues themselves:
+        one plan serves every move over the same registers.
+        """
+        owner: dict[int, tuple[int, int, int]] = {}
+        writes: list[Write] = []
+        for ci, ((src, sample), mask) in enumerate(zip(chunks, masks, strict=True)):
+            for address, (b, e), changed in zip(src.addresses, src.spans, mask, strict=True):
+                owner[address] = (ci, b, e)
+                if changed:
+                    writes.append(Write(0, address, sample[b:e], src.origin, src.order, True))
+        if not writes:
+            return ()
+        writes.sort(key=_address)
+        frames: list[_SampleFrame] = []
+        for run in self._plan(writes, known):
+            pieces: list[tuple[int, int, int]] = []
+            refills: list[int] = []
+            for address, _ in run.slots:
+                piece = owner.get(address)
+                if piece is None:
+                    piece = (-1, address, 0)
+                    refills.append(address)
+                if pieces and piece[0] >= 0 and pieces[-1][0] == piece[0] \
+                        and pieces[-1][2] == piece[1]:
+                    pieces[-1] = (piece[0], pieces[-1][1], piece[2])  # contiguous: one slice
+                else:
+                    pieces.append(piece)
+            lead = min((writes[i] for i in run.writes), key=_order)  # as merge() files it
+            frames.append(_SampleFrame(
+                run.address,
+                pieces[0] if len(pieces) == 1 and pieces[0][0] >= 0 else None,
+                tuple(pieces), run.prefix, run.check_base, owner[lead.address][0],
+                tuple(refills),
+            ))
+        if len(chunks) > 1:
+            frames.sort(key=lambda f: (chunks[f.lead][0].order, f.address))
+        return tuple(frames)
 
     def merge(
         self, t_us: int, ordered: Sequence[Write], known: Mapping[int, bytes], *, uniform: bool
@@ -372,7 +490,7 @@ class _XgoPlanner:
                 self.colours[reg.name] = (reg.initial[0], reg.initial[1], reg.initial[2])
         self.active: dict[str, tuple[_Run, int]] = {}  # register -> latest run and its DoF
         self.runs: list[_Run] = []
-        self.ticks: dict[int, list[Write]] = {}
+        self.ticks: dict[int, _Entry] = {}
         self.mixed: set[int] = set()  # ticks that more than one cue writes (see _emit)
         self.action_reg = layout.by_name.get(ACTION_REGISTER)
         self.end = 0.0
@@ -407,12 +525,35 @@ class _XgoPlanner:
         """
         if not writes:
             return
-        bucket = self.ticks.get(t_us)
-        if bucket is None:
+        entry = self.ticks.get(t_us)
+        if entry is None:
             self.ticks[t_us] = writes
-        else:
+            return
+        bucket = _entry_writes(t_us, entry)
+        if bucket is entry:
             bucket.extend(writes)
-            self.mixed.add(t_us)
+        else:
+            self.ticks[t_us] = bucket + writes
+        self.mixed.add(t_us)
+
+    def _emit_sample(self, t_us: int, src: _Source, sample: bytes) -> None:
+        """File a source's sample at ``t_us``; with Writes or a sample of the same register
+        there, the tick becomes Writes (mixed)."""
+        entry = self.ticks.get(t_us)
+        if entry is None:
+            self.ticks[t_us] = (src, sample)
+            return
+        mine = src.address_set
+        if isinstance(entry, tuple):
+            if mine.isdisjoint(entry[0].addresses):
+                self.ticks[t_us] = _Samples((entry, (src, sample)))
+                return
+        elif isinstance(entry, _Samples) and all(
+            mine.isdisjoint(other.addresses) for other, _ in entry
+        ):
+            entry.append((src, sample))
+            return
+        self._emit(t_us, src.writes(t_us, sample))
 
     def _take_over(self, name: str, t: float) -> DofState | None:
         """A cue writes ``name`` at ``t``: stop sampling a move still running on it.
@@ -486,14 +627,16 @@ class _XgoPlanner:
         end_us = to_us(t0 + duration)
         (r0, g0, b0), (r1, g1, b1) = start, cue.to
         dr, dg, db = r1 - r0, g1 - g0, b1 - b0
-        address, origin = reg.address, cue.origin
+        src = _Source((reg,), cue.origin, order)
+        emit = self._emit_sample
         k = first_tick(t0, rate)
-        while duration > 0 and (t_us := tick_us(k, rate)) < end_us:
+        # tick_us(k, rate), inlined
+        while duration > 0 and (t_us := round(k * 1_000_000 / rate)) < end_us:
             frac = min(max((k / rate - t0) / duration, 0.0), 1.0)
-            rgb = bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac)))
-            self._emit(t_us, [Write(t_us, address, rgb, origin, order, True)])
+            emit(t_us, src,
+                 bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac))))
             k += 1
-        self._emit(end_us, [Write(end_us, address, bytes(cue.to), origin, order, True)])
+        emit(end_us, src, bytes(cue.to))
 
     def _motion(self, cue: MotionCue, order: int) -> None:
         diag = self.diag
@@ -580,7 +723,6 @@ class _XgoPlanner:
         at_time = plan.trajectory.at_time
         start = plan.start
         tables = [self.layout.byte_table(reg) for reg in run.regs]
-        addresses = [reg.address for reg in run.regs]
         # While every DoF is sampled and the whole move (ruckig's exact extrema, and the
         # targets) lies within each register's range, all bytes of a tick come from one
         # C-level map of bisect over the tables: the hot loop of the compiler.
@@ -595,6 +737,8 @@ class _XgoPlanner:
         spec = [(reg.address, t.lo, t.hi, t.base, t.thresholds, t) for reg, t in
                 zip(run.regs, tables, strict=True)]
         origin, order = run.origin, run.order
+        src = _Source(run.regs, origin, order)
+        ticks = self.ticks
         emit = self._emit
         new = tuple.__new__
         for k in range(k0, last + 1):
@@ -604,71 +748,188 @@ class _XgoPlanner:
                 pos = at_time(max(k / rate - start, 0.0))[0]
                 t_us = round(k * 1_000_000 / rate)  # tick_us(k, rate), inlined
             if k <= full:
-                data = map(bisect_right, padded, pos)
-                writes = [
-                    new(Write, (t_us, address, BYTES[byte], origin, order, True, 0.0))
-                    for address, byte in zip(addresses, data, strict=True)
-                ]
-            else:
-                writes = []
-                for i, (address, lo, hi, base, thresholds, table) in enumerate(spec):
-                    if k > stops[i]:
-                        continue
-                    x = pos[i]
-                    byte = base + bisect_right(thresholds, x) if lo <= x <= hi else table(x)
-                    writes.append(
-                        new(Write, (t_us, address, BYTES[byte], origin, order, True, 0.0))
-                    )
+                sample = bytes(map(bisect_right, padded, pos))
+                if t_us in ticks:
+                    self._emit_sample(t_us, src, sample)
+                else:
+                    ticks[t_us] = (src, sample)  # _emit_sample's common case, inlined
+                continue
+            writes = []
+            for i, (address, lo, hi, base, thresholds, table) in enumerate(spec):
+                if k > stops[i]:
+                    continue
+                x = pos[i]
+                byte = base + bisect_right(thresholds, x) if lo <= x <= hi else table(x)
+                writes.append(new(Write, (t_us, address, BYTES[byte], origin, order, True, 0.0)))
             emit(t_us, writes)
 
 
-def _frames_from_ticks(
-    layout: Layout,
-    link: Link,
-    gap: float,
-    ticks: Mapping[int, Sequence[Write]],
-    mixed: Container[int],
-    action_reg: Register | None,
-) -> tuple[list[PlannedFrame], int]:
-    """Tick by tick: keep the last write per register, drop unchanged samples, merge.
+class _TickFrames:
+    """Frames for one performer's ticks, in time order: de-duplication, merging, state.
 
-    ``mixed`` names the ticks that more than one cue wrote; every other tick holds one cue's
-    writes, one per register in address order, which need no sorting nor de-duplication.
+    ``sent`` holds what each register was last sent (unchanged samples drop); ``known`` what
+    each register holds as far as we know (gap fillers re-send these bytes): the initial values
+    at the start, and nothing after a preset action until sent again.
+
+    Ticks only sources write (samples of moves and fades: nearly all of a long show) take a
+    faster road to the same frames: which registers changed is a byte comparison with the
+    source's previous sample, the merge plan is cached per (registers, changed registers), and
+    a frame's data is mostly one slice of a sample. Such sources stay *live*: their registers
+    hold their ``prev`` sample, which sent/known learn only when the source is flushed, before
+    anything else reads those registers (another cue's tick, a tick without the source).
     """
-    action_addr = action_reg.address if action_reg is not None else None
-    merger = _Merger(layout, link, gap, action_addr)
-    sent: dict[int, bytes] = {}  # what each register was last sent: unchanged samples drop
-    # What each register holds, as far as we know: gap fillers re-send these bytes. A show
-    # starts from the initial values (trajectories start there too), and a preset action makes
-    # everything unknown until it is sent again.
-    known: dict[int, bytes] = {
-        r.address: r.initial for r in layout.profile.registers if r.initial is not None
-    }
-    n_known = len(known)
-    frames: list[PlannedFrame] = []
-    samples = 0
-    merge = merger.merge
-    get = sent.get
-    keep: Sequence[Write]
-    for t_us in sorted(ticks):
-        bucket = ticks[t_us]
-        if t_us in mixed:
+
+    def __init__(self, layout: Layout, link: Link, gap: float, action_reg: Register | None,
+                 details: bool) -> None:
+        self.merger = _Merger(layout, link, gap,
+                              action_reg.address if action_reg is not None else None)
+        self.details = details
+        self.sent: dict[int, bytes] = {}
+        self.known: dict[int, bytes] = {
+            r.address: r.initial for r in layout.profile.registers if r.initial is not None
+        }
+        self.n_known = len(self.known)
+        self.frames: list[PlannedFrame] = []
+        self.samples = 0  # frames holding only samples
+        self.live: list[_Source] = []
+        self.shapes: dict[tuple[_Source, ...], object] = {}  # see sources_tick
+
+    def _known_changed(self) -> None:
+        if len(self.known) != self.n_known:  # fillers depend on which registers are known
+            self.n_known = len(self.known)
+            self.merger.forget_plans()
+
+    def flush(self, keep: Container[_Source] = ()) -> None:
+        """Tell sent/known the live sources' samples (but those in ``keep``, which stay live)."""
+        sent, known = self.sent, self.known
+        for src in self.live:
+            if src in keep:
+                continue
+            prev = src.prev
+            assert prev is not None
+            for address, (b, e) in zip(src.addresses, src.spans, strict=True):
+                sent[address] = known[address] = prev[b:e]
+            src.prev = None
+        self.live = [src for src in self.live if src in keep]
+
+    def _fresh(self, src: _Source, sample: bytes) -> tuple[bool, ...]:
+        """Registers of a source not live that differ from what was sent; it becomes live."""
+        sent, known = self.sent, self.known
+        mask = []
+        for address, (b, e) in zip(src.addresses, src.spans, strict=True):
+            part = sample[b:e]
+            changed = sent.get(address) != part
+            if changed:  # told now: the register may be new to ``known``
+                sent[address] = known[address] = part
+            mask.append(changed)
+        src.prev = sample
+        self.live.append(src)
+        return tuple(mask)
+
+    def source_tick(self, t_us: int, src: _Source, sample: bytes) -> None:
+        """A tick only ``src`` writes."""
+        live = self.live
+        if len(live) == 1 and live[0] is src:
+            prev = src.prev
+            assert prev is not None
+            if sample == prev:
+                return
+            mask = _changes(src, sample, prev)
+            src.prev = sample
+        else:
+            self.flush()
+            mask = self._fresh(src, sample)
+            self._known_changed()
+        key = (src.addresses, mask)
+        plan = self.merger.sample_plans.get(key)
+        chunks = ((src, sample),)
+        if plan is None:
+            plan = self.merger.sample_plans[key] = self.merger.sample_plan(
+                chunks, (mask,), self.known
+            )
+        self._build(t_us, plan, chunks, (src,))
+
+    def sources_tick(self, t_us: int, chunks: _Samples) -> None:
+        """A tick several sources write, none the same register."""
+        sources = [src for src, _ in chunks]
+        if self.live and self.live != sources:
+            self.flush(sources)
+        masks = []
+        for src, sample in chunks:
+            prev = src.prev
+            masks.append(self._fresh(src, sample) if prev is None
+                         else _changes(src, sample, prev))
+            src.prev = sample
+        self._known_changed()
+        # The plan depends on the sources' registers and the order of their cues only.
+        shape = self.shapes.get(tuple(sources))
+        if shape is None:
+            shape = self.shapes[tuple(sources)] = (
+                tuple([src.addresses for src in sources]),
+                tuple(sorted(range(len(sources)), key=lambda i: sources[i].order)),
+            )
+        key = (shape, tuple(masks))
+        plan = self.merger.sample_plans.get(key)
+        if plan is None:
+            plan = self.merger.sample_plans[key] = self.merger.sample_plan(
+                chunks, masks, self.known
+            )
+        self._build(t_us, plan, chunks, sources)
+
+    def _build(
+        self,
+        t_us: int,
+        plan: tuple[_SampleFrame, ...],
+        chunks: Sequence[tuple[_Source, bytes]],
+        sources: Sequence[_Source],
+    ) -> None:
+        append = self.frames.append
+        new = tuple.__new__
+        for f in plan:
+            one = f.one
+            if one is not None:
+                data = chunks[one[0]][1][one[1]:one[2]]
+            else:
+                known = self.known
+                data = b"".join([
+                    chunks[ci][1][b:e] if ci >= 0 else known[b] for ci, b, e in f.pieces
+                ])
+                for address in f.refills:  # re-sent: now it counts as sent too
+                    self.sent[address] = known[address]
+            lead = sources[f.lead]
+            append(new(PlannedFrame, (
+                t_us,
+                b"".join((f.prefix, data, BYTES[~(f.check_base + sum(data)) & 0xFF], TAIL)),
+                (), (), lead.origin, lead.order, True, False, 0.0,
+            )))
+        self.samples += len(plan)
+
+    def writes_tick(self, t_us: int, bucket: list[Write], mixed: bool) -> None:
+        """A tick of Writes: keep the last write per register, drop unchanged samples, merge.
+
+        Unless ``mixed``, the tick holds one cue's writes, one per register in address order,
+        which need no sorting nor de-duplication.
+        """
+        if self.live:
+            self.flush()
+        sent, known = self.sent, self.known
+        get = sent.get
+        keep: Sequence[Write]
+        if mixed:
             chosen: dict[int, Write] = {}
             for w in sorted(bucket, key=_order):  # stable: emit order breaks ties
                 chosen[w.address] = w
             keep = [w for w in chosen.values() if not (w.sample and get(w.address) == w.data)]
             keep.sort(key=_address)
-            uniform = False
         else:
             keep = [w for w in bucket if get(w.address) != w.data] if bucket[0].sample else bucket
-            uniform = True
         if not keep:
-            continue
-        tick_frames = merge(t_us, keep, known, uniform=uniform)
-        frames.extend(tick_frames)
+            return
+        tick_frames = self.merger.merge(t_us, keep, known, uniform=not mixed)
+        self.frames.extend(tick_frames)
         action = False
         for f in tick_frames:
-            samples += f.droppable
+            self.samples += f.droppable
             action = action or f.action
             sent.update(f.fields)  # gap fillers included: they went out too
             known.update(f.fields)
@@ -677,19 +938,66 @@ def _frames_from_ticks(
             # so nothing counts as already sent (and nothing is re-sent as a gap filler).
             sent.clear()
             known.clear()
-        if len(known) != n_known:  # fillers depend on which registers are known
-            n_known = len(known)
-            merger.forget_plans()
-    return frames, samples
+        self._known_changed()
+
+
+def _changes(src: _Source, sample: bytes, prev: bytes) -> tuple[bool, ...]:
+    """Which registers of a live source differ from its previous sample."""
+    if src.unit:
+        return tuple(map(ne, sample, prev))
+    if src.one:
+        return (sample != prev,)
+    return tuple([sample[b:e] != prev[b:e] for b, e in src.spans])
+
+
+def _frames_from_ticks(
+    layout: Layout,
+    link: Link,
+    gap: float,
+    ticks: Mapping[int, _Entry],
+    mixed: Container[int],
+    action_reg: Register | None,
+    details: bool = True,
+) -> tuple[list[PlannedFrame], int]:
+    """Every tick's frames in time order, and how many hold only samples (see _TickFrames).
+
+    ``mixed`` names the ticks that more than one cue wrote. Without ``details``, frames of
+    ticks only sources write carry no ``fields`` nor ``written`` (pacing reads those only to
+    decimate); with it, every tick goes through Writes.
+    """
+    out = _TickFrames(layout, link, gap, action_reg, details)
+    source_tick, sources_tick, writes_tick = out.source_tick, out.sources_tick, out.writes_tick
+    for t_us in sorted(ticks):
+        entry = ticks[t_us]
+        if details:
+            writes_tick(t_us, _entry_writes(t_us, entry),
+                        t_us in mixed or isinstance(entry, _Samples))
+        elif isinstance(entry, tuple):  # one source's sample: nearly every tick
+            source_tick(t_us, entry[0], entry[1])
+        elif isinstance(entry, _Samples):
+            sources_tick(t_us, entry)
+        else:
+            writes_tick(t_us, entry, t_us in mixed)
+    return out.frames, out.samples
 
 
 def plan_xgo_track(
-    layout: Layout, track: ResolvedTrack, *, rate: float, link: Link, gap: float
+    layout: Layout,
+    track: ResolvedTrack,
+    *,
+    rate: float,
+    link: Link,
+    gap: float,
+    details: bool = True,
 ) -> TrackPlan:
-    """Plan every frame of one XGO performer (unpaced), with its diagnostics."""
+    """Plan every frame of one XGO performer (unpaced), with its diagnostics.
+
+    ``details=False`` leaves ``fields`` and ``written`` empty in frames holding only move and
+    fade samples, which is faster; pacing needs them only to decimate.
+    """
     planner = _XgoPlanner(layout, track, rate)
     planner.plan()
     frames, samples = _frames_from_ticks(
-        layout, link, gap, planner.ticks, planner.mixed, planner.action_reg
+        layout, link, gap, planner.ticks, planner.mixed, planner.action_reg, details
     )
     return TrackPlan(frames, planner.end, planner.diag.items, samples)

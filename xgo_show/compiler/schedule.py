@@ -29,6 +29,35 @@ class ScheduledFrame:
     duration: float = 0.0
 
 
+class _LazyLabel:
+    """``ScheduledFrame.label``: the text given, or made from the frame's bytes when first read.
+
+    The compiler makes hundreds of thousands of frames whose labels are mostly never read (a
+    run prints a few, a transcript all): instead of the text it may store a callable, ``bytes
+    -> str`` (one per performer), that makes it from ``data`` on first read and is replaced
+    by the text. Reading ``label``, equality, hashing and repr see only text; the constructor
+    takes the text as before.
+    """
+
+    def __get__(self, frame: ScheduledFrame | None, owner: type | None = None) -> str:
+        if frame is None:
+            return ""  # the field's default, as the dataclass declared it
+        value = frame.__dict__["label"]
+        if value.__class__ is str:
+            return value
+        text: str = value(frame.data)
+        frame.__dict__["label"] = text  # a cache: the frame still reads the same
+        return text
+
+    def __set__(self, frame: ScheduledFrame, value: object) -> None:
+        frame.__dict__["label"] = value  # the dataclass __init__ (object.__setattr__) lands here
+
+
+# Installed after the dataclass is made, so the dataclass (fields, __init__, eq, repr) stays the
+# plain declaration above; a data descriptor is read before the instance dict.
+setattr(ScheduledFrame, "label", _LazyLabel())  # noqa: B010
+
+
 @dataclass(frozen=True)
 class PerformerSchedule:
     """One performer's paced frames."""

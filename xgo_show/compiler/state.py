@@ -25,6 +25,7 @@ from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, decode_one, write_frame
 
 __all__ = [
     "ACTION_KEY",
+    "FrameLabels",
     "decode_value",
     "describe_frame",
     "format_fields",
@@ -35,7 +36,6 @@ __all__ = [
 
 ACTION_KEY = "action"
 _LAYOUTS: dict[str, Layout] = {}
-_FIELD_LABELS: dict[tuple[str, int, bytes], str] = {}
 
 
 def layout_of(profile: Profile) -> Layout:
@@ -135,14 +135,49 @@ def format_fields(profile: Profile, fields: Sequence[tuple[str, object]]) -> str
 
 
 def field_label(profile: Profile, address: int, raw: bytes) -> str:
-    """``name=value`` of one field (cached): the piece :func:`format_fields` builds labels of."""
-    key = (profile.model, address, raw)
-    text = _FIELD_LABELS.get(key)
-    if text is None:
-        reg = layout_of(profile).by_address[address]
-        text = f"{reg.name}={format_value(profile, reg.name, decode_value(reg, raw))}"
-        _FIELD_LABELS[key] = text
-    return text
+    """``name=value`` of one field: the piece :func:`format_fields` builds labels of."""
+    reg = layout_of(profile).by_address[address]
+    return f"{reg.name}={format_value(profile, reg.name, decode_value(reg, raw))}"
+
+
+class FrameLabels:
+    """``frame bytes -> label`` for one profile: ``format_fields(profile, describe_frame(...))``.
+
+    The compiler gives each frame it makes one of these (per performer) as a lazy
+    :attr:`ScheduledFrame.label`. An XGO write frame is cut into its fields by the cached layout
+    walk and each distinct field's ``name=value`` text is made once (compiled frames are well
+    formed; anything else goes through :func:`describe_frame`, which checks).
+    """
+
+    def __init__(self, profile: Profile) -> None:
+        self.profile = profile
+        self._walks: dict[tuple[int, int], tuple[tuple[int, int, int], ...]] = {}
+        self._texts: dict[tuple[int, bytes], str] = {}
+
+    def __call__(self, data: bytes) -> str:
+        profile = self.profile
+        if profile.family != "xgo" or len(data) < MIN_LENGTH or data[2] != len(data):
+            return format_fields(profile, describe_frame(profile, data))
+        address, payload = data[4], data[5:-3]
+        walk = self._walks.get((address, len(payload)))
+        if walk is None:
+            regs = layout_of(profile).walk(address, len(payload))
+            if regs is None:  # not a layout the compiler makes: let describe_frame say why
+                return format_fields(profile, describe_frame(profile, data))
+            offsets, at = [], 0
+            for reg in regs:
+                offsets.append((reg.address, at, at + reg.size))
+                at += reg.size
+            walk = self._walks[(address, len(payload))] = tuple(offsets)
+        texts = self._texts
+        parts = []
+        for reg_address, begin, end in walk:
+            key = (reg_address, payload[begin:end])
+            text = texts.get(key)
+            if text is None:
+                text = texts[key] = field_label(profile, reg_address, key[1])
+            parts.append(text)
+        return " ".join(parts)
 
 
 def state_at(performer: PerformerSchedule, t: float) -> dict[str, bytes]:

@@ -1,0 +1,103 @@
+"""The compiler's fast road for sample ticks gives the very frames of the general one.
+
+``plan_xgo_track(details=True)`` turns every tick into Writes and merges them the general way
+(the reference); ``details=False`` builds the frames of ticks that only moves and fades write
+straight from their samples. On random tracks (moves that overlap, cut and chain, fades,
+settings over moved registers, actions, the reset) both must give the same frames, byte for
+byte, at the same times, filed under the same cues.
+"""
+
+from __future__ import annotations
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from tests.compiler.conftest import origin
+from xgo_show.choreo.resolved import ActionCue, Cue, FadeCue, MotionCue, ResolvedTrack, SetCue
+from xgo_show.compiler.frames import PlannedFrame, TrackPlan, plan_xgo_track
+from xgo_show.compiler.state import layout_of
+from xgo_show.profiles import get_profile
+
+MOVABLE = {
+    "mini": ("vx", "body_x", "body_y", "body_z", "roll", "pitch", "yaw", "leg1_x", "leg1_z"),
+    "rider": ("vx", "body_z", "roll"),
+}
+SETTABLE = {
+    "mini": {"body_z": [80.0, 110.0], "roll": [-5.0, 5.0], "vx": [0.0, 10.0],
+             "gait": ["walk", "trot"], "pace": ["fast", "slow"]},
+    "rider": {"roll": [-5.0, 5.0], "vx": [0.0, 0.5], "led1": [(1, 2, 3), (200, 0, 40)]},
+}
+ACTIONS = {"mini": [(13, "wave", 7.0), (255, "reset", 1.0)], "rider": [(255, "reset", 1.0)]}
+# Starts on a millisecond grid and on 132 bpm beats: on and off the 20 ms tick grid.
+STARTS = st.one_of(st.integers(0, 8000).map(lambda ms: ms / 1000),
+                   st.integers(0, 16).map(lambda beat: beat * 60 / 132))
+
+
+@st.composite
+def tracks(draw: st.DrawFn) -> ResolvedTrack:
+    model = draw(st.sampled_from(["mini", "rider"]))
+    profile = get_profile(model)
+    cues: list[Cue] = []
+    for n in range(draw(st.integers(1, 8))):
+        o = origin(f"c{n}", n + 1)
+        start = draw(STARTS)
+        kinds = ["move", "move", "move", "set", "action"] + ["fade"] * (model == "rider") * 2
+        kind = draw(st.sampled_from(kinds))
+        if kind == "move":
+            names = draw(st.lists(st.sampled_from(MOVABLE[model]), min_size=1, max_size=4,
+                                  unique=True))
+            targets = {}
+            for name in names:
+                reg = profile.register(name)
+                assert reg.minimum is not None and reg.maximum is not None
+                fraction = draw(st.floats(0.2, 0.8))
+                targets[name] = round(reg.minimum + (reg.maximum - reg.minimum) * fraction, 1)
+            duration = draw(st.one_of(st.none(), st.floats(1.0, 3.0)))
+            cues.append(MotionCue(start, o, targets, duration, interrupts=True))
+        elif kind == "set":
+            name = draw(st.sampled_from(sorted(SETTABLE[model])))
+            cues.append(SetCue(start, o, {name: draw(st.sampled_from(SETTABLE[model][name]))},
+                               interrupts=True))
+        elif kind == "fade":
+            led = draw(st.sampled_from(["led1", "led2", "led3"]))
+            colour = draw(st.tuples(*[st.integers(0, 255)] * 3))
+            cues.append(FadeCue(start, o, led, colour, draw(st.floats(0.1, 2.0))))
+        else:
+            action_id, name, length = draw(st.sampled_from(ACTIONS[model]))
+            cues.append(ActionCue(start, o, action_id, name, length, interrupts=True))
+    cues.sort(key=lambda c: c.start)
+    return ResolvedTrack("p", model, tuple(cues))
+
+
+def _plan(track: ResolvedTrack, *, details: bool) -> TrackPlan:
+    profile = get_profile(track.model)
+    return plan_xgo_track(layout_of(profile), track, rate=50.0, link=profile.link,
+                          gap=profile.link.gap, details=details)
+
+
+def _essence(f: PlannedFrame) -> tuple[object, ...]:
+    return (f.t_us, f.data, f.origin, f.order, f.droppable, f.action, f.duration)
+
+
+@settings(max_examples=150, deadline=None)
+@given(tracks())
+def test_sample_ticks_give_the_same_frames_as_writes(track: ResolvedTrack) -> None:
+    reference = _plan(track, details=True)
+    fast = _plan(track, details=False)
+    assert [_essence(f) for f in fast.frames] == [_essence(f) for f in reference.frames]
+    assert fast.samples == reference.samples
+    assert fast.end == reference.end
+    assert fast.diagnostics == reference.diagnostics
+
+
+def test_details_keep_fields_and_writes_for_decimation(o) -> None:  # type: ignore[no-untyped-def]
+    track = ResolvedTrack("p", "mini", (
+        MotionCue(0.0, o("m"), {"body_z": 110.0, "yaw": 10.0}, 1.0),
+    ))
+    detailed = _plan(track, details=True).frames
+    lean = _plan(track, details=False).frames
+    assert all(f.fields and f.written for f in detailed)
+    # The fast road leaves them out: pacing reads them only to decimate.
+    assert all(not f.fields and not f.written for f in lean)
+    assert len(detailed) == len(lean) > 10
+
