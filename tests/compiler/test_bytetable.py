@@ -10,10 +10,10 @@ from hypothesis import strategies as st
 
 from xgo_show.choreo.resolved import FadeCue, MotionCue, SetCue
 from xgo_show.compiler import compile_show, describe_frame
-from xgo_show.compiler.bytetable import ByteTable
+from xgo_show.compiler.bytetable import ByteTable, _bisect_threshold, _step_to_threshold
 from xgo_show.compiler.state import format_fields
 from xgo_show.errors import ValueRangeError
-from xgo_show.profiles import get_profile
+from xgo_show.profiles import Encoding, get_profile
 
 # One register per distinct mapping (range and zero handling): the table depends on nothing else.
 _DISTINCT: dict[tuple[object, ...], tuple[str, object]] = {}
@@ -47,6 +47,21 @@ def test_table_matches_to_byte_at_every_threshold(model: str, reg) -> None:  # t
     assert table(reg.maximum) == reg.to_byte(reg.maximum)
     with pytest.raises(ValueRangeError):
         table(reg.maximum + 1.0)
+
+
+def test_thresholds_are_those_a_bisection_finds() -> None:
+    # Built by stepping from a guess; the bisection over the whole range is the reference (and
+    # the fallback when the guess is far: here, a guess at the minimum).
+    for model in ("mini", "lite", "rider"):
+        for reg in get_profile(model).registers:
+            if reg.encoding is not Encoding.U8 or not reg.linear or reg.size != 1:
+                continue
+            lo, hi = float(reg.minimum), float(reg.maximum)
+            table = ByteTable(reg)
+            bytes_ = range(table.base + 1, reg.to_byte(hi) + 1)
+            assert table.thresholds == [_bisect_threshold(reg, b, lo, hi) for b in bytes_]
+            middle = (table.base + reg.to_byte(hi)) // 2
+            assert _step_to_threshold(reg, middle, lo, lo, hi) is None
 
 
 @settings(max_examples=300, deadline=None)

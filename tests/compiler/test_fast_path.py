@@ -90,6 +90,31 @@ def test_sample_ticks_give_the_same_frames_as_writes(track: ResolvedTrack) -> No
     assert fast.diagnostics == reference.diagnostics
 
 
+def test_crowded_ticks_give_the_same_frames_as_writes(o) -> None:  # type: ignore[no-untyped-def]
+    # Cases the random tracks may miss: a third source on a register two others already share
+    # a tick on, a setting and an action landing on sample ticks, a move cut by another.
+    crowded = [
+        ResolvedTrack("p", "rider", (
+            FadeCue(0.0, o("f1"), "led1", (255, 0, 0), 2.0),
+            MotionCue(0.0, o("m"), {"roll": 8.0}, 2.0),
+            FadeCue(0.0, o("f2"), "led2", (0, 255, 0), 2.0),
+            FadeCue(1.0, o("f3"), "led1", (0, 0, 255), 2.0),
+            SetCue(1.5, o("s"), {"led2": (1, 2, 3)}),
+        )),
+        ResolvedTrack("p", "mini", (
+            MotionCue(0.0, o("a"), {"body_z": 110.0, "roll": 5.0, "yaw": 9.0}, 3.0),
+            MotionCue(1.0, o("b"), {"roll": -5.0}, 1.0, interrupts=True),
+            SetCue(1.2, o("s"), {"pitch": 4.0, "gait": "trot"}),
+            ActionCue(2.5, o("w"), 13, "wave", 7.0, interrupts=True),
+            MotionCue(10.0, o("c"), {"body_z": 90.0}, 1.0),
+        )),
+    ]
+    for track in crowded:
+        reference = _plan(track, details=True)
+        fast = _plan(track, details=False)
+        assert [_essence(f) for f in fast.frames] == [_essence(f) for f in reference.frames]
+
+
 def test_details_keep_fields_and_writes_for_decimation(o) -> None:  # type: ignore[no-untyped-def]
     track = ResolvedTrack("p", "mini", (
         MotionCue(0.0, o("m"), {"body_z": 110.0, "yaw": 10.0}, 1.0),
@@ -101,3 +126,50 @@ def test_details_keep_fields_and_writes_for_decimation(o) -> None:  # type: igno
     assert all(not f.fields and not f.written for f in lean)
     assert len(detailed) == len(lean) > 10
 
+
+
+def _timeline(model: str, plan: TrackPlan) -> dict[str, list[tuple[int, bytes]]]:
+    """Per register, each planned change of its bytes from the initial ones: (us, new bytes)."""
+    layout = layout_of(get_profile(model))
+    held = {r.name: r.initial for r in layout.profile.registers if r.initial is not None}
+    changes: dict[str, list[tuple[int, bytes]]] = {}
+    for f in plan.frames:
+        address, payload = f.data[4], f.data[5:-3]
+        regs = layout.walk(address, len(payload))
+        assert regs is not None
+        at = 0
+        for reg in regs:
+            raw = payload[at:at + reg.size]
+            at += reg.size
+            if held.get(reg.name) != raw:
+                held[reg.name] = raw
+                changes.setdefault(reg.name, []).append((f.t_us, raw))
+    return changes
+
+
+def test_cues_on_other_registers_at_the_same_ticks_change_nothing(o) -> None:  # type: ignore[no-untyped-def]
+    # Moves and fades on different registers share ticks (and frames); each register still
+    # changes exactly when it changes with its cue alone.
+    beat = 60 / 132
+    shows = {
+        "mini": [
+            MotionCue(0.0, o("a"), {"body_z": 110.0, "pitch": 8.0}, 2.0),
+            MotionCue(0.5, o("b"), {"yaw": -10.0}, 2.0),
+            MotionCue(beat, o("c"), {"leg1_x": 10.0, "leg1_z": 80.0}, 3 * beat),
+            MotionCue(1.0, o("d"), {"roll": 6.0}),
+        ],
+        "rider": [
+            FadeCue(0.0, o("f1"), "led1", (255, 0, 40), 2.0),
+            FadeCue(0.1, o("f2"), "led2", (0, 90, 255), 2 * beat),
+            MotionCue(0.3, o("m"), {"body_z": 0.05, "roll": -8.0}, 1.5),
+            FadeCue(beat, o("f3"), "led3", (9, 9, 9), 1.0),
+        ],
+    }
+    for model, cues in shows.items():
+        together = _timeline(model, _plan(ResolvedTrack("p", model, tuple(cues)),
+                                          details=False))
+        alone: dict[str, list[tuple[int, bytes]]] = {}
+        for cue in cues:
+            alone.update(_timeline(model, _plan(ResolvedTrack("p", model, (cue,)),
+                                                details=False)))
+        assert together == alone

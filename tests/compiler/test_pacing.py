@@ -69,6 +69,20 @@ def test_decimation_never_drops_settings(frames: list[tuple[int, int, bool]]) ->
             assert p.start_us - p.frame.t_us <= 2_500
 
 
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 100_000), st.integers(1, 40)), min_size=1, max_size=80))
+def test_pacing_without_decimation_is_decimation_with_nothing_to_drop(
+    frames: list[tuple[int, int]],
+) -> None:
+    # Pacing takes a shorter road without decimation; with only settings (never dropped),
+    # decimation's road must start every frame at the same microsecond and find the same late.
+    planned = [_planned(t, n) for t, n in sorted(frames, key=lambda f: f[0])]
+    plain = pace(planned, link=XGO, gap_us=1000, period_us=5_000)
+    general = pace(planned, link=XGO, gap_us=1000, period_us=5_000, decimate=True)
+    assert plain.frames == general.frames and plain.late == general.late
+    assert plain.dropped == general.dropped == 0
+
+
 def _crowded(make_show, o, **settings):  # type: ignore[no-untyped-def]
     # body_z (0x35) and servo_11 (0x50) are too far apart to share a frame: two frames per
     # tick of ~1.8 ms each, while a 500 Hz tick is 2 ms: the backlog grows every tick.

@@ -31,16 +31,12 @@ class ByteTable:
         self.base = reg.to_byte(lo)
         thresholds: list[float] = []
         for b in range(self.base + 1, reg.to_byte(hi) + 1):
-            below, above = lo, hi  # to_byte(below) < b <= to_byte(above)
-            while True:
-                mid = (below + above) / 2
-                if mid <= below or mid >= above:
-                    break
-                if reg.to_byte(mid) >= b:
-                    above = mid
-                else:
-                    below = mid
-            thresholds.append(above)
+            # The rounding boundary between the values of bytes b - 1 and b is within a few
+            # floats of their midpoint: step float by float from there (a few to_byte calls
+            # instead of some fifty for a bisection); bisect if that takes unusually long.
+            guess = (reg.to_physical(b - 1) + reg.to_physical(b)) / 2
+            found = _step_to_threshold(reg, b, min(max(guess, lo), hi), lo, hi)
+            thresholds.append(found if found is not None else _bisect_threshold(reg, b, lo, hi))
         self.thresholds = thresholds
         # The same thresholds after ``base`` entries of -inf: bisect_right(padded, x) is then
         # the byte itself (base + bisect_right(thresholds, x)) for any x in range.
@@ -50,3 +46,38 @@ class ByteTable:
         if self.lo <= value <= self.hi:
             return self.base + bisect_right(self.thresholds, value)
         return self.reg.to_byte(value)
+
+
+_STEPS = 64  # floats to step at most from the guess
+
+
+def _step_to_threshold(reg: Register, b: int, x: float, lo: float, hi: float) -> float | None:
+    """The smallest float in [lo, hi] that ``to_byte`` maps to ``b`` or more, stepping from
+    ``x``; None if it is more than _STEPS floats away."""
+    if reg.to_byte(x) >= b:
+        for _ in range(_STEPS):
+            down = math.nextafter(x, -math.inf)
+            if down < lo or reg.to_byte(down) < b:
+                return x
+            x = down
+        return None
+    for _ in range(_STEPS):
+        x = math.nextafter(x, math.inf)
+        if x > hi:
+            return None
+        if reg.to_byte(x) >= b:
+            return x
+    return None
+
+
+def _bisect_threshold(reg: Register, b: int, lo: float, hi: float) -> float:
+    """The same threshold by bisection over [lo, hi] (to_byte is monotonic)."""
+    below, above = lo, hi  # to_byte(below) < b <= to_byte(above)
+    while True:
+        mid = (below + above) / 2
+        if mid <= below or mid >= above:
+            return above
+        if reg.to_byte(mid) >= b:
+            above = mid
+        else:
+            below = mid

@@ -548,11 +548,13 @@ class _XgoPlanner:
             if mine.isdisjoint(entry[0].addresses):
                 self.ticks[t_us] = _Samples((entry, (src, sample)))
                 return
-        elif isinstance(entry, _Samples) and all(
-            mine.isdisjoint(other.addresses) for other, _ in entry
-        ):
-            entry.append((src, sample))
-            return
+        elif isinstance(entry, _Samples):
+            for other, _ in entry:
+                if not mine.isdisjoint(other.addresses):
+                    break
+            else:
+                entry.append((src, sample))
+                return
         self._emit(t_us, src.writes(t_us, sample))
 
     def _take_over(self, name: str, t: float) -> DofState | None:
@@ -628,13 +630,16 @@ class _XgoPlanner:
         (r0, g0, b0), (r1, g1, b1) = start, cue.to
         dr, dg, db = r1 - r0, g1 - g0, b1 - b0
         src = _Source((reg,), cue.origin, order)
-        emit = self._emit_sample
+        ticks, emit = self.ticks, self._emit_sample
         k = first_tick(t0, rate)
         # tick_us(k, rate), inlined
         while duration > 0 and (t_us := round(k * 1_000_000 / rate)) < end_us:
             frac = min(max((k / rate - t0) / duration, 0.0), 1.0)
-            emit(t_us, src,
-                 bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac))))
+            sample = bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac)))
+            if t_us in ticks:
+                emit(t_us, src, sample)
+            else:
+                ticks[t_us] = (src, sample)  # emit's common case, inlined
             k += 1
         emit(end_us, src, bytes(cue.to))
 
@@ -739,20 +744,24 @@ class _XgoPlanner:
         origin, order = run.origin, run.order
         src = _Source(run.regs, origin, order)
         ticks = self.ticks
-        emit = self._emit
+        emit, emit_sample = self._emit, self._emit_sample
         new = tuple.__new__
-        for k in range(k0, last + 1):
+        # The hot loop of the compiler: the ticks before the end with every DoF sampled.
+        for k in range(k0, min(full, k_end - 1) + 1):
+            t_us = round(k * 1_000_000 / rate)  # tick_us(k, rate), inlined
+            sample = bytes(map(bisect_right, padded, at_time(max(k / rate - start, 0.0))[0]))
+            if t_us in ticks:
+                emit_sample(t_us, src, sample)
+            else:
+                ticks[t_us] = (src, sample)  # emit_sample's common case, inlined
+        for k in range(max(k0, min(full, k_end - 1) + 1), last + 1):
             if k >= k_end:
                 pos, t_us = targets, end_us
             else:
                 pos = at_time(max(k / rate - start, 0.0))[0]
-                t_us = round(k * 1_000_000 / rate)  # tick_us(k, rate), inlined
+                t_us = round(k * 1_000_000 / rate)
             if k <= full:
-                sample = bytes(map(bisect_right, padded, pos))
-                if t_us in ticks:
-                    self._emit_sample(t_us, src, sample)
-                else:
-                    ticks[t_us] = (src, sample)  # _emit_sample's common case, inlined
+                emit_sample(t_us, src, bytes(map(bisect_right, padded, pos)))
                 continue
             writes = []
             for i, (address, lo, hi, base, thresholds, table) in enumerate(spec):
@@ -810,7 +819,7 @@ class _TickFrames:
             for address, (b, e) in zip(src.addresses, src.spans, strict=True):
                 sent[address] = known[address] = prev[b:e]
             src.prev = None
-        self.live = [src for src in self.live if src in keep]
+        self.live[:] = [src for src in self.live if src in keep]
 
     def _fresh(self, src: _Source, sample: bytes) -> tuple[bool, ...]:
         """Registers of a source not live that differ from what was sent; it becomes live."""
@@ -852,19 +861,25 @@ class _TickFrames:
     def sources_tick(self, t_us: int, chunks: _Samples) -> None:
         """A tick several sources write, none the same register."""
         sources = [src for src, _ in chunks]
-        if self.live and self.live != sources:
+        if self.live != sources and self.live:
             self.flush(sources)
         masks = []
+        fresh = False
         for src, sample in chunks:
             prev = src.prev
-            masks.append(self._fresh(src, sample) if prev is None
-                         else _changes(src, sample, prev))
-            src.prev = sample
-        self._known_changed()
+            if prev is None:
+                masks.append(self._fresh(src, sample))
+                fresh = True
+            else:
+                masks.append(_changes(src, sample, prev))
+                src.prev = sample
+        if fresh:
+            self._known_changed()
         # The plan depends on the sources' registers and the order of their cues only.
-        shape = self.shapes.get(tuple(sources))
+        group = tuple(sources)
+        shape = self.shapes.get(group)
         if shape is None:
-            shape = self.shapes[tuple(sources)] = (
+            shape = self.shapes[group] = (
                 tuple([src.addresses for src in sources]),
                 tuple(sorted(range(len(sources)), key=lambda i: sources[i].order)),
             )
@@ -967,13 +982,35 @@ def _frames_from_ticks(
     """
     out = _TickFrames(layout, link, gap, action_reg, details)
     source_tick, sources_tick, writes_tick = out.source_tick, out.sources_tick, out.writes_tick
+    live, plans, append = out.live, out.merger.sample_plans, out.frames.append
+    new = tuple.__new__
     for t_us in sorted(ticks):
         entry = ticks[t_us]
         if details:
             writes_tick(t_us, _entry_writes(t_us, entry),
                         t_us in mixed or isinstance(entry, _Samples))
         elif isinstance(entry, tuple):  # one source's sample: nearly every tick
-            source_tick(t_us, entry[0], entry[1])
+            src, sample = entry
+            prev = src.prev
+            if prev is not None and src.unit and len(live) == 1:
+                # The commonest tick of all, source_tick inlined: the next sample of the one
+                # live source, whose plan for these changes is known and one slice a frame.
+                if sample == prev:
+                    continue
+                plan = plans.get((src.addresses, tuple(map(ne, sample, prev))))
+                if plan is not None and len(plan) == 1 and (one := plan[0].one) is not None:
+                    src.prev = sample
+                    f = plan[0]
+                    data = sample[one[1]:one[2]]
+                    append(new(PlannedFrame, (
+                        t_us,
+                        b"".join((f.prefix, data, BYTES[~(f.check_base + sum(data)) & 0xFF],
+                                  TAIL)),
+                        (), (), src.origin, src.order, True, False, 0.0,
+                    )))
+                    out.samples += 1
+                    continue
+            source_tick(t_us, src, sample)
         elif isinstance(entry, _Samples):
             sources_tick(t_us, entry)
         else:

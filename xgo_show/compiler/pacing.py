@@ -120,6 +120,19 @@ def pace(
             for f in batch:
                 send(f, t_us, False)
 
+    if not decimate:
+        # send() without decimation (so nothing pending, nothing to flush), inlined: this loop
+        # runs once per frame of the show.
+        late, new = result.late, tuple.__new__
+        for frame in frames:
+            t_us = frame.t_us
+            start = t_us if t_us > free_us else free_us
+            paced = new(Paced, (start, frame))
+            out.append(paced)
+            if start - t_us > period_us:
+                late.append(paced)
+            free_us = start + -(-len(frame.data) * bits // baud) + gap_us
+        return result
     for frame in frames:
         if flushes:
             flush_until(frame.t_us)
