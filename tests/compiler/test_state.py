@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from xgo_show.choreo.resolved import ActionCue, ArmCue, MotionCue, SetCue
 from xgo_show.compiler import compile_show, describe_frame, frames_to_reach, state_at
+from xgo_show.compiler.state import FrameLabels, format_fields
 from xgo_show.errors import ProtocolError
 from xgo_show.profiles import get_profile
 from xgo_show.sim.xgo_robot import XgoRobot
@@ -30,6 +33,42 @@ def test_describe_xarm_servo_move() -> None:
     arm = get_profile("xarm")
     data = servo_move(1500, {1: 500, 3: 120})
     assert describe_frame(arm, data) == [("time_ms", 1500), ("servo_1", 500), ("servo_3", 120)]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.sampled_from(["mini", "lite", "rider"]), st.data())
+def test_frame_labels_say_what_describe_frame_says(model: str, data: st.DataObject) -> None:
+    # FrameLabels (the compiler's lazy labels) cuts frames with a cached walk and caches each
+    # field's text: any run of consecutive registers, any bytes, says the same.
+    profile = get_profile(model)
+    regs = sorted(profile.registers, key=lambda r: r.address)
+    first = data.draw(st.integers(0, len(regs) - 1))
+    run = [regs[first]]
+    for reg in regs[first + 1:first + data.draw(st.integers(1, 6))]:
+        if reg.address != run[-1].address + run[-1].size:
+            break
+        run.append(reg)
+    payload = b"".join(data.draw(st.binary(min_size=r.size, max_size=r.size)) for r in run)
+    # Also the same frame with one byte changed (and back): the caches must tell them apart.
+    at = data.draw(st.integers(0, len(payload) - 1))
+    other = payload[:at] + bytes(((payload[at] + 1) % 256,)) + payload[at + 1:]
+    labels = FrameLabels(profile)
+    for body in (payload, other, payload):
+        frame = write_frame(run[0].address, body, write_type=profile.write_type)
+        try:
+            expected = format_fields(profile, describe_frame(profile, frame))
+        except ProtocolError:
+            return  # a run of fields the layout does not walk (not a frame the compiler makes)
+        assert labels(frame) == expected
+
+
+def test_frame_labels_of_other_bytes_are_describe_frames() -> None:
+    from xgo_show.wire.xarm import servo_move
+
+    arm = get_profile("xarm")
+    assert FrameLabels(arm)(servo_move(1500, {1: 500})) == "time_ms=1500 servo_1=500"
+    with pytest.raises(ProtocolError, match="register layout"):
+        FrameLabels(MINI)(write_frame(0x0E, b"\x00"))
 
 
 @pytest.fixture

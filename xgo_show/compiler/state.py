@@ -152,7 +152,9 @@ class FrameLabels:
     def __init__(self, profile: Profile) -> None:
         self.profile = profile
         self._walks: dict[tuple[int, int], tuple[tuple[int, int, int], ...]] = {}
-        self._texts: dict[tuple[int, bytes], str] = {}
+        # Field texts by (address, bytes); a one-byte field's key is the int address << 8 | byte
+        # (no slice, no tuple: most fields are one byte).
+        self._texts: dict[object, str] = {}
 
     def __call__(self, data: bytes) -> str:
         profile = self.profile
@@ -172,10 +174,11 @@ class FrameLabels:
         texts = self._texts
         parts = []
         for reg_address, begin, end in walk:
-            key = (reg_address, payload[begin:end])
+            key = (reg_address << 8 | payload[begin] if end - begin == 1
+                   else (reg_address, payload[begin:end]))
             text = texts.get(key)
             if text is None:
-                text = texts[key] = field_label(profile, reg_address, key[1])
+                text = texts[key] = field_label(profile, reg_address, payload[begin:end])
             parts.append(text)
         return " ".join(parts)
 
