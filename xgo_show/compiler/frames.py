@@ -2,7 +2,8 @@
 
 Everything runs on integer microseconds from show start, so equal times compare equal and the
 output does not depend on float formatting. Trajectory and fade samples sit on a fixed tick grid
-(tick ``k`` at ``k / control_rate`` seconds); actions and settings go out at their own start.
+(tick ``k`` at ``k / control_rate`` seconds) but for each one's last, the exact target, which goes
+out at the move's or fade's end itself; actions and settings go out at their own start.
 
 Per tick, each register's physical value becomes its byte through :meth:`Register.to_byte` (or
 :meth:`Register.encode_value` for settings); a *sample* whose bytes equal what was last sent is
@@ -84,8 +85,10 @@ class PlannedFrame(NamedTuple):
 
     t_us: int
     data: bytes  # complete wire bytes
-    fields: tuple[tuple[int, bytes], ...]  # every field in the frame: (address, bytes)
-    written: tuple[Write, ...]  # what the plan asked for (the gap fillers are not here)
+    # Every field in the frame, (address, bytes), and what the plan asked for (the gap fillers
+    # are not there). Both empty in sample frames planned without details (plan_xgo_track).
+    fields: tuple[tuple[int, bytes], ...]
+    written: tuple[Write, ...]
     origin: Origin | None
     order: int
     droppable: bool  # only samples in it
@@ -108,7 +111,7 @@ class _Source:
 
     Its sample at a tick is one ``bytes`` of every register's bytes in address order, not a
     :class:`Write` per register: ticks that only sources write (nearly all of a long show) are
-    turned into frames straight from those bytes (see ``_frames_from_ticks``).
+    turned into frames straight from those bytes (see :class:`_TickFrames`).
     """
 
     __slots__ = ("address_set", "addresses", "one", "order", "origin", "prev", "spans", "unit")
@@ -126,8 +129,8 @@ class _Source:
         self.one = len(regs) == 1  # one register (a fade): a sample compares whole
         self.origin = origin
         self.order = order
-        # While "live" (see _frames_from_ticks): the bytes its registers were last sent, which
-        # the sent/known dictionaries are only told later. None otherwise.
+        # While "live" (see _TickFrames): the bytes its registers were last sent, which the
+        # sent/known dictionaries are only told later. None otherwise.
         self.prev: bytes | None = None
 
     def writes(self, t_us: int, sample: bytes) -> list[Write]:
@@ -227,7 +230,7 @@ class _Merger:
     def forget_plans(self) -> None:
         """Call when registers become known or unknown: fillers depend on that."""
         self.plans.clear()
-        self.sample_plans.clear()
+        self.sample_plans.clear()  # in place: _frames_from_ticks holds it
 
     def sample_plan(
         self,
@@ -788,11 +791,10 @@ class _TickFrames:
     anything else reads those registers (another cue's tick, a tick without the source).
     """
 
-    def __init__(self, layout: Layout, link: Link, gap: float, action_reg: Register | None,
-                 details: bool) -> None:
+    def __init__(self, layout: Layout, link: Link, gap: float, action_reg: Register | None
+                 ) -> None:
         self.merger = _Merger(layout, link, gap,
                               action_reg.address if action_reg is not None else None)
-        self.details = details
         self.sent: dict[int, bytes] = {}
         self.known: dict[int, bytes] = {
             r.address: r.initial for r in layout.profile.registers if r.initial is not None
@@ -819,7 +821,7 @@ class _TickFrames:
             for address, (b, e) in zip(src.addresses, src.spans, strict=True):
                 sent[address] = known[address] = prev[b:e]
             src.prev = None
-        self.live[:] = [src for src in self.live if src in keep]
+        self.live[:] = [src for src in self.live if src in keep]  # in place: see the loop
 
     def _fresh(self, src: _Source, sample: bytes) -> tuple[bool, ...]:
         """Registers of a source not live that differ from what was sent; it becomes live."""
@@ -980,8 +982,9 @@ def _frames_from_ticks(
     ticks only sources write carry no ``fields`` nor ``written`` (pacing reads those only to
     decimate); with it, every tick goes through Writes.
     """
-    out = _TickFrames(layout, link, gap, action_reg, details)
+    out = _TickFrames(layout, link, gap, action_reg)
     source_tick, sources_tick, writes_tick = out.source_tick, out.sources_tick, out.writes_tick
+    # Held across the loop: _TickFrames updates these in place.
     live, plans, append = out.live, out.merger.sample_plans, out.frames.append
     new = tuple.__new__
     for t_us in sorted(ticks):
