@@ -111,6 +111,7 @@ def test_decimation_drops_samples_with_a_warning_and_still_arrives(make_show, o)
     schedule = compile_show(_crowded(make_show, o, decimate=True))
     (warning,) = schedule.warnings
     assert warning.severity == "warning" and "decimated" in warning.message
+    assert warning.origin == o("sway", 3)  # the cue whose samples were dropped first: file:line
     perf = schedule.performers[0]
     labels = [f.label for f in perf.frames]
     assert "gait=walk" in labels and "action=23(dance)" in labels  # never dropped

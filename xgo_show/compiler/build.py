@@ -139,7 +139,7 @@ def _compile_track(
             f"decimated {paced.dropped} of {plan.samples} trajectory sample "
             f"frames to fit the link (first at {paced.first_drop_us / 1e6:.3f} s); their values "
             "went out with later frames",
-            None, path,
+            paced.first_drop_origin, path,
         ))
     # Labels are made from the bytes when first read (see ScheduledFrame.label): most never are.
     labels = FrameLabels(profile)

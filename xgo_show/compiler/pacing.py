@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from xgo_show.compiler.frames import PlannedFrame, Write
+from xgo_show.diagnostics import Origin
 from xgo_show.profiles.model import Link
 
 __all__ = ["PaceResult", "Paced", "pace", "wire_us"]
@@ -55,6 +56,7 @@ class PaceResult:
     late: list[Paced] = field(default_factory=list)
     dropped: int = 0  # planned sample frames dropped
     first_drop_us: int | None = None
+    first_drop_origin: Origin | None = None  # the cue of the first dropped frame
 
 
 def pace(
@@ -92,6 +94,7 @@ def pace(
                 result.dropped += 1
                 if result.first_drop_us is None:
                     result.first_drop_us = t_us
+                    result.first_drop_origin = f.origin
             for w in f.written:
                 pending[w.address] = w
             if remerge is not None and not flushes:

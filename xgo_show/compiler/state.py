@@ -13,20 +13,18 @@ position as two bytes little-endian, as a ServoMove carries it.
 
 from __future__ import annotations
 
-import struct
 from collections.abc import Mapping, Sequence
 
 from xgo_show.compiler.layout import Layout
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
 from xgo_show.errors import ProtocolError
-from xgo_show.profiles.model import Encoding, Link, Profile, Register
+from xgo_show.profiles.model import Link, Profile, Register
 from xgo_show.profiles.registry import get_profile
 from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, decode_one, write_frame
 
 __all__ = [
     "ACTION_KEY",
     "FrameLabels",
-    "decode_value",
     "describe_frame",
     "format_fields",
     "format_value",
@@ -45,31 +43,6 @@ def layout_of(profile: Profile) -> Layout:
         cached = Layout(profile)
         _LAYOUTS[profile.model] = cached
     return cached
-
-
-def decode_value(reg: Register, raw: bytes) -> object:
-    """A register's bytes -> its physical value (inverse of :meth:`Register.encode_value`).
-
-    Linear registers give floats, enums their choice name, RGB an (r, g, b) tuple, ASCII a
-    string, anything else the integer byte or the raw bytes.
-    """
-    enc = reg.encoding
-    if enc in (Encoding.U8, Encoding.U8_PERIODIC):
-        return reg.to_physical(raw[0]) if reg.linear else raw[0]
-    if enc is Encoding.ENUM:
-        for name, number in reg.choices.items():
-            if number == raw[0]:
-                return name
-        return raw[0]
-    if enc is Encoding.RGB:
-        return (raw[0], raw[1], raw[2])
-    if enc is Encoding.FLOAT32:
-        return float(struct.unpack("<f", raw)[0])
-    if enc is Encoding.INT16:
-        return int(struct.unpack(">h", raw)[0])
-    if enc is Encoding.ASCII:
-        return raw.rstrip(b"\0").decode("ascii", "replace")
-    return bytes(raw)
 
 
 def _fields(layout: Layout, address: int, data: bytes) -> list[tuple[Register, bytes]]:
@@ -106,7 +79,7 @@ def describe_frame(profile: Profile, data: bytes) -> list[tuple[str, object]]:
         return [("time_ms", time_ms), *((f"servo_{i}", p) for i, p in positions)]
     address, payload = _xgo_write(data)
     fields = _fields(layout_of(profile), address, payload)
-    return [(reg.name, decode_value(reg, raw)) for reg, raw in fields]
+    return [(reg.name, reg.decode_value(raw)) for reg, raw in fields]
 
 
 def format_value(profile: Profile, name: str, value: object) -> str:
@@ -137,7 +110,7 @@ def format_fields(profile: Profile, fields: Sequence[tuple[str, object]]) -> str
 def field_label(profile: Profile, address: int, raw: bytes) -> str:
     """``name=value`` of one field: the piece :func:`format_fields` builds labels of."""
     reg = layout_of(profile).by_address[address]
-    return f"{reg.name}={format_value(profile, reg.name, decode_value(reg, raw))}"
+    return f"{reg.name}={format_value(profile, reg.name, reg.decode_value(raw))}"
 
 
 class FrameLabels:
