@@ -12,7 +12,7 @@ from typing import Any
 
 from xgo_show.client import DEFAULT_TIMEOUT, XarmClient, XgoClient, open_client
 from xgo_show.errors import XgoShowError
-from xgo_show.profiles import MODELS, model_from_firmware
+from xgo_show.profiles import MODELS, get_profile, model_from_firmware
 from xgo_show.profiles.xarm import position_to_degrees
 
 __all__ = ["add_parser", "format_table", "probe", "run"]
@@ -73,6 +73,9 @@ def _probe_xgo(client: XgoClient, *, given: str | None) -> list[tuple[str, str]]
         model = f"{client.model} ({how})"
     elif named is not None and named != given:
         model = f"{given} (given; the firmware names a {named})"
+        # Read the rest with the robot's own table: the given model's may not match its
+        # registers (a Rider has no Mini status register), and a probe should still report.
+        client = XgoClient(client.transport, get_profile(named), timeout=client.timeout)
     else:
         model = given
     status_reg = client.profile.register("status")
