@@ -162,3 +162,18 @@ def test_raw_byte_registers_take_whole_bytes() -> None:
         mini.register("servo_speed").encode_value(256)
     with pytest.raises(ValueRangeError):
         mini.register("action").encode_value(1.5)
+
+
+def test_a_value_just_past_a_limit_is_not_printed_as_the_limit() -> None:
+    vx = get_profile("mini").register("vx")
+    with pytest.raises(ValueRangeError, match=r"vx = 25\.0000001 .* is out of range \[-25, 25\]"):
+        vx.encode_value(25.0000001)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"),
+    [("vx", True), ("vx", "fast"), ("vx", None), ("gait", 1.5), ("gait", False)],
+)
+def test_wrong_kinds_of_value_are_range_errors(name: str, value: object) -> None:
+    with pytest.raises(ValueRangeError, match=f"{name} takes"):
+        get_profile("mini").register(name).encode_value(value)

@@ -113,7 +113,8 @@ class Register:
         if math.isnan(value) or not self.minimum - 1e-9 <= value <= self.maximum + 1e-9:
             unit = f" {self.unit}" if self.unit else ""
             raise ValueRangeError(
-                f"{self.name} = {value:g}{unit} is out of range "
+                # Enough digits that a value just past a limit never prints as the limit.
+                f"{self.name} = {value:.10g}{unit} is out of range "
                 f"[{self.minimum:g}, {self.maximum:g}]{unit}"
             )
 
@@ -154,8 +155,19 @@ class Register:
         return lo + byte / 0xFF * (hi - lo)
 
     def encode_value(self, value: object) -> bytes:
-        """Encode a value of any encoding into this register's bytes."""
+        """Encode a value of any encoding into this register's bytes.
+
+        Raises :class:`ValueRangeError` for a value out of range or of the wrong kind (a
+        string or a bool where a number is needed, ...).
+        """
         enc = self.encoding
+        numeric = (Encoding.U8, Encoding.U8_PERIODIC, Encoding.FLOAT32, Encoding.INT16)
+        if enc in numeric and (isinstance(value, bool) or not isinstance(value, (int, float))):
+            raise ValueRangeError(f"{self.name} takes a number, not {value!r}")
+        if enc is Encoding.ENUM and (isinstance(value, bool) or
+                                     not isinstance(value, (int, str))):
+            allowed = ", ".join(self.choices)
+            raise ValueRangeError(f"{self.name} takes one of {allowed}, not {value!r}")
         if enc in (Encoding.U8, Encoding.U8_PERIODIC):
             return bytes((self.to_byte(float(value)),))  # type: ignore[arg-type]
         if enc is Encoding.ENUM:
