@@ -126,6 +126,57 @@ def test_unsafe_register_is_refused_before_any_port_opens(tmp_path, capsys) -> N
     assert "calibration" in err and "--allow-unsafe" in err
 
 
+ARM_SOLO = """\
+show: Arm solo
+tempo: {bpm: 120}
+performers:
+  arm: {model: xarm}
+tracks:
+  arm:
+    - {pose: {6: 500, 5: 560}, beats: 1}
+    - {pose: {6: 440, 5: 540}, beats: 1}
+    - {pose: {6: 580, 5: 540}, beats: 1}
+"""
+
+
+def _arm_show_with(tmp_path: Path, extra: bytes) -> Path:
+    """The arm solo compiled, with ``extra`` as one more frame at the end, saved as a file."""
+    from dataclasses import replace
+
+    show = compile_show(load_show(_write(tmp_path, "arm.yaml", ARM_SOLO)))
+    arm = show.performer("arm")
+    patched = replace(arm, frames=(*arm.frames, ScheduledFrame(arm.end, extra)))
+    path = tmp_path / "arm.xshow.json"
+    save_schedule(replace(show, performers=(patched,)), path)
+    return path
+
+
+def test_unsafe_xarm_command_is_refused_unless_allowed(tmp_path, capsys) -> None:
+    from xgo_show.wire.xarm import servo_offset_write
+
+    path = _arm_show_with(tmp_path, servo_offset_write(2, 10))  # calibration
+    log = tmp_path / "run.jsonl"
+    assert main(["dry-run", str(path), "--fast", "--log", str(log)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "arm frame 3" in err and "unsafe command ServoOffsetWrite (24" in err
+    assert "--allow-unsafe" in err
+    assert not log.exists()  # refused before any port opened
+    assert main(["dry-run", str(path), "--fast", "--allow-unsafe", "--log", str(log)]) == 0
+    assert "1 unsafe write(s) allowed by --allow-unsafe" in capsys.readouterr().out
+    assert sim_records(log)["arm"]["frames_rejected"] == 0
+
+
+def test_garbage_xarm_frame_in_a_schedule_file_is_refused(tmp_path, capsys) -> None:
+    path = _arm_show_with(tmp_path, b"\x55\x55\x09\x01\x02\x03\x04\x05\x06\x07\x08")
+    for extra in ([], ["--allow-unsafe"]):
+        assert main(["dry-run", str(path), "--fast", *extra]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1
+        assert str(path) in err and "performer arm frame 3" in err
+        assert "not one valid xArm packet" in err
+
+
 def _write(tmp_path: Path, name: str, text: str) -> Path:
     path = tmp_path / name
     path.write_text(text)

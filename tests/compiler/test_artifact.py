@@ -114,3 +114,43 @@ def test_not_json_or_missing_file(tmp_path: Path) -> None:
         load_schedule(tmp_path / "missing.xshow.json")
     with pytest.raises(XgoShowError, match="not an xgo-show schedule"):
         load_schedule(_write(tmp_path, "[1, 2]"))
+
+
+def _arm_frame(doc: dict, hex_text: str) -> None:  # type: ignore[type-arg]
+    arm = next(p for p in doc["performers"] if p["model"] == "xarm")
+    arm["frames"][0]["hex"] = hex_text
+
+
+@pytest.mark.parametrize(
+    ("hex_text", "message"),
+    [
+        # Garbage after a valid header: command 9 does not exist.
+        ("555509000102030405060708", "not one valid xArm packet"),
+        # Two packets in one frame: a frame is one packet.
+        ("55550207" "55550207", "not one valid xArm packet"),
+        # A valid GroupStop with a byte left over.
+        ("5555020700", "not one valid xArm packet"),
+        # A truncated ServoMove (count says 2 servos, 1 given).
+        ("55550803" "02c800" "01f401", "not one valid xArm packet"),
+        ("", "not one valid xArm packet"),
+        # A reply (battery voltage), not a request.
+        ("5555040f" "b01d", "GetBatteryVoltage reply, not a request"),
+        # Well framed, but position 1500 is out of range.
+        ("55550803" "01c800" "01dc05", "position 1500 must be 0..1000"),
+    ],
+)
+def test_xarm_frames_are_decoded_on_load(show, tmp_path: Path, hex_text: str, message: str) -> None:  # type: ignore[no-untyped-def]
+    path = _mutated(show, tmp_path, lambda d: _arm_frame(d, hex_text))
+    with pytest.raises(XgoShowError, match=message) as err:
+        load_schedule(path)
+    text = str(err.value)
+    assert str(path) in text and "performer arm frame 0" in text and ".frames[0].hex" in text
+
+
+def test_unsafe_xarm_commands_load_and_are_left_to_the_runtime(show, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
+    from xgo_show.wire.xarm import servo_offset_write
+
+    # A valid packet of a known command loads; refusing it is the runtime's job (--allow-unsafe).
+    path = _mutated(show, tmp_path, lambda d: _arm_frame(d, servo_offset_write(2, -5).hex()))
+    arm = load_schedule(path).performer("arm")
+    assert arm.frames[0].data == servo_offset_write(2, -5)

@@ -196,6 +196,36 @@ def test_unsafe_register_is_refused_before_anything_moves(rig, perf, sched) -> N
     assert len(found) == 1 and "servo_zero" in found[0]
 
 
+def test_unsafe_xarm_commands_are_refused_before_anything_moves(rig, sched) -> None:
+    from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.profiles.xarm import UNSAFE_COMMANDS
+    from xgo_show.wire.xarm import group_erase, servo_move, servo_off, servo_offset_write
+
+    xarm = get_profile("xarm")
+    frames = (
+        ScheduledFrame(0.0, servo_move(200, {1: 300})),
+        ScheduledFrame(0.2, servo_offset_write(3, -20)),
+        ScheduledFrame(0.4, group_erase(255)),
+        ScheduledFrame(0.6, servo_off([2, 3])),
+        ScheduledFrame(0.8, b"\x55\x55\x09\x01\x02\x03\x04\x05\x06\x07\x08"),
+    )
+    schedule = sched(PerformerSchedule("arm", "xarm", xarm.link, frames, end=1.0))
+    rig.for_schedule(schedule)
+    with pytest.raises(UnsafeScheduleError, match="ServoOffsetWrite") as err:
+        ShowRunner(schedule, rig.transports)
+    assert "arm frame 1 at 0.200s" in str(err.value) and "--allow-unsafe" in str(err.value)
+    settle(rig)
+    assert rig.servers["arm"].robot.received == []
+    found = check_unsafe(schedule, {"arm": xarm}, allow_unsafe=True)
+    assert len(found) == 4
+    assert "ServoOffsetWrite (24" in found[0] and "GroupErase (8" in found[1]
+    assert "ServoOff (20" in found[2] and "unknown packet" in found[3]
+    assert {8, 20, 24} <= set(UNSAFE_COMMANDS)
+    # The show's own commands are safe.
+    assert check_unsafe(sched(PerformerSchedule("arm", "xarm", xarm.link, frames[:1], 1.0)),
+                        {"arm": xarm}) == []
+
+
 def test_xarm_gets_group_stop_when_the_show_is_stopped(rig, sched, walking) -> None:
     from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
     from xgo_show.wire.xarm import servo_move

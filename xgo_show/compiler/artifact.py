@@ -32,8 +32,11 @@ Format (version 1)::
   compiled shows diff line by line.
 
 :func:`load_schedule` checks the format name and version (a newer version is refused with a
-message saying so) and every field's type, and re-decodes every XGO frame (checksum included);
-anything wrong is a :class:`XgoShowError` naming the file and the field.
+message saying so) and every field's type, and re-decodes every frame: an XGO frame must be one
+valid frame (checksum included); an xArm frame must be exactly one request packet of a known
+command with values in range (the protocol has no checksum, so its structure is the only
+check). Anything wrong is a :class:`XgoShowError` naming the file and the field (and, for a
+frame, the performer and the frame's index).
 """
 
 from __future__ import annotations
@@ -51,12 +54,20 @@ from xgo_show.compiler.schedule import (
     ScheduledFrame,
 )
 from xgo_show.diagnostics import Diagnostic, Origin
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import ProtocolError, XgoShowError
 from xgo_show.profiles.model import Link
 from xgo_show.profiles.registry import get_profile
+from xgo_show.wire import xarm as xarm_wire
 from xgo_show.wire.xgo import decode_one
 
-__all__ = ["FORMAT", "dumps_schedule", "load_schedule", "loads_schedule", "save_schedule"]
+__all__ = [
+    "FORMAT",
+    "dumps_schedule",
+    "load_schedule",
+    "loads_schedule",
+    "save_schedule",
+    "xarm_frame_problem",
+]
 
 FORMAT = "xgo-show-schedule"
 
@@ -209,6 +220,31 @@ def _tempo_map(r: _Reader, show: Mapping[str, Any]) -> tuple[tuple[int, float, i
     return tuple(out)
 
 
+# xArm commands that are framed but not interpreted by the typed parser (wire.xarm): their
+# framing is checked, their values are not.
+_UNINTERPRETED = frozenset({
+    xarm_wire.XarmCommand.BUS_SERVO_MORO_CTRL,
+    xarm_wire.XarmCommand.BUS_SERVO_INFO_WRITE,
+    xarm_wire.XarmCommand.BUS_SERVO_INFO_READ,
+})
+
+
+def xarm_frame_problem(data: bytes) -> str | None:
+    """Why ``data`` is not exactly one valid xArm request packet (None when it is)."""
+    used, packet = xarm_wire.decode_one(data)
+    if packet is None or used != len(data):
+        return (f"not one valid xArm packet ({len(data)} bytes; expected 55 55, a length and a "
+                "known command whose parameters fit it)")
+    if packet.is_reply:
+        return f"an xArm {packet.command.label} reply, not a request"
+    if packet.command not in _UNINTERPRETED:
+        try:
+            xarm_wire.parse_request(packet)
+        except ProtocolError as exc:
+            return str(exc)
+    return None
+
+
 def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
     """Parse artifact text (``name`` is used in error messages)."""
     r = _Reader(name)
@@ -277,6 +313,7 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
             raise r.fail(f"{where}.link.baud", "must be positive")
         link = Link(baud, r.us(link_raw, "gap_us", f"{where}.link"),
                     r.get(link_raw, "bits_per_byte", int, f"{where}.link"))
+        perf_name = r.get(p, "name", str, where)
         frames: list[ScheduledFrame] = []
         last = 0.0
         for j, fraw in enumerate(r.get(p, "frames", list, where)):
@@ -290,17 +327,23 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
                 data = bytes.fromhex(r.get(f, "hex", str, fw))
             except ValueError as exc:
                 raise r.fail(f"{fw}.hex", "not hexadecimal") from exc
+            which = f"performer {perf_name} frame {j}"
             if profile.family == "xgo":
                 used, frame = decode_one(data)
                 if frame is None or used != len(data):
-                    raise r.fail(f"{fw}.hex", "not one valid XGO frame (bad length or checksum)")
+                    raise r.fail(f"{fw}.hex",
+                                 f"{which}: not one valid XGO frame (bad length or checksum)")
+            elif profile.family == "xarm":
+                problem = xarm_frame_problem(data)
+                if problem is not None:
+                    raise r.fail(f"{fw}.hex", f"{which}: {problem}")
             elif not data:
-                raise r.fail(f"{fw}.hex", "empty frame")
+                raise r.fail(f"{fw}.hex", f"{which}: empty frame")
             frames.append(ScheduledFrame(
                 t, data, origin(f, fw), r.get(f, "label", str, fw), r.us(f, "duration_us", fw)
             ))
         performers.append(PerformerSchedule(
-            name=r.get(p, "name", str, where), model=profile.model, link=link,
+            name=perf_name, model=profile.model, link=link,
             frames=tuple(frames), end=r.us(p, "end_us", where),
             port=r.get(p, "port", str, where, optional=True),
         ))

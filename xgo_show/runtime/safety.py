@@ -1,4 +1,4 @@
-"""What a safe stop sends, and the check that refuses unsafe registers before a show starts.
+"""What a safe stop sends, and the check that refuses unsafe frames before a show starts.
 
 Stop frames are built from the profile's data (``Profile.safe_stop``), never hard-coded per
 model: an XGO gets its speed and periodic-motion registers written back to neutral (adjacent
@@ -10,9 +10,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from xgo_show.compiler.artifact import xarm_frame_problem
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import ProfileError, XgoShowError
 from xgo_show.profiles.model import Profile
+from xgo_show.profiles.xarm import UNSAFE_COMMANDS
+from xgo_show.wire.xarm import decode_one as decode_xarm
 from xgo_show.wire.xgo import XgoDecoder, write_frame
 
 __all__ = [
@@ -97,27 +100,48 @@ def stop_frames(profile: Profile) -> list[StopFrame]:
     return out
 
 
+def _xarm_unsafe(data: bytes) -> str | None:
+    """What is unsafe about one xArm frame (None: a safe, valid request packet)."""
+    problem = xarm_frame_problem(data)
+    if problem is not None:
+        return f"unknown packet: {problem}"
+    _, packet = decode_xarm(data)
+    assert packet is not None  # xarm_frame_problem found one whole packet
+    why = UNSAFE_COMMANDS.get(int(packet.command))
+    if why is None:
+        return None
+    return f"sends unsafe command {packet.command.label} ({int(packet.command)}: {why})"
+
+
 def check_unsafe(
     schedule: Schedule, profiles: dict[str, Profile], *, allow_unsafe: bool = False
 ) -> list[str]:
-    """Decode every write frame of an XGO schedule and refuse unsafe registers.
+    """Decode every frame of a schedule and refuse unsafe registers and commands.
 
-    Returns a description of each unsafe write found (empty when none). Raises
-    :class:`UnsafeScheduleError` naming the first ones unless ``allow_unsafe`` is true. A write
-    to an address the profile does not know is refused the same way: it cannot be checked.
+    XGO: every write frame is laid out with the profile and refused if it touches a register
+    marked ``unsafe``. xArm: every frame must be one valid request packet, refused if its
+    command is one of :data:`xgo_show.profiles.xarm.UNSAFE_COMMANDS`. Returns a description of
+    each unsafe frame found (empty when none). Raises :class:`UnsafeScheduleError` naming the
+    first ones unless ``allow_unsafe`` is true. A write to an address the profile does not know,
+    or an xArm frame that is not one valid packet, is refused the same way: it cannot be checked.
     """
     found: list[str] = []
     for perf in schedule.performers:
         profile = profiles[perf.name]
-        if profile.family != "xgo":
-            continue
         for index, sframe in enumerate(perf.frames):
+            where = f"{perf.name} frame {index} at {sframe.t:.3f}s"
+            if sframe.origin is not None:
+                where += f" ({sframe.origin})"
+            if profile.family == "xarm":
+                problem = _xarm_unsafe(sframe.data)
+                if problem is not None:
+                    found.append(f"{where}: {problem}")
+                continue
+            if profile.family != "xgo":
+                continue
             for frame in XgoDecoder().feed(sframe.data):
                 if not frame.is_write:
                     continue
-                where = f"{perf.name} frame {index} at {sframe.t:.3f}s"
-                if sframe.origin is not None:
-                    where += f" ({sframe.origin})"
                 try:
                     regs = profile.walk(frame.address, len(frame.data))
                 except ProfileError as exc:
