@@ -80,7 +80,8 @@ class _Checker:
             performer = self.res.performers[track.performer]
             for cue in track.cues:
                 self.check_cue(cue, profile, performer.arm)
-            self.check_conflicts(track.cues, profile)
+            if track.performer not in self.res.untimed:  # times after a broken cue are guesses
+                self.check_conflicts(track.cues, profile)
         return self.diags
 
     # -- one cue --------------------------------------------------------------------------

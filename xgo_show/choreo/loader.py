@@ -15,6 +15,7 @@ from xgo_show.choreo.model import CueList, ParamPartMapping, PartMapping, ShowFi
 from xgo_show.choreo.params import Argument, substitute
 from xgo_show.choreo.resolve import resolve_show
 from xgo_show.choreo.resolved import ResolvedShow
+from xgo_show.choreo.salvage import salvage_show
 from xgo_show.choreo.source import Document, read_yaml
 from xgo_show.choreo.validation import validate
 from xgo_show.diagnostics import Diagnostic, Origin
@@ -61,7 +62,7 @@ def _check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]
         return None, diags
     model, diags = validate(ShowFile, doc, doc.data)
     if model is None:
-        return None, _sorted(diags)
+        return None, _sorted(diags + _check_remainder(doc, doc.data))
     res = resolve_show(model, doc)
     diags = res.diagnostics
     if res.show is not None:
@@ -71,6 +72,17 @@ def _check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]
         return None, diags
     warnings = tuple(d for d in diags if not d.is_error)
     return dataclasses.replace(res.show, warnings=warnings), diags
+
+
+def _check_remainder(doc: Document, data: dict[str, object]) -> list[Diagnostic]:
+    """Resolve and check what is well formed in a routine with structural errors, so that
+    one run lists every problem (a bad duration in one track hides nothing in another)."""
+    salvage = salvage_show(data)
+    if salvage is None:
+        return []
+    res = resolve_show(salvage.show, doc, salvage)
+    found = res.diagnostics + check_show(res)
+    return [d for d in found if salvage.keeps(d)]
 
 
 def is_part(data: object) -> bool:

@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ruckig import InputParameter, Result, Ruckig, Trajectory
 
@@ -59,6 +60,9 @@ from xgo_show.errors import ProfileError, ValueRangeError
 from xgo_show.profiles import Encoding, Limits, Profile, get_profile
 from xgo_show.profiles.xarm import degrees_to_position
 
+if TYPE_CHECKING:
+    from xgo_show.choreo.salvage import Salvage
+
 __all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "min_duration", "resolve_show"]
 
 _RESET_ACTION = 255
@@ -88,6 +92,8 @@ class Resolution:
     diagnostics: list[Diagnostic]
     sources: dict[int, CueSource]  # id(cue) -> source
     performers: dict[str, PerformerModel]
+    untimed: frozenset[str] = frozenset()  # performers whose cue times are not known
+
 
     def source(self, cue: Cue) -> CueSource:
         return self.sources[id(cue)]
@@ -138,9 +144,10 @@ class _Performer:
 
 
 class _Resolver:
-    def __init__(self, show: ShowFile, doc: Document) -> None:
+    def __init__(self, show: ShowFile, doc: Document, salvage: Salvage | None = None) -> None:
         self.show = show
         self.doc = doc
+        self.salvage = salvage
         self.diags: list[Diagnostic] = []
         self.sources: dict[int, CueSource] = {}
         self.tempo: TempoMap | None = None
@@ -161,7 +168,7 @@ class _Resolver:
     # -- time -----------------------------------------------------------------------------
 
     def need_tempo(self, doc: Document, loc: Loc, what: str) -> TempoMap | None:
-        if self.tempo is None:
+        if self.tempo is None and not (self.salvage and self.salvage.tempo_broken):
             self.error(doc, loc, f"{what} need a tempo: add e.g. 'tempo: {{bpm: 120}}' to the show")
         return self.tempo
 
@@ -230,18 +237,22 @@ class _Resolver:
                 continue
             block = _Block(doc, ("tracks", name), 0.0, True, phrases, (Path(doc.file).resolve(),))
             self.sequence(performers[name], cues, block)
+        salvage = self.salvage  # parts were cut away: what looks unused may not be
         for phrase in phrases.values():
-            if (phrase.doc.file, phrase.name) not in self.played:
+            if (phrase.doc.file, phrase.name) not in self.played and salvage is None:
                 self.warning(phrase.doc, phrase.loc, f"phrase {phrase.name!r} is never played")
         for name in performers:
-            if name not in show.tracks:
+            if name not in show.tracks and salvage is None:
                 self.warning(doc, ("performers", name), f"performer {name!r} has no track")
+        untimed = frozenset(salvage.untimed if salvage else ())
         end = None
         if show.settings.end is not None:
             top = _Block(doc, ("settings",), 0.0, True, phrases, ())
             end = self.position(show.settings.end, top, ("settings", "end"))
         if end is not None:
             for player in performers.values():
+                if player.name in untimed:
+                    continue
                 late = [c for c in player.cues if self.sources[id(c)].end > end + 1e-9]
                 if late:
                     src = self.sources[id(late[0])]
@@ -273,7 +284,7 @@ class _Resolver:
             ),
         )
         return Resolution(resolved, self.diags, self.sources,
-                          {n: p.model for n, p in performers.items()})
+                          {n: p.model for n, p in performers.items()}, untimed)
 
     def build_tempo(self) -> TempoMap | None:
         tempo = self.show.tempo
@@ -392,6 +403,10 @@ class _Resolver:
     ) -> float | None:
         doc = block.doc
         found = block.phrases.get(cue.phrase)
+        lost = self.salvage and (self.salvage.phrases_incomplete
+                                 or cue.phrase in self.salvage.broken_phrases)
+        if found is None and lost:
+            return None  # its definition had errors of its own, reported already
         if found is None:
             names = list(block.phrases)
             listing = f"; phrases: {', '.join(names)}" if names else "; no phrases are defined"
@@ -870,13 +885,19 @@ class _Emitter:
                 positions[sid] = degrees_to_position(degrees)
             except ValueRangeError as exc:
                 self.error(str(exc), "pose_deg", sid)
-        if len(positions) != len(cue.pose_deg):
+        if not positions:
             return None
-        origins = {sid: self.at("pose_deg", sid) for sid in cue.pose_deg}
+        # The servos whose angle converted are still checked (servo ids): every problem of
+        # the cue in one run. An error was reported, so the show is not played anyway.
+        origins = {sid: self.at("pose_deg", sid) for sid in positions}
         return self.pose(positions, origins, start, length)
 
 
-def resolve_show(show: ShowFile, doc: Document) -> Resolution:
-    """Expand ``show`` (validated from ``doc``) into a :class:`ResolvedShow` with sources."""
-    return _Resolver(show, doc).run()
+def resolve_show(show: ShowFile, doc: Document, salvage: Salvage | None = None) -> Resolution:
+    """Expand ``show`` (validated from ``doc``) into a :class:`ResolvedShow` with sources.
+
+    ``salvage`` says ``show`` is what was left of a routine with structural errors: the
+    resolver then keeps quiet about what those errors made unknowable.
+    """
+    return _Resolver(show, doc, salvage).run()
 

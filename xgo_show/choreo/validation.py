@@ -179,8 +179,33 @@ _COMMON_FIELDS = frozenset(
 _EXPECT = re.compile(r"^Input should be (?:a valid |an? )?(.+)$")
 
 
+_TYPE_KINDS = ("_type", "_parsing")  # "not a string", "unable to parse as an integer"
+
+
+def _drop_wrong_branches(payload: object, errors: list[Any]) -> list[Any]:
+    """A value of one of a union's types reports only that branch's complaint: ``99999`` for
+    ``str | int <= 255`` is too large, not "not a string"; ``.nan`` for ``number | list`` is not
+    finite, not "not a list". The type errors of the other branches are noise."""
+    specific: dict[Loc, set[tuple[object, ...]]] = {}
+    for err in errors:
+        if not str(err["type"]).endswith(_TYPE_KINDS):
+            specific.setdefault(data_loc(payload, err["loc"]), set()).add(tuple(err["loc"]))
+    out = []
+    for err in errors:
+        if str(err["type"]).endswith(_TYPE_KINDS):
+            here = data_loc(payload, err["loc"])
+            # A complaint at or below this value from another branch: that branch took the
+            # value's type (a list of numbers with a nan in it is a list, not a bad number).
+            if any(loc[:len(here)] == here and raws - {tuple(err["loc"])}
+                   for loc, raws in specific.items()):
+                continue
+        out.append(err)
+    return out
+
+
 def _merge_union_errors(payload: object, errors: list[Any]) -> list[Any]:
     """One message for a value that fits none of a union's types ("a number or a list")."""
+    errors = _drop_wrong_branches(payload, errors)
     groups: dict[Loc, list[Any]] = {}
     for err in errors:
         if str(err["type"]).endswith("_type"):
