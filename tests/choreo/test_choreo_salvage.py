@@ -3,8 +3,9 @@ and what the broken part made unknowable (times, phrases, tempo) gives no false 
 
 from __future__ import annotations
 
-from .conftest import WriteFn
 from xgo_show.choreo import validate_file
+
+from .conftest import WriteFn
 
 
 def _errors(path: object) -> list[tuple[int, int, str]]:

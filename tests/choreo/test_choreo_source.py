@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+import yaml
+
 from xgo_show.choreo.source import format_path, parse_yaml, read_yaml
 
 
@@ -87,3 +90,54 @@ def test_format_path() -> None:
 def test_absurd_nesting_is_an_error_not_a_crash() -> None:
     _, errors = parse_yaml("a: " + "[" * 3000 + "]" * 3000, "f")
     assert [e.message for e in errors] == ["the YAML is nested too deeply"]
+
+
+def _laughs(levels: int, width: int = 10) -> str:
+    lines = [f"a0: &a0 [{', '.join(['lol'] * width)}]"]
+    for i in range(1, levels):
+        lines.append(f"a{i}: &a{i} [{', '.join([f'*a{i - 1}'] * width)}]")
+    return "\n".join(lines) + "\n"
+
+
+def test_billion_laughs_is_one_error_at_the_alias_not_a_memory_error() -> None:
+    import time
+
+    started = time.perf_counter()
+    _, errors = parse_yaml(_laughs(10), "f.yaml")  # 10^10 values if expanded
+    assert time.perf_counter() - started < 2.0
+    assert len(errors) == 1
+    err = errors[0]
+    # a5's eighth alias passes 1,000,000: 123,460 values before a5, 111,111 per alias.
+    assert err.origin is not None and (err.origin.line, err.origin.column) == (6, 45)
+    assert "this alias" in err.message and "1,000,000" in err.message
+
+
+def test_the_cap_counts_aliases_at_each_use(monkeypatch: pytest.MonkeyPatch) -> None:
+    import xgo_show.choreo.source as source
+
+    text = "a: &x [1, 2, 3]\nb: *x\nc: *x\n"  # 1 + (1+4) + (1+4) + (1+4) = 16 values
+    monkeypatch.setattr(source, "MAX_NODES", 16)
+    doc, errors = parse_yaml(text, "f.yaml")
+    assert errors == [] and doc.data == {"a": [1, 2, 3], "b": [1, 2, 3], "c": [1, 2, 3]}
+    monkeypatch.setattr(source, "MAX_NODES", 15)
+    _, errors = parse_yaml(text, "f.yaml")
+    assert [(e.origin.line, e.origin.column) for e in errors if e.origin] == [(3, 4)]
+
+
+def test_the_cap_also_bounds_a_huge_file_without_aliases(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import xgo_show.choreo.source as source
+
+    monkeypatch.setattr(source, "MAX_NODES", 5)
+    _, errors = parse_yaml("[1, 2, 3, 4, 5, 6]\n", "f.yaml")
+    assert len(errors) == 1 and errors[0].message.startswith("the file makes")
+    assert errors[0].origin is not None and errors[0].origin.column == 14
+
+
+def test_the_bundled_show_is_far_under_the_cap() -> None:
+    import xgo_show.choreo.source as source
+
+    text = (Path(__file__).parents[2] / "choreographies" / "mixed_five.yaml").read_text()
+    node = yaml.compose(text, Loader=yaml.SafeLoader)
+    assert source._expanded_size(node, {}, set()) * 50 < source.MAX_NODES

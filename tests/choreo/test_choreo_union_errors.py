@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from .conftest import WriteFn
 from xgo_show.choreo import validate_file
+
+from .conftest import WriteFn
 
 
 @pytest.mark.parametrize(("cue", "message"), [

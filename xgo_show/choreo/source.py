@@ -18,9 +18,15 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from xgo_show.diagnostics import Diagnostic, Origin
 
-__all__ = ["Document", "Link", "Loc", "format_path", "parse_yaml", "read_text", "read_yaml"]
+__all__ = [
+    "MAX_NODES", "Document", "Link", "Loc", "format_path", "parse_yaml", "read_text", "read_yaml",
+]
 
 Loc = tuple[str | int, ...]
+
+# Values a file may expand to, aliases counted at each use. A ten-minute show of dense cues is
+# some 10^5; a "billion laughs" file (anchors of anchors) is 10^9 and would eat the memory.
+MAX_NODES = 1_000_000
 
 _MERGE_TAG = "tag:yaml.org,2002:merge"
 
@@ -231,12 +237,66 @@ def parse_yaml(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         mark = nodes[1].start_mark
         origin = Origin(file, mark.line + 1, mark.column + 1)
         return doc, [Diagnostic("error", "one YAML document per file, found several", origin)]
+    if _expanded_size(nodes[0], {}, set()) > MAX_NODES:
+        return doc, [_too_big(text, file)]
     builder = _Builder(doc)
     try:
         doc.data = builder.build(nodes[0], ())
     except RecursionError:
         return Document(file, None), [_too_deep(file)]
     return doc, builder.errors
+
+
+def _expanded_size(node: Node, sizes: dict[int, int], active: set[int]) -> int:
+    """How many values ``node`` builds into, each alias use counted in full (memoised per
+    node, so a file of shared anchors costs its own size, not its expansion)."""
+    known = sizes.get(id(node))
+    if known is not None:
+        return known
+    if id(node) in active or isinstance(node, ScalarNode):
+        return 1  # a recursive alias is reported by the builder
+    active.add(id(node))
+    total = 1
+    if isinstance(node, SequenceNode):
+        total += sum(_expanded_size(item, sizes, active) for item in node.value)
+    elif isinstance(node, MappingNode):
+        total += sum(_expanded_size(k, sizes, active) + _expanded_size(v, sizes, active)
+                     for k, v in node.value)
+    active.discard(id(node))
+    sizes[id(node)] = total
+    return total
+
+
+def _too_big(text: str, file: str) -> Diagnostic:
+    """The error for a file past :data:`MAX_NODES`, at the alias (or value) that passed it:
+    the events are replayed counting what each alias expands to."""
+    built = 0
+    anchors: dict[str, int] = {}
+    open_: list[tuple[str | None, int]] = []  # (anchor, count when the collection started)
+    mark = None
+    for event in yaml.parse(text, Loader=yaml.SafeLoader):
+        if isinstance(event, yaml.AliasEvent):
+            built += anchors.get(str(event.anchor), 1)
+        elif isinstance(event, (yaml.ScalarEvent, yaml.CollectionStartEvent)):
+            built += 1
+            if isinstance(event, yaml.CollectionStartEvent):
+                open_.append((event.anchor, built - 1))
+            elif event.anchor is not None:
+                anchors[event.anchor] = 1
+        elif isinstance(event, yaml.CollectionEndEvent) and open_:
+            anchor, before = open_.pop()
+            if anchor is not None:
+                anchors[anchor] = built - before
+            continue
+        else:
+            continue
+        if built > MAX_NODES:
+            mark = event.start_mark
+            break
+    line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+    kind = "this alias" if isinstance(event, yaml.AliasEvent) else "the file"
+    return Diagnostic("error", f"{kind} makes the YAML expand to more than {MAX_NODES:,} values "
+                      "(aliases of aliases?): a routine is far smaller", Origin(file, line, col))
 
 
 def _too_deep(file: str) -> Diagnostic:
