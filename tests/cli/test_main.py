@@ -6,6 +6,7 @@ import argparse
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -154,3 +155,64 @@ def test_probe_silent_port_is_a_one_line_timeout(capsys: pytest.CaptureFixture[s
         f"xgo-show: error: no reply from {path} to a read of firmware (0x07) within 0.1 s "
         "(for an xArm, give the model xarm)\n"
     )
+
+
+_BAD_SHOW = """\
+show: Bad
+performers:
+  rex: {model: mini}
+  rio: {model: rider}
+tracks:
+  rex:
+    - {move: {pitch: 10}, duration: -1}
+  rio:
+    - {led: {led9: red}}
+    - {walk: {vx: 0.5, vy: 0.2}, duration: 2}
+    - {move: {roll: 90}, duration: 1}
+"""
+
+
+@pytest.mark.parametrize("command", [["compile"], ["inspect"], ["dry-run", "--fast"]])
+def test_a_bad_routine_lists_every_error_then_a_summary(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], command: list[str]
+) -> None:
+    path = tmp_path / "bad.yaml"
+    path.write_text(_BAD_SHOW, encoding="utf-8")
+    assert main([command[0], str(path), *command[1:]]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert [line.split(": error: ")[0] for line in err] == [
+        f"{path}:7:37", f"{path}:9:14", f"{path}:10:28", f"{path}:11:21", "xgo-show",
+    ]
+    assert "(and" not in "\n".join(err)
+    assert err[-1] == f"xgo-show: error: {path}: 4 error(s)"
+
+
+def test_a_compile_error_lists_its_diagnostics(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "slow.yaml"
+    path.write_text("show: S\nperformers:\n  rex: {model: mini}\ntracks:\n  rex:\n"
+                    "    - {move: {body_z: 100}, duration: 0.1}\n"
+                    "    - {move: {body_z: 75}, duration: 0.1}\n", encoding="utf-8")
+    assert main(["compile", str(path), "-o", str(path) + ".json"]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 3, err
+    assert err[0].startswith(f"{path}:6:7: error: ") and "needs at least" in err[0]
+    assert err[1].startswith(f"{path}:7:7: error: ")
+    assert err[2] == f"xgo-show: error: {path}: 2 error(s)"
+
+
+def test_hex_prefix_logs_the_traffic_on_stderr(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["probe", "hex+sim:mini"]) == 0
+    captured = capsys.readouterr()
+    assert "firmware  M-1.4.1" in captured.out
+    lines = captured.err.splitlines()
+    # The firmware request (register 0x07) and its reply, as hexlog writes them.
+    assert lines[0] == "sim:mini > 55 00 09 02 07 0a e3 00 aa"
+    assert lines[1].startswith("sim:mini < 55 00 12 12 07 4d 2d 31")
+    assert all(line.startswith(("sim:mini > 55 ", "sim:mini < 55 ")) for line in lines)
+
+
+def test_plain_ports_log_nothing(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["probe", "sim:mini"]) == 0
+    assert capsys.readouterr().err == ""

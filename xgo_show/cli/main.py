@@ -2,17 +2,20 @@
 
 Each subcommand lives in its own module exposing ``add_parser(subparsers)`` (which sets
 ``func``) and ``run(args) -> int``. User mistakes (:class:`XgoShowError`) print one clear line
-and exit 2; they never show a traceback.
+and exit 2; they never show a traceback. An error carrying diagnostics (a routine that does not
+load or compile) prints every one of them as ``file:line:col``, then that line.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import logging
 import sys
 from collections.abc import Sequence
 
 from xgo_show import __version__
+from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import XgoShowError
 
 __all__ = ["COMMANDS", "build_parser", "main"]
@@ -43,13 +46,47 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _StderrHandler(logging.Handler):
+    """Writes each record's message to the *current* ``sys.stderr`` (not the one at setup)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            print(self.format(record), file=sys.stderr, flush=True)
+        except Exception:  # logging must never break the command
+            self.handleError(record)
+
+
+def _log_traffic() -> None:
+    """Send the ``hex+`` transports' lines (logger ``xgo_show.traffic``, DEBUG) to stderr as
+    they are: each line already says which port and which direction."""
+    logger = logging.getLogger("xgo_show.traffic")
+    logger.setLevel(logging.DEBUG)
+    if not any(isinstance(h, _StderrHandler) for h in logger.handlers):
+        logger.addHandler(_StderrHandler())
+
+
+def _report(exc: XgoShowError) -> None:
+    """Every diagnostic the error carries, one per line, then one summary line."""
+    diags = [d for d in getattr(exc, "diagnostics", ()) if isinstance(d, Diagnostic)]
+    if not diags:
+        print(f"xgo-show: error: {exc}", file=sys.stderr)
+        return
+    for d in diags:
+        print(d.format(), file=sys.stderr)
+    errors = [d for d in diags if d.is_error]
+    first = next((d.origin.file for d in errors if d.origin), "")
+    where = f"{first}: " if first else ""
+    print(f"xgo-show: error: {where}{len(errors)} error(s)", file=sys.stderr)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    _log_traffic()
     try:
         return int(args.func(args))
     except XgoShowError as exc:
-        print(f"xgo-show: error: {exc}", file=sys.stderr)
+        _report(exc)
         return 2
     except KeyboardInterrupt:
         print("xgo-show: interrupted", file=sys.stderr)
