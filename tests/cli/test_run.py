@@ -220,6 +220,24 @@ def test_low_battery_fails_preflight_unless_forced(duet, servers, capsys) -> Non
     assert "battery floor 10%" in out and "show completed" in out
 
 
+def test_xarm_low_voltage_fails_preflight_unless_forced(tmp_path, servers, capsys) -> None:
+    show = _write(tmp_path, "arm.yaml", ARM_SOLO)
+    servers["arm"] = PtyServer(create_robot("xarm", battery_mv=6300)).start()
+    args = ["run", str(show), "--countdown", "0", "--map", f"arm={servers['arm'].path}"]
+    assert main(args) == 2
+    captured = capsys.readouterr()
+    assert "battery 6.30 V is below the floor of 6.48 V = 20% of 6.00..8.40 V" in captured.out
+    assert "pre-flight failed" in captured.err
+    time.sleep(0.05)
+    assert servers["arm"].snapshot()["moves"] == []  # nothing moved
+    # --force starts anyway; --battery-floor 10 (6.24 V) passes; the report shows the volts.
+    assert main([*args, "--force", "--no-telemetry", "--start", "1.0"]) == 0
+    assert "starting anyway because of --force" in capsys.readouterr().out
+    assert main([*args, "--battery-floor", "10", "--start", "1.0"]) == 0
+    out = capsys.readouterr().out
+    assert "6.30 V" in out and "show completed" in out and "telemetry: battery 6.30 V" in out
+
+
 def test_bad_map_and_missing_port_are_user_errors(duet, capsys) -> None:
     assert main(["run", str(duet), "--map", "nobody=/dev/null"]) == 2
     assert "no performer 'nobody'" in capsys.readouterr().err

@@ -270,3 +270,59 @@ def test_telemetry_poller_parses_replies_and_ignores_unsolicited_frames() -> Non
     mini = TelemetryPoller(MINI)
     mini.feed(reply_frame(MINI.register("status").address, b"\x00"), 1.0)
     assert mini.fault is None
+
+
+def test_xarm_battery_reads_fit_between_frames_with_room_for_the_reply() -> None:
+    from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.wire.xarm import get_battery_voltage, servo_move
+
+    clock = FakeClock()
+    link = PollingSim(create_robot("xarm"), clock=clock.now)
+    link.open()
+    xarm = get_profile("xarm")
+    # A 2-servo ServoMove is 13 bytes: 13.5 ms on the wire at 9600 baud, then 1 ms of silence.
+    # 25 ms apart leaves 10.5 ms: enough for the 4-byte request (4.2 ms + gap + margin) but not
+    # for its 6-byte reply as well, so no read may go there; 45 ms apart leaves room for both.
+    times = [i * 0.025 for i in range(20)] + [0.5 + i * 0.045 for i in range(20)]
+    frames = tuple(
+        ScheduledFrame(t, servo_move(20, {1: 300 + i, 2: 600 - i})) for i, t in enumerate(times)
+    )
+    schedule = PerformerSchedule("arm", "xarm", xarm.link, frames, end=1.5)
+    poller = TelemetryPoller(xarm, interval=0.01, battery_floor=20)
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=xarm, telemetry=poller)
+    start = clock.now() + 0.1
+    ex.run(start)
+    sent = [r for r in ex.records if r.kind == "frame"]
+    reads = [r for r in ex.records if r.kind == "read"]
+    assert len(sent) == len(frames)
+    assert all(r.error == pytest.approx(0.0) for r in sent)  # no frame delayed by a read
+    tight = [r for r in reads if sent[0].actual < r.actual < sent[19].actual]
+    roomy = [r for r in reads if sent[20].actual < r.actual < sent[-1].actual]
+    assert tight == []  # no read in a 25 ms gap
+    assert len(roomy) >= 15  # one in (nearly) every 45 ms gap
+    room = xarm.link.wire_time(4 + 6) + xarm.link.gap
+    by_time = [r for r in ex.records if r.kind in ("frame", "read")]
+    for a, b in itertools.pairwise(by_time):
+        need = room if a.kind == "read" else xarm.link.wire_time(a.nbytes) + xarm.link.gap
+        assert b.actual - a.actual >= need - 1e-9
+    assert sum(1 for f in link.robot.received if f.data == get_battery_voltage()) == len(reads)
+    assert ex.fault is None
+
+
+def test_xarm_poller_reads_volts_and_faults_below_the_mapped_floor() -> None:
+    from xgo_show.wire.xarm import battery_reply, positions_reply
+
+    xarm = get_profile("xarm")
+    poller = TelemetryPoller(xarm, battery_floor=20)  # 20% of 6.0..8.4 V = 6.48 V
+    assert [(i.name, i.request.hex(), i.reply_bytes) for i in poller.items] == [
+        ("battery_v", "5555020f", 6)
+    ]
+    noise = b"\x01\x55\x02" + positions_reply({1: 500})  # junk, then a reply nobody asked for
+    samples = poller.feed(noise + battery_reply(7600), 1.0)
+    assert [(s.name, s.value) for s in samples] == [("battery_v", pytest.approx(7.6))]
+    assert poller.unsolicited == 1 and poller.fault is None
+    poller.feed(battery_reply(6500), 2.0)  # just above the floor
+    poller.feed(battery_reply(6470), 3.0)  # one low reading is not yet a fault
+    assert poller.fault is None
+    poller.feed(battery_reply(6460), 4.0)
+    assert poller.fault == "battery 6.46 V is below the floor of 6.48 V (20% of the xArm's range)"

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import io
 
+import pytest
+
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.preflight import countdown, open_ports, preflight, request_realtime
 from xgo_show.wire.xgo import TYPE_READ
@@ -55,7 +57,26 @@ def test_xarm_is_recognised_by_its_answer(rig, sched) -> None:
     rig.for_schedule(schedule)
     report = preflight(schedule, rig.transports)
     assert report.ok, report.table()
-    assert "battery" in report.rows[0].notes[0] and " V" in report.rows[0].notes[0]
+    assert report.rows[0].voltage == pytest.approx(7.6)
+    assert "7.60 V" in report.table().splitlines()[1]
+    assert "xArm: 6.48 V = 20% of 6.00..8.40 V" in report.table()
+
+
+def test_xarm_below_the_mapped_floor_fails(rig, sched) -> None:
+    from xgo_show.compiler.schedule import PerformerSchedule
+    from xgo_show.profiles import get_profile
+
+    xarm = get_profile("xarm")
+    schedule = sched(PerformerSchedule("arm", "xarm", xarm.link, (), end=1.0))
+    rig.add("arm", "xarm", battery_mv=6400)
+    report = preflight(schedule, rig.transports)  # the show's floor: 20% -> 6.48 V
+    assert not report.ok and report.ports_ok
+    assert report.rows[0].problems == [
+        "battery 6.40 V is below the floor of 6.48 V = 20% of 6.00..8.40 V"
+    ]
+    assert preflight(schedule, rig.transports, battery_floor=10).ok  # 6.24 V
+    assert not preflight(schedule, rig.transports, battery_floor=50).ok  # 7.20 V
+    assert rig.servers["arm"].snapshot()["moves"] == []  # reads only
 
 
 def test_countdown_counts_whole_seconds_from_one_start() -> None:

@@ -40,6 +40,13 @@ def test_progress_line_shows_time_bar_beat_cue_and_battery() -> None:
     assert "rex: walk [paused]" in paused
 
 
+def test_progress_line_shows_the_xarm_battery_in_volts() -> None:
+    printer = ProgressPrinter(out=io.StringIO(), tty=False)
+    arm = Progress("arm", ExecutorState.RUNNING, 1.0, 3, 10, "arm: pose", "ServoMove")
+    line = printer.line(ShowProgress(1.0, 20.0, (arm,), {"arm": {"battery_v": 7.6}}))
+    assert line.endswith("arm: pose (battery 7.60 V)")
+
+
 def test_progress_line_leaves_out_where_phrases_were_called() -> None:
     printer = ProgressPrinter(out=io.StringIO(), tty=False)
     line = printer.line(_progress(1.0, cue="rex: move roll (phrase sway at shows/a b.yaml:275)"))

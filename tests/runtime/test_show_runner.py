@@ -162,6 +162,72 @@ def test_low_battery_during_the_show_is_a_fault(rig, sched, walking) -> None:
     assert result.stops["rex"].ok
 
 
+def _arm_moves(seconds: float = 3.0):  # type: ignore[no-untyped-def]
+    from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.wire.xarm import servo_move
+
+    xarm = get_profile("xarm")
+    n = int(seconds / 0.1)
+    moves = tuple(
+        ScheduledFrame(i * 0.1, servo_move(100, {1: 300 + 10 * i, 2: 700 - 10 * i}))
+        for i in range(n)
+    )
+    return PerformerSchedule("arm", "xarm", xarm.link, moves, end=seconds)
+
+
+def test_xarm_battery_is_polled_during_the_show(rig, sched) -> None:
+    schedule = sched(_arm_moves(1.0))
+    rig.for_schedule(schedule)
+    runner = ShowRunner(schedule, rig.transports)
+    result = runner.run(handle_signals=False)
+    assert result.completed, result.reason
+    ex = result.executors["arm"]
+    reads = [r for r in ex.records if r.kind == "read"]
+    assert len(reads) >= 3 and all(r.label == "battery_v" for r in reads)
+    assert ex.telemetry is not None and ex.telemetry.last["battery_v"] == pytest.approx(7.6, 0.01)
+    assert "telemetry: battery 7.60 V" in format_report(result)
+
+
+def test_xarm_low_voltage_during_the_show_halts_everyone(rig, sched, walking) -> None:
+    schedule = sched(walking("rex", "mini", seconds=3.0), _arm_moves(3.0))
+    rig.add("rex", "mini")
+    # 7.0 V draining 1 V a second: below the 20% floor (6.48 V) after about half a second.
+    rig.add("arm", "xarm", battery_mv=7000, drain_mv_per_minute=60_000)
+    runner = ShowRunner(schedule, rig.transports, battery_floor=20)
+    th, out = run_in_thread(runner)
+    th.join(10)
+    result = out[0]
+    settle(rig)
+    assert not result.completed
+    assert result.reason.startswith("fault on arm: battery ")
+    assert "V is below the floor of 6.48 V" in result.reason
+    assert result.stops["arm"].ok and result.stops["arm"].frames == ("GroupStop",)
+    assert result.stops["rex"].ok
+    assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
+    assert rig.servers["rex"].snapshot()["actions"][-1]["id"] == 255
+    assert len(rig.servers["arm"].snapshot()["stops"]) == 1
+    assert result.executors["arm"].state is ExecutorState.FAILED
+    # Stopped well before the end of the 3 s show.
+    assert result.executors["arm"].progress.show_time < 2.0
+
+
+def test_report_names_each_rest_once_after_a_pause(rig, sched, walking) -> None:
+    schedule = sched(walking("rex", "mini", seconds=1.0))
+    rig.for_schedule(schedule)
+    runner = ShowRunner(schedule, rig.transports, telemetry=False)
+    th, out = run_in_thread(runner)
+    wait_for(lambda: runner.executors["rex"].progress.sent >= 3)
+    runner.pause()
+    wait_for(lambda: runner.executors["rex"].state is ExecutorState.PAUSED)
+    runner.resume()
+    th.join(10)
+    result = out[0]
+    assert result.completed, result.reason
+    labels = [f.label for f in rest_frames(get_profile("mini"))]
+    end = next(line for line in format_report(result).splitlines() if "end:" in line)
+    assert end == "  end: show over; rested twice: " + ", ".join(labels)
+
+
 def test_stop_from_another_thread_is_a_safe_stop(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=2.0))
     rig.for_schedule(schedule)
@@ -241,7 +307,6 @@ def test_xarm_gets_group_stop_when_the_show_is_stopped(rig, sched, walking) -> N
     )
     rig.for_schedule(schedule)
     runner = ShowRunner(schedule, rig.transports)
-    assert runner.executors["arm"].telemetry is None  # nothing to poll on the xArm
     th, out = run_in_thread(runner)
     wait_for(lambda: runner.executors["arm"].progress.sent >= 2)
     runner.stop("operator")

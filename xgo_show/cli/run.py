@@ -358,6 +358,7 @@ def _play(
                 "port": r.port,
                 "firmware": r.firmware,
                 "battery": r.battery,
+                "voltage": r.voltage,
                 "low_latency": r.low_latency,
                 "problems": r.problems,
             }

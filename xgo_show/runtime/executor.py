@@ -36,7 +36,7 @@ from xgo_show.profiles.model import Profile
 from xgo_show.runtime.clock import Clock, tighten_timer_slack
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.safety import rest_frames, stop_frames
-from xgo_show.runtime.telemetry import TelemetryPoller, TelemetrySample
+from xgo_show.runtime.telemetry import TelemetryItem, TelemetryPoller, TelemetrySample
 from xgo_show.transports.base import Transport
 
 __all__ = [
@@ -434,12 +434,13 @@ class PerformerExecutor:
             target = deadline
             item = self.telemetry.due(now) if polls and self.telemetry is not None else None
             if item is not None:
-                room = self.schedule.link.wire_time(len(item.request)) + gap + _POLL_MARGIN
+                link = self.schedule.link
+                room = (
+                    link.wire_time(len(item.request) + item.reply_bytes) + gap + _POLL_MARGIN
+                )
                 if now >= self._ready_at and now + room <= deadline:
-                    if not self._write(item.request, "read", None, None, item.name):
+                    if not self._send_read(item):
                         return False
-                    assert self.telemetry is not None
-                    self.telemetry.sent(self.clock.now())
                     continue
                 if self._ready_at + room <= deadline:
                     target = max(self._ready_at, now)
@@ -455,12 +456,19 @@ class PerformerExecutor:
             return
         now = self.clock.now()
         item = self.telemetry.due(now)
-        if (
-            item is not None
-            and now >= self._ready_at
-            and self._write(item.request, "read", None, None, item.name)
-        ):
-            self.telemetry.sent(self.clock.now())
+        if item is not None and now >= self._ready_at:
+            self._send_read(item)
+
+    def _send_read(self, item: TelemetryItem) -> bool:
+        """Send one telemetry request; the link stays busy for its reply where it must."""
+        assert self.telemetry is not None
+        if not self._write(item.request, "read", None, None, item.name):
+            return False
+        if item.reply_bytes:
+            with self._write_lock:
+                self._ready_at += self.schedule.link.wire_time(item.reply_bytes)
+        self.telemetry.sent(self.clock.now())
+        return True
 
     def _write(
         self, data: bytes, kind: str, index: int | None, planned: float | None, label: str

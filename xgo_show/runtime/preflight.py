@@ -1,7 +1,8 @@
 """Pre-flight: check every robot before anything moves.
 
 For each performer: its port opens; the robot answers; its firmware names the performer's model
-(:func:`~xgo_show.profiles.model_from_firmware`); its battery is above the show's floor. The
+(:func:`~xgo_show.profiles.model_from_firmware`); its battery is above the show's floor (the
+xArm, which reports volts, against the floor mapped onto its servos' 6.0..8.4 V range). The
 result is a table; a show starts only when every row passes (``force`` overrides the robot
 checks with a warning, never a port that does not open). Low-latency mode is asked for on every
 port (USB serial adapters otherwise hold bytes for up to 16 ms), and :func:`request_realtime`
@@ -19,6 +20,12 @@ from typing import TextIO
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import XgoShowError
 from xgo_show.profiles import Profile, get_profile, model_from_firmware
+from xgo_show.profiles.xarm import (
+    BATTERY_MV_EMPTY,
+    BATTERY_MV_FULL,
+    battery_floor_mv,
+    battery_percent,
+)
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.transports.base import Transport
 
@@ -30,6 +37,7 @@ __all__ = [
     "open_ports",
     "preflight",
     "request_realtime",
+    "xarm_floor_text",
 ]
 
 Opener = Callable[..., Transport]
@@ -49,7 +57,8 @@ class PreflightRow:
     opened: bool = False
     firmware: str = ""
     detected: str | None = None
-    battery: float | None = None
+    battery: float | None = None  # percent (XGO)
+    voltage: float | None = None  # volts (xArm, which reports its supply in millivolts)
     low_latency: bool = False
     problems: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
@@ -80,7 +89,10 @@ class PreflightReport:
         head = ("performer", "model", "port", "firmware", "battery", "latency", "result")
         lines = [head]
         for r in self.rows:
-            battery = "-" if r.battery is None else f"{r.battery:.0f}%"
+            if r.voltage is not None:
+                battery = f"{r.voltage:.2f} V"
+            else:
+                battery = "-" if r.battery is None else f"{r.battery:.0f}%"
             firmware = r.firmware or "-"
             if r.detected and r.detected != r.model:
                 firmware += f" ({r.detected})"
@@ -94,7 +106,10 @@ class PreflightReport:
         for row in lines:
             cells = [c.ljust(w) for c, w in zip(row, widths, strict=False)]
             out.append("  ".join([*cells, row[-1]]).rstrip())
-        out.append(f"battery floor {self.battery_floor:g}%; real-time scheduling: {self.realtime}")
+        floor = f"battery floor {self.battery_floor:g}%"
+        if any(get_profile(r.model).family == "xarm" for r in self.rows):
+            floor += f" (xArm: {xarm_floor_text(self.battery_floor)})"
+        out.append(f"{floor}; real-time scheduling: {self.realtime}")
         return "\n".join(out)
 
 
@@ -157,7 +172,7 @@ def preflight(
 def _check_robot(row: PreflightRow, transport: Transport, floor: float, timeout: float) -> None:
     profile = get_profile(row.model)
     if profile.family == "xarm":
-        _check_xarm(row, transport, profile, timeout)
+        _check_xarm(row, transport, profile, floor, timeout)
         return
     from xgo_show.client import XgoClient
 
@@ -175,9 +190,20 @@ def _check_robot(row: PreflightRow, transport: Transport, floor: float, timeout:
         row.problems.append(str(exc))
 
 
-def _check_xarm(row: PreflightRow, transport: Transport, profile: Profile, timeout: float) -> None:
+def xarm_floor_text(floor: float) -> str:
+    """The xArm's battery floor in volts, with where it comes from: ``6.48 V (20% of ...)``."""
+    return (
+        f"{battery_floor_mv(floor) / 1000:.2f} V = {floor:g}% of "
+        f"{BATTERY_MV_EMPTY / 1000:.2f}..{BATTERY_MV_FULL / 1000:.2f} V"
+    )
+
+
+def _check_xarm(
+    row: PreflightRow, transport: Transport, profile: Profile, floor: float, timeout: float
+) -> None:
     # The xArm has no firmware string: an answer in its protocol is what identifies it. Its
-    # battery is reported in volts, so the show's percentage floor does not apply.
+    # battery is reported in millivolts: the show's percentage floor is mapped onto the
+    # servos' working range (profiles.xarm).
     from xgo_show.client import XarmClient
 
     try:
@@ -187,7 +213,12 @@ def _check_xarm(row: PreflightRow, transport: Transport, profile: Profile, timeo
         return
     row.firmware = "xArm controller"
     row.detected = profile.model
-    row.notes.append(f"battery {millivolts / 1000:.2f} V")
+    row.voltage = millivolts / 1000
+    row.battery = battery_percent(millivolts)
+    if millivolts < battery_floor_mv(floor):
+        row.problems.append(
+            f"battery {row.voltage:.2f} V is below the floor of {xarm_floor_text(floor)}"
+        )
 
 
 def request_realtime(priority: int = 10, *, nice: int = -10) -> str:

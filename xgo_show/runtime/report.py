@@ -94,7 +94,9 @@ class PerformerReport:
             f"  send-time error: {self.errors.format()}",
         ]
         if self.telemetry:
-            tele = ", ".join(f"{k} {_fmt(k, v)}" for k, v in sorted(self.telemetry.items()))
+            tele = ", ".join(
+                f"{_NAMES.get(k, k)} {_fmt(k, v)}" for k, v in sorted(self.telemetry.items())
+            )
             lines.append(f"  telemetry: {tele}")
         if self.fault:
             lines.append(f"  fault: {self.fault}")
@@ -102,9 +104,15 @@ class PerformerReport:
         return "\n".join(lines)
 
 
+# Telemetry names as the report prints them.
+_NAMES = {"battery_v": "battery"}
+
+
 def _fmt(name: str, value: float) -> str:
     if name == "battery":
         return f"{value:.0f}%"
+    if name == "battery_v":  # the xArm reports volts
+        return f"{value:.2f} V"
     if name.startswith("imu_"):
         return f"{value:.1f} deg"
     return f"{value:g}"
@@ -120,7 +128,12 @@ def _ending(
         return f"safe stop ({stop.reason}) {status} in {stop.elapsed * 1000:.1f} ms: {did}"
     rest = [r.label for r in records if r.kind == "rest"]
     if rest:
-        return "show over; rested: " + ", ".join(rest)
+        # A pause rests the robot too: each distinct rest frame is named once, with how many
+        # times the robot was rested (the first frame of the sequence starts each rest).
+        distinct = list(dict.fromkeys(rest))
+        times = rest.count(rest[0])
+        how = {1: "rested", 2: "rested twice"}.get(times, f"rested {times} times")
+        return f"show over; {how}: " + ", ".join(distinct)
     return "show over"
 
 
@@ -197,9 +210,12 @@ class ProgressPrinter:
             text = f"{p.performer}: {cue}"
             if p.state.value not in ("running",):
                 text += f" [{p.state.value}]"
-            battery = progress.telemetry.get(p.performer, {}).get("battery")
+            tele = progress.telemetry.get(p.performer, {})
+            battery, volts = tele.get("battery"), tele.get("battery_v")
             if battery is not None:
                 text += f" (battery {battery:.0f}%)"
+            elif volts is not None:
+                text += f" (battery {volts:.2f} V)"
             parts.append(text)
         return " | ".join(parts)
 

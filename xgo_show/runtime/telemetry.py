@@ -2,9 +2,16 @@
 
 The poller is pure bookkeeping (no I/O, no threads): the executor's writer asks it which read
 request is due and sends it only where the next scheduled frame is far enough away; the
-executor's reader feeds it whatever bytes arrive. Replies are parsed with the one XGO codec and
-laid out with :meth:`Profile.walk`; frames nobody asked for (a Rider's auto-feedback, line
+executor's reader feeds it whatever bytes arrive. XGO replies are parsed with the one XGO codec
+and laid out with :meth:`Profile.walk`; frames nobody asked for (a Rider's auto-feedback, line
 noise) are counted and ignored.
+
+The xArm has one item, GetBatteryVoltage (a 4-byte request, a 6-byte reply: 4.2 + 6.3 ms at
+9600 baud). How the controller treats a command that arrives while it is answering is not
+documented, so the executor keeps room for the reply too (:attr:`TelemetryItem.reply_bytes`):
+no scheduled frame reaches the board while it is answering. The reading is kept as
+``battery_v`` (volts) and checked against the show's floor mapped onto the servos' 6.0..8.4 V
+range (:func:`xgo_show.profiles.xarm.battery_floor_mv`).
 
 Faults: a Rider reporting status 0x00 (fallen), or a battery below the floor on two readings in
 a row (one low reading under a load spike is not a flat battery).
@@ -17,6 +24,8 @@ from dataclasses import dataclass
 
 from xgo_show.errors import ProfileError
 from xgo_show.profiles.model import Profile, Register
+from xgo_show.profiles.xarm import battery_floor_mv
+from xgo_show.wire import xarm as xarm_wire
 from xgo_show.wire.xgo import XgoDecoder, read_frame
 
 __all__ = ["FALLEN_STATUS", "TelemetryItem", "TelemetryPoller", "TelemetrySample"]
@@ -36,12 +45,18 @@ _ITEMS: tuple[tuple[str, tuple[str, ...]], ...] = (
 
 @dataclass(frozen=True)
 class TelemetryItem:
-    """One read request and the fields its reply carries."""
+    """One read request and the fields its reply carries.
+
+    ``address`` is the first register read (XGO) or the command number (xArm, whose replies
+    carry no register fields: ``fields`` is empty). ``reply_bytes`` is the reply's length where
+    the robot must not receive a frame while it answers (the executor leaves room for it).
+    """
 
     name: str
     address: int
     fields: tuple[Register, ...]
     request: bytes
+    reply_bytes: int = 0
 
     @property
     def count(self) -> int:
@@ -88,11 +103,24 @@ class TelemetryPoller:
         self._next = 0
         self._due = float("-inf")
         self._low = 0
-        self._decoder = XgoDecoder()
+        self._decoder: XgoDecoder | xarm_wire.XarmDecoder = (
+            xarm_wire.XarmDecoder() if profile.family == "xarm" else XgoDecoder()
+        )
         self._by_address = {item.address: item for item in self.items}
 
     @staticmethod
     def _build_items(profile: Profile) -> tuple[TelemetryItem, ...]:
+        if profile.family == "xarm":
+            reply = xarm_wire.battery_reply(0)
+            return (
+                TelemetryItem(
+                    "battery_v",
+                    int(xarm_wire.XarmCommand.GET_BATTERY_VOLTAGE),
+                    (),
+                    xarm_wire.get_battery_voltage(),
+                    reply_bytes=len(reply),
+                ),
+            )
         if profile.family != "xgo":
             return ()
         out = []
@@ -132,6 +160,8 @@ class TelemetryPoller:
 
     def feed(self, chunk: bytes, now: float) -> list[TelemetrySample]:
         """Parse received bytes; return the samples they complete and update ``fault``."""
+        if isinstance(self._decoder, xarm_wire.XarmDecoder):
+            return self._feed_xarm(self._decoder, chunk, now)
         out: list[TelemetrySample] = []
         for frame in self._decoder.feed(chunk):
             item = self._by_address.get(frame.address)
@@ -148,6 +178,24 @@ class TelemetryPoller:
         self.samples += len(out)
         return out
 
+    def _feed_xarm(
+        self, decoder: xarm_wire.XarmDecoder, chunk: bytes, now: float
+    ) -> list[TelemetrySample]:
+        out: list[TelemetrySample] = []
+        for packet in decoder.feed(chunk):
+            if (
+                packet.command is not xarm_wire.XarmCommand.GET_BATTERY_VOLTAGE
+                or not packet.is_reply
+            ):
+                self.unsolicited += 1
+                continue
+            volts = xarm_wire.battery_mv(packet) / 1000.0
+            self.last["battery_v"] = volts
+            out.append(TelemetrySample("battery_v", volts, now))
+            self._check("battery_v", volts)
+        self.samples += len(out)
+        return out
+
     def _check(self, name: str, value: float) -> None:
         if self.fault is not None:
             return
@@ -158,3 +206,11 @@ class TelemetryPoller:
             self._low = self._low + 1 if value < self.battery_floor else 0
             if self._low >= self.low_readings:
                 self.fault = f"battery {value:.0f}% is below the floor of {self.battery_floor:g}%"
+        if name == "battery_v" and self.battery_floor is not None:
+            floor_v = battery_floor_mv(self.battery_floor) / 1000.0
+            self._low = self._low + 1 if value < floor_v else 0
+            if self._low >= self.low_readings:
+                self.fault = (
+                    f"battery {value:.2f} V is below the floor of {floor_v:.2f} V "
+                    f"({self.battery_floor:g}% of the xArm's range)"
+                )
