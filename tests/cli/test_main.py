@@ -216,3 +216,16 @@ def test_hex_prefix_logs_the_traffic_on_stderr(capsys: pytest.CaptureFixture[str
 def test_plain_ports_log_nothing(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["probe", "sim:mini"]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_inspect_reads_a_schedule_by_its_content_whatever_its_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    show = tmp_path / "show.yaml"
+    show.write_text("show: S\nperformers:\n  rex: {model: mini}\ntracks:\n  rex:\n"
+                    "    - {action: stand_up}\n", encoding="utf-8")
+    schedule = tmp_path / "compiled.yaml"  # a schedule saved under a routine's name
+    assert main(["compile", str(show), "-o", str(schedule), "-q"]) == 0
+    capsys.readouterr()
+    assert main(["inspect", str(schedule)]) == 0
+    assert capsys.readouterr().out.startswith("S: 1 performer(s)")

@@ -8,6 +8,7 @@ can be kept next to a show and diffed in review.
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 from typing import Any
@@ -37,12 +38,23 @@ def add_parser(sub: Any) -> None:
 
 
 def load_any(path: Path) -> Schedule:
-    """A schedule from a routine (compiled now) or from a schedule file."""
-    if path.suffix.lower() in (".yaml", ".yml"):
+    """A schedule from a routine (compiled now) or from a schedule file (by its content when
+    it is JSON with the schedule format tag, whatever its name)."""
+    if path.suffix.lower() in (".yaml", ".yml") and not _is_schedule(path):
         from xgo_show.choreo import load_show
 
         return compile_show(load_show(path))
     return load_schedule(path)
+
+
+def _is_schedule(path: Path) -> bool:
+    try:
+        with path.open(encoding="utf-8", errors="replace") as f:
+            head = f.read(4096)
+    except OSError:
+        return False  # the routine loader says what is wrong with the file
+    return head.lstrip().startswith("{") and re.search(
+        r'"format"\s*:\s*"xgo-show-schedule"', head) is not None
 
 
 def run(args: argparse.Namespace) -> int:
