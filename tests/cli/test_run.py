@@ -314,6 +314,62 @@ def test_sigint_safe_stops_every_simulated_robot(tmp_path) -> None:
     json.dumps(sims)  # the log holds plain data
 
 
+WALK_AND_ARM = WALK.replace(
+    "  wheels: {model: rider}\n", "  wheels: {model: rider}\n  arm: {model: xarm}\n"
+) + "  arm:\n" + "".join(
+    f"    - {{pose: {{6: {400 + 20 * (i % 5)}, 5: 540}}, duration: 0.5}}\n" for i in range(40)
+)
+
+
+def test_sigterm_safe_stops_every_simulated_robot(tmp_path) -> None:
+    show = _write(tmp_path, "walk.yaml", WALK_AND_ARM)
+    log = tmp_path / "run.jsonl"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "xgo_show", "run", str(show), "--sim", "--countdown", "0",
+         "--log", str(log)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        assert proc.stdout is not None
+        deadline = time.monotonic() + 20
+        for line in proc.stdout:
+            if line.startswith("running"):
+                break
+            assert time.monotonic() < deadline
+        time.sleep(0.6)  # every robot is moving now
+        proc.send_signal(signal.SIGTERM)  # what a service manager or `kill` sends
+        out, err = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130, err
+    assert "interrupted (SIGTERM): every robot was safe-stopped" in out
+    assert "Traceback" not in err
+    records = read_log(log)
+    stops = [r for r in records if r["kind"] == "event" and r["event"] == "safe_stop"]
+    assert {s["performer"] for s in stops} == {"rex", "wheels", "arm"}
+    assert all(s["ok"] and s["reason"] == "SIGTERM" for s in stops)
+    assert next(s for s in stops if s["performer"] == "arm")["frames"] == ["GroupStop"]
+    end = next(r for r in records if r["kind"] == "event" and r["event"] == "end")
+    assert end["reason"] == "SIGTERM" and not end["completed"]
+    # The safety target: every robot stopped within 100 ms of the signal.
+    assert end["stop_latency_ms"] is not None and end["stop_latency_ms"] < 100, end
+    sims = sim_records(log)
+    for name in ("rex", "wheels"):
+        assert "vx" not in sims[name]["changed"], sims[name]  # back to neutral
+        assert sims[name]["actions"][-1] == 255  # default posture restored
+    assert sims["arm"]["stops"] == 1  # GroupStop: the arm holds where it is
+    # Stopped mid-show: the arm had not played all its poses.
+    arm_frames = [r for r in records if r["kind"] == "frame" and r["performer"] == "arm"
+                  and r["send"] == "frame"]
+    assert 0 < len(arm_frames) < 40
+
+
 def test_start_bar_follows_the_tempo_map(tmp_path) -> None:
     schedule = compile_show(load_show(_write(tmp_path, "duet.yaml", DUET)))
     from dataclasses import replace

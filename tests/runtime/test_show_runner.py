@@ -228,6 +228,50 @@ def test_report_names_each_rest_once_after_a_pause(rig, sched, walking) -> None:
     assert end == "  end: show over; rested twice: " + ", ".join(labels)
 
 
+def test_an_exception_in_the_coordinating_thread_safe_stops_everyone(
+    rig, sched, walking, tmp_path
+) -> None:
+    from xgo_show.runtime.runlog import read_log
+
+    schedule = sched(
+        walking("rex", "mini", seconds=3.0), walking("rita", "rider", seconds=3.0), _arm_moves(3.0)
+    )
+    rig.for_schedule(schedule)
+    calls = []
+
+    def progress(snapshot) -> None:  # type: ignore[no-untyped-def]
+        calls.append(snapshot)
+        if len(calls) == 3:  # the show is well under way
+            raise RuntimeError("progress display broke")
+
+    path = tmp_path / "run.jsonl"
+    with RunLog(str(path)) as log:
+        runner = ShowRunner(schedule, rig.transports, log=log, progress=progress, progress_hz=20)
+        with pytest.raises(RuntimeError, match="progress display broke"):
+            runner.run(handle_signals=False)
+    settle(rig)
+    result = runner.result
+    assert result is not None and not result.completed
+    assert result.reason == "exception: RuntimeError('progress display broke')"
+    assert set(result.stops) == {"rex", "rita", "arm"} and all(
+        s.ok for s in result.stops.values()
+    )
+    assert result.stop_latency is not None and result.stop_latency < 0.1
+    for name in ("rex", "rita"):
+        snap = rig.servers[name].snapshot()
+        assert snap["raw"]["vx"] == "80" and snap["actions"][-1]["id"] == 255
+    assert len(rig.servers["arm"].snapshot()["stops"]) == 1
+    events = [r for r in read_log(path) if r["kind"] == "event"]
+    stops = [e for e in events if e["event"] == "safe_stop"]
+    assert {e["performer"] for e in stops} == {"rex", "rita", "arm"}
+    assert all(e["reason"] == result.reason and e["ok"] for e in stops)
+    error = next(e for e in events if e["event"] == "exception")
+    assert error["type"] == "RuntimeError" and "progress display broke" in error["error"]
+    end = events[-1]
+    assert end["event"] == "end" and end["reason"] == result.reason and not end["completed"]
+    assert set(end["states"].values()) == {"stopped"}
+
+
 def test_stop_from_another_thread_is_a_safe_stop(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=2.0))
     rig.for_schedule(schedule)

@@ -241,7 +241,12 @@ class ShowRunner:
                 ex.start(ex.clock.now() + lead if self.fast else start_at, offset=offset)
             self._supervise(result)
         except BaseException as exc:
-            self._stop_all(f"exception: {exc!r}", result)
+            # Whatever broke the coordinating thread (a progress callback, a bug, a
+            # KeyboardInterrupt without the handlers): stop every robot first, then say why.
+            why = f"exception: {exc!r}"
+            self._stop_all(why, result)
+            result.reason = why
+            self.log.event("exception", error=repr(exc), type=type(exc).__name__)
             raise
         finally:
             for ex in self.executors.values():
