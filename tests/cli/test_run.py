@@ -247,6 +247,31 @@ def test_bad_map_and_missing_port_are_user_errors(duet, capsys) -> None:
     assert "a port did not open" in captured.err
 
 
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--countdown", "-1"], "--countdown -1: give a number of seconds >= 0"),
+        (["--countdown", "nan"], "--countdown nan: give a number of seconds >= 0"),
+        (["--battery-floor", "150"], "--battery-floor 150: give a percentage from 0 to 100"),
+        (["--battery-floor", "-5"], "--battery-floor -5: give a percentage from 0 to 100"),
+        (["--map", "rex=/dev/a", "--map", "rex=/dev/b"],
+         "--map 'rex=/dev/b': rex is already mapped to /dev/a; map each performer once"),
+    ],
+)
+def test_nonsense_options_are_one_line_user_errors(duet, capsys, extra, message) -> None:
+    assert main(["run", str(duet), "--sim", *extra]) == 2
+    captured = capsys.readouterr()
+    assert captured.err == f"xgo-show: error: {message}\n"
+    assert captured.out == ""  # refused before any port opened
+
+
+def test_dry_run_refuses_a_floor_above_100(duet, capsys) -> None:
+    assert main(["dry-run", str(duet), "--fast", "--battery-floor", "150"]) == 2
+    assert capsys.readouterr().err == (
+        "xgo-show: error: --battery-floor 150: give a percentage from 0 to 100\n"
+    )
+
+
 def test_sigint_safe_stops_every_simulated_robot(tmp_path) -> None:
     show = _write(tmp_path, "walk.yaml", WALK)
     log = tmp_path / "run.jsonl"

@@ -79,6 +79,7 @@ def _mutated(show, tmp_path: Path, change) -> Path:  # type: ignore[no-untyped-d
         (lambda d: d["performers"][0].update(model="robodog"), "unknown robot model"),
         (lambda d: d["performers"][0]["frames"][0].update(origin=99), "no origin #99"),
         (lambda d: d["show"].update(control_rate="fast"), "expected int or float"),
+        (lambda d: d["show"].update(battery_floor=150), "150 is not a percentage"),
         (lambda d: d["show"].update(tempo_map=[[1, 120]]), "expected \\[first bar, bpm"),
         (lambda d: d["show"].update(tempo_map=[[2, 120, 4]]), "must start at bar 1"),
     ],

@@ -13,6 +13,7 @@ from typing import Any
 from xgo_show.cli.run import (
     PlayOptions,
     add_common_arguments,
+    check_options,
     load_schedule_file,
     play,
     start_offset,
@@ -47,6 +48,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``xgo-show dry-run``."""
+    check_options(args)
     schedule = load_schedule_file(args.show)
     if args.plot:
         from xgo_show.compiler import plot_schedule

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
@@ -37,6 +38,7 @@ __all__ = [
     "SimBench",
     "add_common_arguments",
     "add_parser",
+    "check_options",
     "load_schedule_file",
     "play",
     "run",
@@ -125,6 +127,16 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def check_options(args: argparse.Namespace) -> None:
+    """Refuse option values that make no sense (a negative countdown, a floor above 100 %)."""
+    countdown = getattr(args, "countdown", None)
+    if countdown is not None and not (math.isfinite(countdown) and countdown >= 0):
+        raise XgoShowError(f"--countdown {countdown:g}: give a number of seconds >= 0")
+    floor = args.battery_floor
+    if floor is not None and not 0 <= floor <= 100:
+        raise XgoShowError(f"--battery-floor {floor:g}: give a percentage from 0 to 100")
+
+
 def load_schedule_file(path: str) -> Schedule:
     """A compiled schedule (``*.json``) or a show file compiled now."""
     if not Path(path).is_file():
@@ -168,6 +180,10 @@ def parse_maps(schedule: Schedule, maps: Sequence[str]) -> dict[str, str]:
         if name not in names:
             raise XgoShowError(
                 f"--map {item!r}: no performer {name!r}; performers: {', '.join(names)}"
+            )
+        if name in out:
+            raise XgoShowError(
+                f"--map {item!r}: {name} is already mapped to {out[name]}; map each performer once"
             )
         out[name] = port
     return out
@@ -411,6 +427,7 @@ def _play(
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``xgo-show run``."""
+    check_options(args)
     schedule = load_schedule_file(args.show)
     opts = PlayOptions(
         maps=parse_maps(schedule, args.map),

@@ -353,6 +353,9 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
     rate = r.get(show, "control_rate", (int, float), "show")
     if rate <= 0:
         raise r.fail("show.control_rate", "must be positive")
+    battery_floor = r.get(show, "battery_floor", int, "show")
+    if not 0 <= battery_floor <= 100:
+        raise r.fail("show.battery_floor", f"{battery_floor} is not a percentage (0 to 100)")
     bpm = r.get(show, "bpm", (int, float), "show", optional=True)
     tempo_map = _tempo_map(r, show)
     return Schedule(
@@ -361,7 +364,7 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
         performers=tuple(performers),
         control_rate=float(rate),
         on_failure=on_failure,
-        battery_floor=r.get(show, "battery_floor", int, "show"),
+        battery_floor=battery_floor,
         warnings=tuple(warnings),
         version=SCHEDULE_VERSION,
         bpm=None if bpm is None else float(bpm),
