@@ -340,6 +340,35 @@ tracks:
     assert len(cues(load_show(path))) == 3
 
 
+def test_an_action_may_cut_a_running_move_only_on_purpose(write: WriteFn) -> None:
+    cut = write(MINI + """
+tracks:
+  rex:
+    - {walk: {vx: 10}, duration: 3}
+    - {at: 1, action: wave}
+""")
+    with pytest.raises(ChoreographyError) as err:
+        load_show(cut)
+    messages = [d.message for d in err.value.diagnostics]
+    # The action cuts the walk, and the walk's own stop at 3 s would cut the action.
+    assert any("action 'wave' starts at 1.000 s while the cue at line 7" in m for m in messages)
+    assert any("starts at 3.000 s while action 'wave'" in m for m in messages)
+    on_purpose = write(MINI + """
+tracks:
+  rex:
+    - {move: {pitch: 10}, duration: 2}
+    - {at: 1, action: wave, interrupt: true}
+""")
+    assert len(cues(load_show(on_purpose))) == 2
+    after = write(MINI + """
+tracks:
+  rex:
+    - {move: {pitch: 10}, duration: 2}
+    - {at: 2, action: wave}
+""")
+    assert len(cues(load_show(after))) == 2
+
+
 def test_led_writes_do_not_interrupt_actions(write: WriteFn) -> None:
     path = write(RIDER + """
 tracks:

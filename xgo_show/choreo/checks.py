@@ -9,6 +9,7 @@ check in the package); this module only decides *which* check applies and words 
 from __future__ import annotations
 
 import bisect
+import heapq
 from collections import defaultdict
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
@@ -225,6 +226,7 @@ class _Checker:
                 if longest is None or w.end > longest.end:
                     longest = w
         self.check_actions(cues, profile)
+        self.check_actions_cut_moves(cues, profile)
         self.check_periodic(cues, by_reg)
 
     def check_actions(self, cues: tuple[Cue, ...], profile: Profile) -> None:
@@ -252,6 +254,44 @@ class _Checker:
                     "command cuts a running action: start later, or add 'interrupt: true' if "
                     "that is what you want",
                     osrc.origin, osrc,
+                )
+
+    def check_actions_cut_moves(self, cues: tuple[Cue, ...], profile: Profile) -> None:
+        """An action that starts while a move or a timed walk still runs cuts it short.
+
+        (The robot drops whatever it was following when an action starts, and the compiler
+        stops sampling there too.) One sweep in time order: writes that started before the
+        action enter a heap by end time; those over by the action's start leave it.
+        """
+        writes = sorted(
+            (w for w in self.writes(cues)
+             if w.end > w.start + _EPS and self.is_motion(w.cue, profile)),
+            key=lambda w: w.start,
+        )
+        running: list[tuple[float, int, _Write]] = []
+        k = 0
+        for act in cues:  # sorted by start
+            if not isinstance(act, ActionCue):
+                continue
+            while k < len(writes) and writes[k].start < act.start - _EPS:
+                heapq.heappush(running, (writes[k].end, k, writes[k]))
+                k += 1
+            while running and running[0][0] <= act.start + _EPS:
+                heapq.heappop(running)
+            if act.interrupts:
+                continue
+            asrc = self.res.source(act)
+            reported: set[int] = set()
+            for _, _, w in sorted(running, key=lambda item: item[1]):
+                if id(w.cue) in reported:
+                    continue
+                reported.add(id(w.cue))
+                self.error(
+                    f"action {act.name!r} starts at {_fmt(act.start)} while the cue at "
+                    f"{_where(w.source.origin)} still moves the robot ({_fmt(w.start)} to "
+                    f"{_fmt(w.end)}); the action cuts it short: start the action when it ends, "
+                    "or add 'interrupt: true' to the action to cut it on purpose",
+                    asrc.origin, asrc,
                 )
 
     def is_motion(self, cue: Cue, profile: Profile) -> bool:
