@@ -9,6 +9,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -177,6 +178,32 @@ def test_garbage_xarm_frame_in_a_schedule_file_is_refused(tmp_path, capsys) -> N
         assert "not one valid xArm packet" in err
 
 
+@contextmanager
+def _running(show: Path, log: Path) -> Iterator[subprocess.Popen[str]]:
+    """``xgo-show run SHOW --sim`` in a child process, yielded once the show is running.
+
+    The child is killed on the way out if the test left it running.
+    """
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "xgo_show", "run", str(show), "--sim", "--countdown", "0",
+         "--log", str(log)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+    )
+    try:
+        assert proc.stdout is not None
+        deadline = time.monotonic() + 20
+        for line in proc.stdout:
+            if line.startswith("running"):
+                break
+            assert time.monotonic() < deadline
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+
+
 def _write(tmp_path: Path, name: str, text: str) -> Path:
     path = tmp_path / name
     path.write_text(text)
@@ -275,32 +302,7 @@ def test_dry_run_refuses_a_floor_above_100(duet, capsys) -> None:
 def test_sigint_safe_stops_every_simulated_robot(tmp_path) -> None:
     show = _write(tmp_path, "walk.yaml", WALK)
     log = tmp_path / "run.jsonl"
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "xgo_show",
-            "run",
-            str(show),
-            "--sim",
-            "--countdown",
-            "0",
-            "--log",
-            str(log),
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-    )
-    try:
-        assert proc.stdout is not None
-        deadline = time.monotonic() + 20
-        for line in proc.stdout:
-            if line.startswith("running"):
-                break
-            assert time.monotonic() < deadline
+    with _running(show, log) as proc:
         time.sleep(0.4)  # both robots are walking now
         proc.send_signal(signal.SIGTSTP)  # Ctrl-Z pauses (robots held) instead of suspending
         time.sleep(0.3)
@@ -308,10 +310,6 @@ def test_sigint_safe_stops_every_simulated_robot(tmp_path) -> None:
         time.sleep(0.3)
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=20)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 130, err
     assert "interrupted (SIGINT)" in out
     records = read_log(log)
@@ -349,29 +347,10 @@ WALK_AND_ARM = WALK.replace(
 def test_sigterm_safe_stops_every_simulated_robot(tmp_path) -> None:
     show = _write(tmp_path, "walk.yaml", WALK_AND_ARM)
     log = tmp_path / "run.jsonl"
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "xgo_show", "run", str(show), "--sim", "--countdown", "0",
-         "--log", str(log)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-    )
-    try:
-        assert proc.stdout is not None
-        deadline = time.monotonic() + 20
-        for line in proc.stdout:
-            if line.startswith("running"):
-                break
-            assert time.monotonic() < deadline
+    with _running(show, log) as proc:
         time.sleep(0.6)  # every robot is moving now
         proc.send_signal(signal.SIGTERM)  # what a service manager or `kill` sends
         out, err = proc.communicate(timeout=20)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 130, err
     assert "interrupted (SIGTERM): every robot was safe-stopped" in out
     assert "Traceback" not in err
