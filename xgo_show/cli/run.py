@@ -93,7 +93,12 @@ def add_parser(sub: Any) -> None:
     parser.add_argument(
         "--realtime",
         action="store_true",
-        help="ask for real-time scheduling (SCHED_FIFO) where permitted",
+        help=(
+            "run the show's threads under SCHED_FIFO priority 10 where permitted (root or "
+            "CAP_SYS_NICE), else at nice -10: frames then leave on time although other "
+            "programs keep the CPUs busy; helps most with USB serial adapters (a pty's bytes "
+            "are moved by a kernel worker that real-time threads do not speed up)"
+        ),
     )
     add_common_arguments(parser)
     parser.set_defaults(func=run)

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from xgo_show.compiler.schedule import PerformerSchedule
 from xgo_show.errors import TransportError, XgoShowError
 from xgo_show.profiles.model import Profile
-from xgo_show.runtime.clock import Clock, tighten_timer_slack
+from xgo_show.runtime.clock import Clock, hand_off_cpu, tighten_timer_slack
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryItem, TelemetryPoller, TelemetrySample
@@ -497,6 +497,9 @@ class PerformerExecutor:
         # The link is busy for the frame's wire time from the send, and never free before the
         # write returned (a write that blocked means the bytes left late).
         self._ready_at = max(actual + link.wire_time(len(data)), self.clock.now()) + link.gap
+        # A real-time writer lets the kernel worker that moves the bytes (ptys) run now, not
+        # after this thread's bookkeeping; the link is busy for the frame meanwhile anyway.
+        hand_off_cpu()
         record = SendRecord(kind, index, planned, actual, len(data), label)
         self.records.append(record)
         if self.log is not None:

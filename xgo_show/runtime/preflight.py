@@ -225,8 +225,18 @@ def request_realtime(priority: int = 10, *, nice: int = -10) -> str:
     """Ask for real-time scheduling for this thread and the threads it starts.
 
     SCHED_FIFO at ``priority`` first; where that is refused, a higher CPU share (``nice``) if
-    permitted. Call before the show's threads start (they inherit it). Returns what was
-    granted, for the pre-flight report.
+    permitted. Call before the show's threads start (they inherit it), and after starting any
+    child process that must not inherit it. Returns what was granted, for the pre-flight
+    report.
+
+    What it helps: the writer threads then issue each write on time even when other programs
+    keep every CPU busy (measured: the 99th percentile of the lateness of our writes falls
+    from ~0.2 to ~0.04 ms). On a USB serial adapter the write goes to the driver in the
+    writer's own call, so that is the gain. On a pseudo-terminal a normal-priority kernel
+    worker moves the bytes, which real-time threads cannot speed up but can delay: each
+    writer gives its CPU away briefly after a write
+    (:func:`~xgo_show.runtime.clock.hand_off_cpu`), which makes pty delivery about as timely
+    as at normal priority.
     """
     setter = getattr(os, "sched_setscheduler", None)
     fifo = getattr(os, "SCHED_FIFO", None)
