@@ -39,6 +39,7 @@ from xgo_show.errors import ProfileError, ProtocolError, ValueRangeError
 from xgo_show.profiles.model import Profile
 from xgo_show.sim.base import FrameRobot, Rejected
 from xgo_show.wire.xarm import (
+    ALL_GROUPS,
     POSITION_MAX,
     GetBatteryVoltage,
     GroupErase,
@@ -66,7 +67,6 @@ __all__ = ["DEFAULT_BATTERY_MV", "DEFAULT_DRAIN_MV_PER_MINUTE", "HOME_POSITION",
 DEFAULT_BATTERY_MV = 7600
 DEFAULT_DRAIN_MV_PER_MINUTE = 2.0
 HOME_POSITION = 500  # 0 degrees; also the vendor package's default Servo position
-ALL_GROUPS = 255
 
 
 @dataclass
