@@ -131,8 +131,9 @@ __all__ = [
 HEADER = b"\x55\x55"
 #: Parameter bytes that fit the one-byte length field (``length = params + 2 <= 255``).
 MAX_PARAMS = 253
+#: Header, length and command: the bytes of a packet without parameters.
 MIN_PACKET = 4
-MAX_PACKET = MAX_PARAMS + 4
+MAX_PACKET = MAX_PARAMS + MIN_PACKET
 POSITION_MIN = 0
 POSITION_MAX = 1000
 #: The group number meaning "every group" for GroupRunRepeat and GroupErase.
@@ -277,7 +278,7 @@ def decode_one(buf: bytes | bytearray) -> tuple[int, XarmPacket | None]:
     if buf[0] != 0x55:
         nxt = buf.find(b"\x55", 1)
         return (n if nxt < 0 else nxt), None
-    if n < 4:
+    if n < MIN_PACKET:
         # Judge what is there now: "55 xx" or a length < 2 is junk whatever follows.
         if (n >= 2 and buf[1] != 0x55) or (n >= 3 and buf[2] < 2):
             return 1, None
