@@ -73,19 +73,33 @@ F = TypeVar("F", bound=_Encodable)
 class FrameRobot(SimulatedRobot, Generic[F]):
     """A simulated robot that decodes frames with ``decoder`` and handles them one by one.
 
-    Subclasses implement ``_advance(now)`` (time-driven state) and ``_handle(frame, now)``,
+    Subclasses implement ``_elapse(now, dt)`` (time-driven state) and ``_handle(frame, now)``,
     which raises :class:`Rejected` for a frame the robot refuses; replies go to ``_outbox``.
     ``_emit(now)`` may add unsolicited bytes (e.g. automatic feedback) when polled.
+    ``_t`` is the last time seen (None before the first ``receive``/``poll``).
     """
 
     def __init__(self, decoder: StreamDecoder[F]) -> None:
         self._decoder = decoder
         self._received: list[ReceivedFrame] = []
         self._outbox = bytearray()
+        self._t: float | None = None
 
     @abc.abstractmethod
+    def _elapse(self, now: float, dt: float) -> None:
+        """Bring time-driven state (moves, actions, battery) forward by ``dt`` > 0 s to ``now``."""
+
     def _advance(self, now: float) -> None:
-        """Bring time-driven state (moves, actions, battery) up to ``now``."""
+        # The first call only starts the clock; time never runs backwards here, so a late
+        # timestamp changes nothing.
+        if self._t is None:
+            self._t = now
+            return
+        dt = now - self._t
+        if dt <= 0:
+            return
+        self._elapse(now, dt)
+        self._t = now
 
     @abc.abstractmethod
     def _handle(self, frame: F, now: float) -> None:

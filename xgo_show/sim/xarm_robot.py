@@ -144,7 +144,6 @@ class XarmRobot(FrameRobot[XarmPacket]):
             for sid in profile.xarm_servos
         }
         super().__init__(XarmDecoder())
-        self._t: float | None = None
         self._moves: list[dict[str, Any]] = []
         self._group_running: dict[str, Any] | None = None
         self._group_runs: list[dict[str, Any]] = []
@@ -292,12 +291,5 @@ class XarmRobot(FrameRobot[XarmPacket]):
                 raise Rejected(f"{self.model} has no servo {sid}; valid: {valid}")
 
     # ------------------------------------------------------------------ time
-    def _advance(self, now: float) -> None:
-        if self._t is None:
-            self._t = now
-            return
-        dt = now - self._t
-        if dt <= 0:
-            return
+    def _elapse(self, now: float, dt: float) -> None:
         self._battery = max(0.0, self._battery - self._drain * dt)
-        self._t = now

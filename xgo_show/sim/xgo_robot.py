@@ -152,7 +152,6 @@ class XgoRobot(FrameRobot[XgoFrame]):
         for reg in profile.registers:
             self._memory[reg.address] = self._initial(reg)
 
-        self._t: float | None = None
         self._actions: list[_ActionRun] = []
         self._running: _ActionRun | None = None
         self._fallen = False
@@ -371,13 +370,7 @@ class XgoRobot(FrameRobot[XgoFrame]):
             self._memory[action.address] = bytes(action.size)
 
     # ------------------------------------------------------------------ time
-    def _advance(self, now: float) -> None:
-        if self._t is None:
-            self._t = now
-            return
-        dt = now - self._t
-        if dt <= 0:
-            return  # time never runs backwards here; a late timestamp changes nothing
+    def _elapse(self, now: float, dt: float) -> None:
         if self._running is not None and now >= self._running.end:
             self._finish_action()
         self._battery = max(0.0, self._battery - self._drain * dt)
@@ -400,7 +393,6 @@ class XgoRobot(FrameRobot[XgoFrame]):
                 vyaw,
             )
         self._roll, self._pitch = roll, pitch
-        self._t = now
         self._write_imu(self._roll, self._pitch, _wrap(self._heading + self._physical("yaw")))
 
     def _attitude_target(self) -> tuple[float, float]:
