@@ -16,31 +16,20 @@ from hypothesis import strategies as st
 from xgo_show.client import XgoClient
 from xgo_show.profiles import get_profile
 from xgo_show.transports import open_transport
-from xgo_show.transports.base import Transport
+from xgo_show.transports.base import Transport, WrappingTransport
 from xgo_show.wire.xgo import reply_frame
 
 
-class NoisyLink(Transport):
+class NoisyLink(WrappingTransport):
     """Middleware for tests (like pymodbus' manipulator hook): after each write, the bytes the
     wrapped link answers are preceded by ``noise`` and handed out in ``chunks``-sized pieces."""
 
     def __init__(self, inner: Transport, noise: bytes, chunks: list[int]) -> None:
-        super().__init__(f"noisy+{inner.url}")
-        self.inner = inner
+        super().__init__(inner, f"noisy+{inner.url}")
         self.noise = noise
         self.chunks = chunks
         self._out: deque[int] = deque()
         self._cut = 0
-
-    def open(self) -> None:
-        self.inner.open()
-
-    def close(self) -> None:
-        self.inner.close()
-
-    @property
-    def is_open(self) -> bool:
-        return self.inner.is_open
 
     def write(self, data: bytes) -> None:
         self.inner.write(data)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import abc
 from types import TracebackType
 
-__all__ = ["Transport"]
+__all__ = ["Transport", "WrappingTransport"]
 
 
 class Transport(abc.ABC):
@@ -67,3 +67,34 @@ class Transport(abc.ABC):
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.url}>"
+
+
+class WrappingTransport(Transport):
+    """A transport around another one (traffic logging, test middleware).
+
+    Opening, closing, ``is_open`` and low-latency mode are the inner link's; ``write`` and
+    ``read`` pass through until a subclass overrides them.
+    """
+
+    def __init__(self, inner: Transport, url: str) -> None:
+        super().__init__(url)
+        self.inner = inner
+
+    def open(self) -> None:
+        self.inner.open()
+
+    def close(self) -> None:
+        self.inner.close()
+
+    @property
+    def is_open(self) -> bool:
+        return self.inner.is_open
+
+    def write(self, data: bytes) -> None:
+        self.inner.write(data)
+
+    def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+        return self.inner.read(size, timeout)
+
+    def set_low_latency(self) -> bool:
+        return self.inner.set_low_latency()

@@ -15,14 +15,14 @@ from __future__ import annotations
 import logging
 from typing import IO
 
-from xgo_show.transports.base import Transport
+from xgo_show.transports.base import Transport, WrappingTransport
 
 __all__ = ["HexLogTransport", "wrap_hex"]
 
 _DEFAULT_LOGGER = logging.getLogger("xgo_show.traffic")
 
 
-class HexLogTransport(Transport):
+class HexLogTransport(WrappingTransport):
     """Wraps ``inner`` and logs every byte written (``>``) and read (``<``) in hex."""
 
     def __init__(
@@ -32,20 +32,9 @@ class HexLogTransport(Transport):
         stream: IO[str] | None = None,
         logger: logging.Logger | None = None,
     ) -> None:
-        super().__init__(f"hex+{inner.url}")
-        self.inner = inner
+        super().__init__(inner, f"hex+{inner.url}")
         self._stream = stream
         self._logger = logger or _DEFAULT_LOGGER
-
-    def open(self) -> None:
-        self.inner.open()
-
-    def close(self) -> None:
-        self.inner.close()
-
-    @property
-    def is_open(self) -> bool:
-        return self.inner.is_open
 
     def write(self, data: bytes) -> None:
         self._log(">", data)
@@ -56,9 +45,6 @@ class HexLogTransport(Transport):
         if data:
             self._log("<", data)
         return data
-
-    def set_low_latency(self) -> bool:
-        return self.inner.set_low_latency()
 
     def _log(self, direction: str, data: bytes) -> None:
         line = f"{self.inner.url} {direction} {data.hex(' ')}"
