@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -17,13 +19,21 @@ from xgo_show.wire.xarm import XarmDecoder, XarmPacket, battery_mv, get_battery_
 from xgo_show.wire.xgo import XgoDecoder, read_frame, write_frame
 
 
-def start(*args: str) -> subprocess.Popen[str]:
-    return subprocess.Popen(
+@contextlib.contextmanager
+def simulate(*args: str) -> Iterator[subprocess.Popen[str]]:
+    """``xgo-show simulate ARGS`` as a subprocess, killed on the way out if still running."""
+    proc = subprocess.Popen(
         [sys.executable, "-m", "xgo_show", "simulate", *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
 
 
 def ask(port: serial.Serial, request: bytes) -> bytes:
@@ -39,8 +49,7 @@ def ask(port: serial.Serial, request: bytes) -> bytes:
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
 def test_simulate_serves_a_pty_until_signalled(sig: signal.Signals, tmp_path: Path) -> None:
     record = tmp_path / "rec.jsonl"
-    proc = start("--model", "mini", "--pty", "--battery", "42", "--record", str(record))
-    try:
+    with simulate("--model", "mini", "--pty", "--battery", "42", "--record", str(record)) as proc:
         assert proc.stdout is not None
         path = proc.stdout.readline().strip()
         assert path.startswith("/dev/")
@@ -52,10 +61,6 @@ def test_simulate_serves_a_pty_until_signalled(sig: signal.Signals, tmp_path: Pa
             assert ask(port, read_frame(0x30, 1)) == b"\x90"
         proc.send_signal(sig)
         _, err = proc.communicate(timeout=10)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 0, err
     summary = err.strip().splitlines()[-1]
     assert summary.startswith("xgo-show simulate: mini on /dev/")
@@ -90,8 +95,7 @@ def test_help_mentions_the_first_line() -> None:
 
 
 def test_simulate_xarm() -> None:
-    proc = start("--model", "xarm", "--pty")
-    try:
+    with simulate("--model", "xarm", "--pty") as proc:
         assert proc.stdout is not None
         path = proc.stdout.readline().strip()
         with serial.Serial(path, 9600, timeout=0.2) as port:
@@ -104,10 +108,6 @@ def test_simulate_xarm() -> None:
         assert battery_mv(got[0]) == 7600
         proc.send_signal(signal.SIGINT)
         _, err = proc.communicate(timeout=10)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
     assert proc.returncode == 0, err
     assert "xarm on /dev/" in err
     assert "battery 7600 mV" in err
