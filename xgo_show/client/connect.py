@@ -14,9 +14,6 @@ from xgo_show.transports.base import Transport
 
 __all__ = ["model_hint", "open_client"]
 
-# Every XGO model keeps its firmware string here (the vendor's auto-detection reads it too).
-_XGO_FIRMWARE = 0x07
-
 
 def open_client(
     url: str,
@@ -68,14 +65,14 @@ def model_hint(url: str) -> str | None:
 
 
 def _identify(transport: Transport, url: str, timeout: float) -> str:
-    # Any XGO profile will do for reading the firmware register: it is 0x07 on every model.
+    # Any XGO profile will do for reading the firmware register: it is 0x07 on every model
+    # (the vendor's auto-detection reads it too).
     reader = XgoClient(transport, get_profile("mini"), timeout=timeout)
     try:
-        raw = reader.read(_XGO_FIRMWARE, 10)
+        firmware = reader.firmware()
     except TransportTimeout as exc:
         # Only XGO robots have a firmware register; an xArm stays silent.
         raise TransportTimeout(f"{exc} (for an xArm, give the model xarm)") from exc
-    firmware = raw.split(b"\0", 1)[0].decode("ascii", errors="replace")
     found = model_from_firmware(firmware)
     if found is None:
         raise ProfileError(
