@@ -838,27 +838,14 @@ class _TickFrames:
         return tuple(mask)
 
     def source_tick(self, t_us: int, src: _Source, sample: bytes) -> None:
-        """A tick only ``src`` writes."""
-        live = self.live
-        if len(live) == 1 and live[0] is src:
-            prev = src.prev
-            assert prev is not None
-            if sample == prev:
-                return
-            mask = _changes(src, sample, prev)
-            src.prev = sample
-        else:
-            self.flush()
-            mask = self._fresh(src, sample)
-            self._known_changed()
-        key = (src.addresses, mask)
-        plan = self.merger.sample_plans.get(key)
-        chunks = ((src, sample),)
-        if plan is None:
-            plan = self.merger.sample_plans[key] = self.merger.sample_plan(
-                chunks, (mask,), self.known
-            )
-        self._build(t_us, plan, chunks, (src,))
+        """A tick only ``src`` writes, ``src`` not the one live source (it becomes so).
+
+        The next tick of the one live source is :func:`_frames_from_ticks`'s own (inlined).
+        """
+        self.flush()
+        mask = self._fresh(src, sample)
+        self._known_changed()
+        self.build(t_us, (src.addresses, mask), ((src, sample),), (mask,), (src,))
 
     def sources_tick(self, t_us: int, chunks: _Samples) -> None:
         """A tick several sources write, none the same register."""
@@ -885,21 +872,21 @@ class _TickFrames:
                 tuple([src.addresses for src in sources]),
                 tuple(sorted(range(len(sources)), key=lambda i: sources[i].order)),
             )
-        key = (shape, tuple(masks))
-        plan = self.merger.sample_plans.get(key)
-        if plan is None:
-            plan = self.merger.sample_plans[key] = self.merger.sample_plan(
-                chunks, masks, self.known
-            )
-        self._build(t_us, plan, chunks, sources)
+        self.build(t_us, (shape, tuple(masks)), chunks, masks, sources)
 
-    def _build(
+    def build(
         self,
         t_us: int,
-        plan: tuple[_SampleFrame, ...],
+        key: object,
         chunks: Sequence[tuple[_Source, bytes]],
+        masks: Sequence[tuple[bool, ...]],
         sources: Sequence[_Source],
     ) -> None:
+        """The frames of a tick only sources write, by the sample plan cached under ``key``."""
+        plans = self.merger.sample_plans
+        plan = plans.get(key)
+        if plan is None:
+            plan = plans[key] = self.merger.sample_plan(chunks, masks, self.known)
         append = self.frames.append
         new = tuple.__new__
         for f in plan:
@@ -984,6 +971,7 @@ def _frames_from_ticks(
     """
     out = _TickFrames(layout, link, gap, action_reg)
     source_tick, sources_tick, writes_tick = out.source_tick, out.sources_tick, out.writes_tick
+    build = out.build
     # Held across the loop: _TickFrames updates these in place.
     live, plans, append = out.live, out.merger.sample_plans, out.frames.append
     new = tuple.__new__
@@ -995,25 +983,29 @@ def _frames_from_ticks(
         elif isinstance(entry, tuple):  # one source's sample: nearly every tick
             src, sample = entry
             prev = src.prev
-            if prev is not None and src.unit and len(live) == 1:
-                # The commonest tick of all, source_tick inlined: the next sample of the one
-                # live source, whose plan for these changes is known and one slice a frame.
-                if sample == prev:
-                    continue
-                plan = plans.get((src.addresses, tuple(map(ne, sample, prev))))
-                if plan is not None and len(plan) == 1 and (one := plan[0].one) is not None:
-                    src.prev = sample
-                    f = plan[0]
-                    data = sample[one[1]:one[2]]
-                    append(new(PlannedFrame, (
-                        t_us,
-                        b"".join((f.prefix, data, BYTES[~(f.check_base + sum(data)) & 0xFF],
-                                  TAIL)),
-                        (), (), src.origin, src.order, True, False, 0.0,
-                    )))
-                    out.samples += 1
-                    continue
-            source_tick(t_us, src, sample)
+            # prev is set exactly while src is live: else src is not the one live source.
+            if prev is None or len(live) != 1:
+                source_tick(t_us, src, sample)
+                continue
+            # The commonest tick of all: the next sample of the one live source.
+            if sample == prev:
+                continue
+            src.prev = sample
+            mask = tuple(map(ne, sample, prev)) if src.unit else _changes(src, sample, prev)
+            key = (src.addresses, mask)
+            plan = plans.get(key)
+            if plan is not None and len(plan) == 1 and (one := plan[0].one) is not None:
+                # build() for its commonest plan, inlined: one frame, one slice of the sample.
+                f = plan[0]
+                data = sample[one[1]:one[2]]
+                append(new(PlannedFrame, (
+                    t_us,
+                    b"".join((f.prefix, data, BYTES[~(f.check_base + sum(data)) & 0xFF], TAIL)),
+                    (), (), src.origin, src.order, True, False, 0.0,
+                )))
+                out.samples += 1
+            else:
+                build(t_us, key, ((src, sample),), (mask,), (src,))
         elif isinstance(entry, _Samples):
             sources_tick(t_us, entry)
         else:
