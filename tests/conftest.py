@@ -1,5 +1,8 @@
 """Suite-wide fixtures.
 
+``wait(predicate)`` polls for something another thread or process does (a pty server, a
+vendor library that does not wait for its replies).
+
 Every test must clean up the threads it starts (pty servers, reader threads, runtimes): a
 non-daemon thread left running keeps the interpreter alive and leaks into later tests. The
 check is cheap: one ``threading.enumerate()`` before and after, plus a short grace period only
@@ -10,7 +13,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import pytest
 
@@ -38,3 +41,17 @@ def _no_leaked_threads() -> Iterator[None]:
 
 def _new_live_threads(before: set[threading.Thread]) -> list[threading.Thread]:
     return [t for t in threading.enumerate() if t not in before and t.is_alive() and not t.daemon]
+
+
+@pytest.fixture
+def wait() -> Callable[[Callable[[], bool]], None]:
+    """``wait(predicate, timeout=2.0)``: poll every 5 ms until it holds, fail after ``timeout``."""
+
+    def poll(predicate: Callable[[], bool], timeout: float = 2.0) -> None:
+        deadline = time.monotonic() + timeout
+        while not predicate():
+            if time.monotonic() > deadline:
+                raise AssertionError("the condition did not hold in time")
+            time.sleep(0.005)
+
+    return poll

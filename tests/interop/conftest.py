@@ -1,12 +1,12 @@
 """Interop tests: the vendors' own client libraries talk to our simulators over a real pty.
 
 Registers the ``interop`` marker (select with ``-m interop``, skip with ``-m "not interop"``)
-and provides fixtures that serve a simulated robot on a pseudo-terminal.
+and provides a fixture that serves simulated robots on pseudo-terminals (``wait`` comes from
+tests/conftest.py).
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterator
 
 import pytest
@@ -36,17 +36,3 @@ def serve() -> Iterator[Serve]:
     yield start
     for server in servers:
         server.close()
-
-
-@pytest.fixture
-def wait() -> Callable[[Callable[[], bool]], None]:
-    """``wait(predicate)``: poll for up to 2 s (the vendor libraries do not wait)."""
-
-    def poll(predicate: Callable[[], bool], timeout: float = 2.0) -> None:
-        deadline = time.monotonic() + timeout
-        while not predicate():
-            if time.monotonic() > deadline:
-                raise AssertionError("the simulator did not get there in time")
-            time.sleep(0.005)
-
-    return poll

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -24,36 +25,30 @@ def read_frames(port: serial.Serial, count: int, timeout: float = 2.0) -> list[X
     return got
 
 
-def wait_for(predicate: object, timeout: float = 2.0) -> None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():  # type: ignore[operator]
-            return
-        time.sleep(0.005)
-    raise AssertionError("condition not reached in time")
+Wait = Callable[[Callable[[], bool]], None]
 
 
-def test_pyserial_client_reads_and_writes() -> None:
+def test_pyserial_client_reads_and_writes(wait: Wait) -> None:
     robot = create_robot("mini")
     with PtyServer(robot) as server, serial.Serial(server.path, 115200, timeout=0.2) as port:
         port.write(read_frame(0x07, 10))
         (reply,) = read_frames(port, 1)
         assert reply.encode() == reply_frame(0x07, b"M-1.4.1\0\0\0")
         port.write(write_frame(0x30, b"\xff"))
-        wait_for(lambda: server.snapshot()["raw"]["vx"] == "ff")
+        wait(lambda: server.snapshot()["raw"]["vx"] == "ff")
         snap = server.snapshot()
         assert snap["frames_received"] == 2
         assert snap["dropped_bytes"] == 0
     assert not server.running
 
 
-def test_no_echo_and_binary_safe() -> None:
+def test_no_echo_and_binary_safe(wait: Wait) -> None:
     # Bytes a cooked terminal would mangle: 0x03 (^C), 0x0D (CR), 0x11/0x13 (XON/XOFF), 0x7F.
     data = bytes([0x03, 0x0D, 0x0A, 0x11, 0x13, 0x7F, 0x04])
     robot = create_robot("rider")
     with PtyServer(robot) as server, serial.Serial(server.path, 115200, timeout=0.2) as port:
         port.write(write_frame(0x69, data[:3] + data[3:6], write_type=0x01))
-        wait_for(lambda: server.snapshot()["frames_received"] == 1)
+        wait(lambda: server.snapshot()["frames_received"] == 1)
         assert server.snapshot()["registers"]["led1"] == list(data[:3])
         assert server.snapshot()["registers"]["led2"] == list(data[3:6])
         assert port.read(64) == b""  # nothing echoed back
@@ -80,7 +75,7 @@ def test_rider_feedback_reaches_the_client() -> None:
         port.write(write_frame(0x08, b"\x00", write_type=0x01))
 
 
-def test_record_file_has_one_json_line_per_frame(tmp_path: Path) -> None:
+def test_record_file_has_one_json_line_per_frame(tmp_path: Path, wait: Wait) -> None:
     record = tmp_path / "frames.jsonl"
     robot = create_robot("mini")
     with (
@@ -88,7 +83,7 @@ def test_record_file_has_one_json_line_per_frame(tmp_path: Path) -> None:
         serial.Serial(server.path, 115200, timeout=0.2) as port,
     ):
         port.write(write_frame(0x30, b"\x90") + write_frame(0x01, b"\x00"))
-        wait_for(lambda: server.snapshot()["frames_received"] == 2)
+        wait(lambda: server.snapshot()["frames_received"] == 2)
     lines = [json.loads(line) for line in record.read_text().splitlines()]
     assert [line["hex"] for line in lines] == [
         write_frame(0x30, b"\x90").hex(),
