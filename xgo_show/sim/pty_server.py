@@ -86,10 +86,7 @@ class PtyServer:
             self._path = os.ttyname(self._slave)
             os.set_blocking(self._master, False)
         except OSError as exc:
-            self._close_fds()
-            if self._record is not None:
-                self._record.close()
-                self._record = None
+            self._release()
             raise TransportError(f"cannot open a pseudo-terminal: {exc}") from exc
         self._stop.clear()
         self._thread = threading.Thread(target=self._serve, name="xgo-show-pty", daemon=True)
@@ -104,10 +101,7 @@ class PtyServer:
             self._thread = None
         with self.lock:
             self._write_records()
-        self._close_fds()
-        if self._record is not None:
-            self._record.close()
-            self._record = None
+        self._release()
 
     def snapshot(self) -> dict[str, Any]:
         """``robot.snapshot()`` taken under the lock, plus ``dropped_bytes``."""
@@ -183,9 +177,13 @@ class PtyServer:
         self._recorded = len(frames)
         self._record.flush()
 
-    def _close_fds(self) -> None:
+    def _release(self) -> None:
+        """Close the pty's file descriptors and the record file (each only once)."""
         for fd in (self._master, self._slave):
             if fd >= 0:
                 with contextlib.suppress(OSError):
                     os.close(fd)
         self._master = self._slave = -1
+        if self._record is not None:
+            self._record.close()
+            self._record = None
