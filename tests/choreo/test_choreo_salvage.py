@@ -84,3 +84,33 @@ def test_a_bad_performer_drops_its_track_only(write: WriteFn) -> None:
             - {led: {led9: red}}
         """)
     assert [line for line, _, _ in _errors(path)] == [3, 9]
+
+
+def test_a_dropped_length_is_not_also_missing(write: WriteFn) -> None:
+    # A walk, an xArm pose and a Rider action (no documented time) need a length: when theirs
+    # was malformed, that error is the only one. A cue that lost another timing field and
+    # never had a length still needs one.
+    walk = write("""
+        show: S
+        performers:
+          rex: {model: mini}
+          bob: {model: rider}
+        tracks:
+          rex:
+            - {walk: {vx: 5}, duration: -1}
+            - {walk: {vx: 5}, after: {beats: x}}
+          bob:
+            - {action: 1, beats: []}
+        """)
+    assert [(line, "needs" in msg) for line, _, msg in _errors(walk)] == [
+        (7, False), (8, True), (8, False), (10, False)
+    ]
+    arm = write("""
+        show: S
+        performers:
+          arm: {model: xarm}
+        tracks:
+          arm:
+            - {pose: {1: 500}, bars: -2}
+        """, "arm.yaml")
+    assert [line for line, _, _ in _errors(arm)] == [6]

@@ -81,8 +81,7 @@ def _check_remainder(doc: Document, data: dict[str, object]) -> list[Diagnostic]
     if salvage is None:
         return []
     res = resolve_show(salvage.show, doc, salvage)
-    found = res.diagnostics + check_show(res)
-    return [d for d in found if salvage.keeps(d)]
+    return res.diagnostics + check_show(res)
 
 
 def is_part(data: object) -> bool:

@@ -624,6 +624,13 @@ class _Emitter:
     def error(self, message: str, *parts: str | int, key: bool = False) -> None:
         self.res.error(self.doc, (*self.loc, *parts), message, key=key)
 
+    def needs_length(self, message: str, *parts: str | int, key: bool = False) -> None:
+        """Report that this cue needs a duration, beats or bars, unless it had one that was
+        malformed and left out (:mod:`~xgo_show.choreo.salvage`): that is reported already."""
+        salvage = self.res.salvage
+        if salvage is None or self.doc is not self.res.doc or self.loc not in salvage.lost_length:
+            self.error(message, *parts, key=key)
+
     def add(
         self, cue: Cue, end: float, values: Mapping[str, Loc] | None = None,
         running: float = 0.0,
@@ -662,8 +669,8 @@ class _Emitter:
                        f"valid: {valid}", "action")
             return None
         if act.duration is None and length is None:
-            self.error(f"the documents give no duration for {self.profile.title} action "
-                       f"{act.name!r}: give duration, beats or bars", "action")
+            self.needs_length(f"the documents give no duration for {self.profile.title} "
+                              f"action {act.name!r}: give duration, beats or bars", "action")
             return None
         if act.duration is None:
             self.res.warning(self.doc, self.loc, f"action {act.name!r} lasts {length:.3g} s as "
@@ -793,8 +800,8 @@ class _Emitter:
 
     def on_walk(self, cue: WalkCueModel, start: float, length: float | None) -> float | None:
         if length is None:
-            self.error("walk needs duration, beats or bars, so that the robot stops again",
-                       "walk", key=True)
+            self.needs_length("walk needs duration, beats or bars, so that the robot stops "
+                              "again", "walk", key=True)
             return None
         origins = {n: self.at("walk", n) for n in cue.walk}
         end = start + length
@@ -861,8 +868,8 @@ class _Emitter:
                        "move: (registers) or arm: / gripper:", self.kind, key=True)
             return None
         if length is None:
-            self.error(f"{self.kind} needs duration, beats or bars (the xArm moves every servo "
-                       "in a given time)", self.kind, key=True)
+            self.needs_length(f"{self.kind} needs duration, beats or bars (the xArm moves "
+                              "every servo in a given time)", self.kind, key=True)
             return None
         if length > 65.535:
             self.error(f"an xArm move lasts at most 65.535 s, not {length:g} s", self.kind,

@@ -17,15 +17,15 @@ from dataclasses import dataclass, field
 from pydantic import ValidationError
 
 from xgo_show.choreo.model import ShowFile
-from xgo_show.choreo.source import Loc, format_path
+from xgo_show.choreo.source import Loc
 from xgo_show.choreo.validation import data_loc
-from xgo_show.diagnostics import Diagnostic
 
 __all__ = ["TIMING_FIELDS", "Salvage", "salvage_show"]
 
 # Cue fields that only say when or how fast: a cue without them still names what it does.
 TIMING_FIELDS = frozenset({"at", "after", "duration", "beats", "bars", "fade", "interrupt",
                            "limits"})
+_LENGTH_FIELDS = frozenset({"duration", "beats", "bars"})
 _NEUTRAL: dict[str, object] = {"rest": 0}  # a cue that does nothing and takes no time
 _MAX_ROUNDS = 64  # each round goes one level deeper into nested repeats at most
 
@@ -39,20 +39,9 @@ class Salvage:
     phrases_incomplete: bool = False  # an include list or the phrases mapping was dropped
     broken_phrases: set[str] = field(default_factory=set)  # phrases dropped for errors
     untimed: set[str] = field(default_factory=set)  # performers whose track lost timing
-    trimmed: set[str] = field(default_factory=set)  # field paths of cues that lost timing
-
-    def keeps(self, diag: Diagnostic) -> bool:
-        """Whether a resolver/check finding still stands (it is not about timing a trimmed
-        cue lost: "walk needs duration" after its bad duration was dropped)."""
-        for cue in self.trimmed:
-            if diag.path == cue:
-                return False
-            if diag.path.startswith(cue + "."):
-                rest = diag.path[len(cue) + 1:]
-                if rest in TIMING_FIELDS or (("." not in rest and "[" not in rest)
-                                             and "duration" in diag.message):
-                    return False
-        return True
+    # Cues (their places in the routine) whose duration, beats or bars was dropped: the
+    # resolver does not also say they need a length.
+    lost_length: set[Loc] = field(default_factory=set)
 
 
 def salvage_show(data: dict[str, object]) -> Salvage | None:
@@ -154,7 +143,8 @@ def _prune_track(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
     what = loc[len(cue_loc)] if len(loc) > len(cue_loc) else None
     if isinstance(cue, dict) and what in TIMING_FIELDS and what in cue:
         del cue[what]
-        info.trimmed.add(format_path(cue_loc))
+        if what in _LENGTH_FIELDS:
+            info.lost_length.add(cue_loc)
         return True
     if cue == _NEUTRAL:
         return False
