@@ -54,8 +54,8 @@ _SCHEMES: dict[str, str | SchemeFactory] = {
     "hid": "xgo_show.transports.hid:open_hid",
 }
 _WRAPPERS: dict[str, str | WrapperFactory] = {
-    "hex": "xgo_show.transports.hexlog:wrap_hex",
-    "log": "xgo_show.transports.hexlog:wrap_hex",
+    "hex": "xgo_show.transports.hexlog:HexLogTransport",
+    "log": "xgo_show.transports.hexlog:HexLogTransport",
 }
 _SERIAL = "xgo_show.transports.serial_port:open_serial"
 

@@ -17,13 +17,17 @@ from typing import IO
 
 from xgo_show.transports.base import Transport, WrappingTransport
 
-__all__ = ["HexLogTransport", "wrap_hex"]
+__all__ = ["HexLogTransport"]
 
 _DEFAULT_LOGGER = logging.getLogger("xgo_show.traffic")
 
 
 class HexLogTransport(WrappingTransport):
-    """Wraps ``inner`` and logs every byte written (``>``) and read (``<``) in hex."""
+    """Wraps ``inner`` and logs every byte written (``>``) and read (``<``) in hex.
+
+    The class is itself the ``hex+`` wrapper factory of
+    :func:`xgo_show.transports.open_transport`: ``HexLogTransport(inner, **options)``.
+    """
 
     def __init__(
         self,
@@ -53,13 +57,3 @@ class HexLogTransport(WrappingTransport):
             self._stream.flush()
         else:
             self._logger.debug("%s", line)
-
-
-def wrap_hex(
-    inner: Transport,
-    *,
-    stream: IO[str] | None = None,
-    logger: logging.Logger | None = None,
-) -> HexLogTransport:
-    """Wrapper factory for :func:`xgo_show.transports.open_transport`."""
-    return HexLogTransport(inner, stream=stream, logger=logger)
