@@ -7,9 +7,11 @@ import struct
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import replace
 
 import pytest
 
+from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.executor import ExecutorState, PerformerExecutor
@@ -103,6 +105,35 @@ def test_late_frame_shifts_the_next_ones_without_bunching(perf) -> None:
     # … and catch up with the plan as soon as it allows: the last frames are on time again.
     assert sent[-1] == pytest.approx(start + schedule.frames[-1].t)
     assert [f.t for f in link.robot.received[:40]] == pytest.approx(sent)
+
+
+def test_a_frames_lazy_label_is_made_after_its_write_not_before(perf) -> None:
+    """Making a label costs microseconds: it must not sit between the wake and the write."""
+    clock = FakeClock()
+    made: list[bytes] = []
+    lazy = perf("rex", count=6, spacing=0.1)
+    frames = tuple(
+        ScheduledFrame(f.t, f.data, f.origin, lambda data: made.append(data) or data.hex())
+        for f in lazy.frames
+    )
+    schedule = replace(lazy, frames=frames)
+    unmade_at_write: list[bool] = []
+
+    class Watching(SimTransport):
+        def write(self, data: bytes) -> None:
+            unmade_at_write.append(data not in made)
+            super().write(data)
+
+    link = Watching(create_robot("mini"), clock=clock.now, sleep=clock.advance)
+    link.open()
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI, rest_at_end=False)
+    assert ex.progress.label == ""
+    ex.run(clock.now() + 0.1)
+    assert unmade_at_write == [True] * len(frames)
+    # Each label is made once, after its write, and lands in the record and the progress.
+    assert made == [f.data for f in frames]
+    assert [r.label for r in ex.records] == [f.data.hex() for f in frames]
+    assert ex.progress.label == frames[-1].data.hex()
 
 
 def test_pause_holds_the_robot_and_resume_reaches_back_then_shifts(perf) -> None:

@@ -30,7 +30,7 @@ import threading
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from xgo_show.compiler.schedule import PerformerSchedule
+from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
 from xgo_show.errors import TransportError, XgoShowError
 from xgo_show.profiles.model import Profile
 from xgo_show.runtime.clock import Clock, hand_off_cpu, tighten_timer_slack
@@ -187,7 +187,6 @@ class PerformerExecutor:
         self._ready_at = float("-inf")  # earliest time the link is free (wire time + gap)
         self._sent_frames = 0
         self._cue = ""
-        self._label = ""
         self._paused_at: float | None = None
         self._writer: threading.Thread | None = None
         self._reader: threading.Thread | None = None
@@ -287,6 +286,7 @@ class PerformerExecutor:
     @property
     def progress(self) -> Progress:
         now = self.clock.now()
+        sent = self._sent_frames  # schedule index + 1 of the last frame sent
         show_time = (
             0.0
             if self._state is ExecutorState.IDLE
@@ -296,10 +296,10 @@ class PerformerExecutor:
             self.name,
             self._state,
             show_time,
-            self._sent_frames,
+            sent,
             len(self.schedule.frames),
             self._cue,
-            self._label,
+            self.schedule.frames[sent - 1].label if sent else "",
         )
 
     def show_time_of(self, monotonic: float) -> float:
@@ -358,13 +358,12 @@ class PerformerExecutor:
             planned = self._timeline.at(frame.t)
             if not self._wait(max(planned, self._ready_at)):
                 continue  # woken by pause or abort: re-check the flags
-            if not self._write(frame.data, "frame", index, planned, frame.label):
+            if not self._write(frame.data, "frame", index, planned, frame):
                 return
             index += 1
             self._sent_frames = index
             if frame.origin is not None and frame.origin.cue:
                 self._cue = frame.origin.cue
-            self._label = frame.label
         # Keep watching (telemetry) until the whole show is over.
         while not self._flags.abort.is_set():
             if self._flags.pause:
@@ -471,9 +470,18 @@ class PerformerExecutor:
         return True
 
     def _write(
-        self, data: bytes, kind: str, index: int | None, planned: float | None, label: str
+        self,
+        data: bytes,
+        kind: str,
+        index: int | None,
+        planned: float | None,
+        label: str | ScheduledFrame,
     ) -> bool:
-        """Write one frame unless aborted; return False if aborted."""
+        """Write one frame unless aborted; return False if aborted.
+
+        ``label`` is the text, or the schedule frame whose label it is: a schedule frame's label
+        is made from its bytes on first read, which must come after the write, not before it.
+        """
         # Wait for the link outside the lock, so a safe stop never waits behind this frame.
         if self.clock.now() < self._ready_at:
             self.clock.sleep_until(self._ready_at, self._flags.abort)
@@ -484,7 +492,12 @@ class PerformerExecutor:
             return True
 
     def _write_locked(
-        self, data: bytes, kind: str, index: int | None, planned: float | None, label: str
+        self,
+        data: bytes,
+        kind: str,
+        index: int | None,
+        planned: float | None,
+        label: str | ScheduledFrame,
     ) -> None:
         # Keep the link's silence after whatever went before (stop frames included).
         if self.clock.now() < self._ready_at:
@@ -500,7 +513,8 @@ class PerformerExecutor:
         # A real-time writer lets the kernel worker that moves the bytes (ptys) run now, not
         # after this thread's bookkeeping; the link is busy for the frame meanwhile anyway.
         hand_off_cpu()
-        record = SendRecord(kind, index, planned, actual, len(data), label)
+        text = label if isinstance(label, str) else label.label
+        record = SendRecord(kind, index, planned, actual, len(data), text)
         self.records.append(record)
         if self.log is not None:
             tl = self._timeline
