@@ -740,10 +740,8 @@ class _XgoPlanner:
         )
         full = min(stops, default=k0 - 1) if in_range else k0 - 1
         padded = [t.padded for t in tables]
-        # Elsewhere, the table lookup per DoF: in range, the byte is base + bisect; out of
-        # range, Register.to_byte raises the usual error.
-        spec = [(reg.address, t.lo, t.hi, t.base, t.thresholds, t) for reg, t in
-                zip(run.regs, tables, strict=True)]
+        # Elsewhere, the table per DoF (out of range, Register.to_byte raises the usual error).
+        spec = [(reg.address, t) for reg, t in zip(run.regs, tables, strict=True)]
         origin, order = run.origin, run.order
         src = _Source(run.regs, origin, order)
         ticks = self.ticks
@@ -767,12 +765,11 @@ class _XgoPlanner:
                 emit_sample(t_us, src, bytes(map(bisect_right, padded, pos)))
                 continue
             writes = []
-            for i, (address, lo, hi, base, thresholds, table) in enumerate(spec):
-                if k > stops[i]:
-                    continue
-                x = pos[i]
-                byte = base + bisect_right(thresholds, x) if lo <= x <= hi else table(x)
-                writes.append(new(Write, (t_us, address, BYTES[byte], origin, order, True, 0.0)))
+            for i, (address, table) in enumerate(spec):
+                if k <= stops[i]:
+                    writes.append(new(Write, (
+                        t_us, address, BYTES[table(pos[i])], origin, order, True, 0.0
+                    )))
             emit(t_us, writes)
 
 
