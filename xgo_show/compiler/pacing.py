@@ -83,7 +83,6 @@ def pace(
     pending: dict[int, Write] = {}
     free_us = -(1 << 62)  # when the link may start the next frame
     half = period_us // 2
-    bits, baud = link.bits_per_byte * 1_000_000, link.baud
 
     def send(f: PlannedFrame, t_us: int, planned: bool) -> None:
         nonlocal free_us, seq
@@ -105,7 +104,7 @@ def pace(
         out.append(paced)
         if late_by > period_us:
             result.late.append(paced)
-        free_us = start + -(-len(f.data) * bits // baud) + gap_us
+        free_us = start + wire_us(link, len(f.data)) + gap_us
         if pending:
             if f.action:
                 pending.clear()
@@ -124,9 +123,10 @@ def pace(
                 send(f, t_us, False)
 
     if not decimate:
-        # send() without decimation (so nothing pending, nothing to flush), inlined: this loop
-        # runs once per frame of the show.
+        # send() without decimation (so nothing pending, nothing to flush), inlined with
+        # wire_us: this loop runs once per frame of the show.
         late, new = result.late, tuple.__new__
+        bits, baud = link.bits_per_byte * 1_000_000, link.baud
         for frame in frames:
             t_us = frame.t_us
             start = t_us if t_us > free_us else free_us
