@@ -11,6 +11,7 @@ from dataclasses import fields
 
 from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
 from xgo_show.compiler.frames import (
+    ACTION_REGISTER,
     PlannedFrame,
     TrackPlan,
     Write,
@@ -103,10 +104,12 @@ def _compile_track(
         plan = plan_xgo_track(layout, track, rate=show.control_rate, link=link, gap=gap,
                               details=show.decimate)
 
+        action = layout.by_name.get(ACTION_REGISTER)
+        action_address = action.address if action is not None else None
+
         def remerge(t_us: int, writes: list[Write]) -> list[PlannedFrame]:
-            action = layout.by_name.get("action")
             return merge_writes(layout, link, gap, t_us, writes, {},
-                                action_address=action.address if action else None)
+                                action_address=action_address)
 
     errors = list(plan.diagnostics)
     warnings: list[Diagnostic] = []
