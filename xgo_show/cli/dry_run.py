@@ -11,12 +11,11 @@ import argparse
 from typing import Any
 
 from xgo_show.cli.run import (
-    PlayOptions,
     add_common_arguments,
     check_options,
     load_schedule_file,
     play,
-    start_offset,
+    play_options,
 )
 
 __all__ = ["add_parser", "run"]
@@ -33,7 +32,6 @@ def add_parser(sub: Any) -> None:
             "robot ended up doing."
         ),
     )
-    parser.add_argument("show", metavar="SHOW", help="SHOW.yaml or SCHEDULE.xshow.json")
     parser.add_argument(
         "--fast",
         action="store_true",
@@ -54,14 +52,4 @@ def run(args: argparse.Namespace) -> int:
         from xgo_show.compiler import plot_schedule
 
         print(f"schedule plot written to {plot_schedule(schedule, args.plot)}")
-    opts = PlayOptions(
-        sim=True,
-        fast=args.fast,
-        countdown=0.0,
-        offset=start_offset(schedule, args.start, args.start_bar),
-        battery_floor=args.battery_floor,
-        log=args.log,
-        allow_unsafe=args.allow_unsafe,
-        telemetry=not args.no_telemetry,
-    )
-    return play(schedule, opts)
+    return play(schedule, play_options(args, schedule, sim=True, fast=args.fast))

@@ -41,6 +41,7 @@ __all__ = [
     "check_options",
     "load_schedule_file",
     "play",
+    "play_options",
     "run",
     "start_offset",
 ]
@@ -64,7 +65,6 @@ def add_parser(sub: Any) -> None:
             "a fault (every robot was safe-stopped); 130 interrupted by Ctrl-C or SIGTERM."
         ),
     )
-    parser.add_argument("show", metavar="SHOW", help="SHOW.yaml or SCHEDULE.xshow.json")
     parser.add_argument(
         "--map",
         action="append",
@@ -105,7 +105,8 @@ def add_parser(sub: Any) -> None:
 
 
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
-    """Options shared by ``run`` and ``dry-run``."""
+    """Arguments shared by ``run`` and ``dry-run`` (:func:`play_options` reads them)."""
+    parser.add_argument("show", metavar="SHOW", help="SHOW.yaml or SCHEDULE.xshow.json")
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
         "--start", type=float, metavar="SECONDS", help="start mid-show at this show time"
@@ -317,6 +318,18 @@ class PlayOptions:
     telemetry: bool = True
 
 
+def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> PlayOptions:
+    """The options :func:`add_common_arguments` added, plus the command's ``own`` fields."""
+    return PlayOptions(
+        offset=start_offset(schedule, args.start, args.start_bar),
+        battery_floor=args.battery_floor,
+        log=args.log,
+        allow_unsafe=args.allow_unsafe,
+        telemetry=not args.no_telemetry,
+        **own,
+    )
+
+
 @contextlib.contextmanager
 def _opened(sims: SimBench | None) -> Iterator[None]:
     try:
@@ -434,16 +447,13 @@ def run(args: argparse.Namespace) -> int:
     """Entry point of ``xgo-show run``."""
     check_options(args)
     schedule = load_schedule_file(args.show)
-    opts = PlayOptions(
+    opts = play_options(
+        args,
+        schedule,
         maps=parse_maps(schedule, args.map),
         sim=args.sim,
         force=args.force,
         countdown=args.countdown,
-        offset=start_offset(schedule, args.start, args.start_bar),
-        battery_floor=args.battery_floor,
-        log=args.log,
         realtime=args.realtime,
-        allow_unsafe=args.allow_unsafe,
-        telemetry=not args.no_telemetry,
     )
     return play(schedule, opts)
