@@ -11,6 +11,7 @@ import argparse
 import contextlib
 import math
 import sys
+import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -430,7 +431,7 @@ def _play(
     print(format_report(result), file=out, flush=True)
     if sims is not None:
         # Let the pty servers take in the last bytes written before reading their state.
-        MonotonicClock().sleep_until(MonotonicClock().now() + 0.05)
+        time.sleep(0.05)
         summaries = sims.summaries()
         for name, summary in summaries.items():
             log.write("sim", flush=True, performer=name, **summary)
