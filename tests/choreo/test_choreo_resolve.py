@@ -369,6 +369,18 @@ tracks:
     assert len(cues(load_show(after))) == 2
 
 
+def test_an_action_names_each_move_it_cuts_once(write: WriteFn) -> None:
+    path = write(MINI + """
+tracks:
+  rex:
+    - {move: {pitch: 10, roll: 5, yaw: 3}, duration: 2}
+    - {at: 0, walk: {vx: 5, vy: 2}, duration: 2}
+    - {at: 1, action: wave, interrupt: false}
+""")
+    cut = [e for e in errors(path) if "action 'wave' starts at 1.000 s" in e.message]
+    assert [e.message.split("while the cue at ")[1][:7] for e in cut] == ["line 7 ", "line 8 "]
+
+
 def test_led_writes_do_not_interrupt_actions(write: WriteFn) -> None:
     path = write(RIDER + """
 tracks:

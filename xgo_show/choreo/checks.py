@@ -201,8 +201,9 @@ class _Checker:
                 yield _Write(cue.register, cue.start, cue.start + cue.duration, cue, src)
 
     def check_conflicts(self, cues: tuple[Cue, ...], profile: Profile) -> None:
+        writes_all = list(self.writes(cues))
         by_reg: dict[str, list[_Write]] = defaultdict(list)
-        for w in self.writes(cues):
+        for w in writes_all:
             by_reg[w.register].append(w)
         for name, writes in by_reg.items():
             writes.sort(key=lambda w: (w.start, w.end))
@@ -226,7 +227,7 @@ class _Checker:
                 if longest is None or w.end > longest.end:
                     longest = w
         self.check_actions(cues, profile)
-        self.check_actions_cut_moves(cues, profile)
+        self.check_actions_cut_moves(cues, writes_all, profile)
         self.check_periodic(cues, by_reg)
 
     def check_actions(self, cues: tuple[Cue, ...], profile: Profile) -> None:
@@ -236,13 +237,10 @@ class _Checker:
                 continue
             asrc = self.res.source(act)
             busy_until = act.start + max(asrc.running, 0.0)
-            first = bisect.bisect_left(starts, act.start - _EPS)
             last = bisect.bisect_left(starts, busy_until - _EPS)
-            for j in range(first, last):
-                other = cues[j]
-                # A cue at the very same time but earlier in the track is sent first: fine.
-                if j <= i:
-                    continue
+            # Only the cues after it: one at the very same time but earlier in the track is
+            # sent first, which is fine.
+            for other in cues[i + 1:last]:
                 if not self.is_motion(other, profile):
                     continue
                 if getattr(other, "interrupts", False):
@@ -256,18 +254,22 @@ class _Checker:
                     osrc.origin, osrc,
                 )
 
-    def check_actions_cut_moves(self, cues: tuple[Cue, ...], profile: Profile) -> None:
+    def check_actions_cut_moves(
+        self, cues: tuple[Cue, ...], writes_all: list[_Write], profile: Profile
+    ) -> None:
         """An action that starts while a move or a timed walk still runs cuts it short.
 
         (The robot drops whatever it was following when an action starts, and the compiler
-        stops sampling there too.) One sweep in time order: writes that started before the
+        stops sampling there too.) One sweep in time order: moves that started before the
         action enter a heap by end time; those over by the action's start leave it.
         """
-        writes = sorted(
-            (w for w in self.writes(cues)
-             if w.end > w.start + _EPS and self.is_motion(w.cue, profile)),
-            key=lambda w: w.start,
-        )
+        # One write per cue stands for it (a cue's writes share its start and end), in track
+        # order, so by start time.
+        first: dict[int, _Write] = {}
+        for w in writes_all:
+            if w.end > w.start + _EPS:
+                first.setdefault(id(w.cue), w)
+        writes = [w for w in first.values() if self.is_motion(w.cue, profile)]
         running: list[tuple[float, int, _Write]] = []
         k = 0
         for act in cues:  # sorted by start
@@ -281,11 +283,7 @@ class _Checker:
             if act.interrupts:
                 continue
             asrc = self.res.source(act)
-            reported: set[int] = set()
             for _, _, w in sorted(running, key=lambda item: item[1]):
-                if id(w.cue) in reported:
-                    continue
-                reported.add(id(w.cue))
                 self.error(
                     f"action {act.name!r} starts at {_fmt(act.start)} while the cue at "
                     f"{_where(w.source.origin)} still moves the robot ({_fmt(w.start)} to "
