@@ -64,8 +64,9 @@ def salvage_show(data: dict[str, object]) -> Salvage | None:
     return None
 
 
-def _pop(mapping: dict[str, object], key: str | int) -> bool:
-    if key in mapping:
+def _pop(mapping: object, key: str | int | None) -> bool:
+    """Delete ``mapping[key]`` when ``mapping`` is a mapping that holds it; whether it did."""
+    if isinstance(mapping, dict) and key in mapping:
         del mapping[key]
         return True
     return False
@@ -77,6 +78,7 @@ def _prune(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
         return False
     head = loc[0]
     sub = work.get(head) if isinstance(head, str) else None
+    entry = loc[1] if len(loc) >= 2 else None  # which setting, performer or phrase
     if head == "show":
         if work.get("show") == "?":
             return False
@@ -86,25 +88,18 @@ def _prune(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
         info.tempo_broken = True
         return _pop(work, "tempo")
     if head == "settings":
-        if len(loc) >= 2 and isinstance(sub, dict) and loc[1] in sub:
-            del sub[loc[1]]
-            return True
-        return _pop(work, "settings")
+        return _pop(sub, entry) or _pop(work, "settings")
     if head == "performers":
-        if len(loc) < 2 or not isinstance(sub, dict) or loc[1] not in sub:
+        if not _pop(sub, entry):
             return False  # no performers, nothing to check the tracks against
-        del sub[loc[1]]
-        tracks = work.get("tracks")
-        if isinstance(tracks, dict):
-            tracks.pop(loc[1], None)  # its robot is unknown: its cues cannot be checked
+        _pop(work.get("tracks"), entry)  # its robot is unknown: its cues cannot be checked
         return True
     if head == "include":
         info.phrases_incomplete = True
         return _pop(work, "include")
     if head == "phrases":
-        if len(loc) >= 2 and isinstance(sub, dict) and loc[1] in sub:
-            del sub[loc[1]]
-            info.broken_phrases.add(str(loc[1]))
+        if _pop(sub, entry):
+            info.broken_phrases.add(str(entry))
             return True
         info.phrases_incomplete = True
         return _pop(work, "phrases")
