@@ -60,6 +60,13 @@ def spot(path: Path, token: str, nth: int = 1) -> tuple[str, int, int]:
     raise AssertionError(f"{token!r} not in {path}")
 
 
+def error_at(path: Path, token: str) -> Diagnostic:
+    """The only error of the routine at ``path``, asserted to point at ``token``."""
+    (err,) = errors(path)
+    assert where(err) == spot(path, token)
+    return err
+
+
 # -- 1. parameters keep their type --------------------------------------------------------------
 
 
@@ -113,8 +120,7 @@ tracks:
   arm:
     - {phrase: wave, with: {base: 450.5}}
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "450.5")
+    err = error_at(path, "450.5")
     assert "valid integer" in err.message and "450.5" in err.message
     assert err.path == "tracks.arm[0].with.base -> phrase wave cues[0].pose[6]"
 
@@ -130,8 +136,7 @@ phrases:
 tracks:
   rex: [{phrase: nod}]
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "2.5")
+    err = error_at(path, "2.5")
     assert err.path == "phrases.nod.params.n -> phrase nod cues[0].repeat"
 
 
@@ -146,8 +151,7 @@ tracks:
     - {phrase: nod}
     - {phrase: nod, with: {depth: 99}}
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "99")
+    err = error_at(path, "99")
     assert "out of range" in err.message
     assert err.path == "tracks.rex[1].with.depth -> phrase nod cues[0].move.pitch"
 
@@ -183,8 +187,7 @@ tracks:
   arm:
     - {phrase: wave, with: {base: [1, 2]}}
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "[1, 2]")
+    err = error_at(path, "[1, 2]")
     assert "valid integer" in err.message
 
 
@@ -200,24 +203,8 @@ tracks:
       with:
         colour: [255, 0, 300]
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "[255, 0, 300]")
+    err = error_at(path, "[255, 0, 300]")
     assert "300" in err.message
-
-
-def test_negating_a_non_number_is_reported_at_the_argument(write: WriteFn) -> None:
-    path = write(MINI + """
-phrases:
-  nod:
-    params: {depth: 10}
-    cues: [{move: {pitch: -$depth}, duration: 1}]
-tracks:
-  rex:
-    - {phrase: nod, with: {depth: deep}}
-""")
-    (err,) = errors(path)
-    assert where(err) == spot(path, "deep")
-    assert "-$depth needs a number" in err.message and "'deep'" in err.message
 
 
 # -- 3. include with parameters -----------------------------------------------------------------
@@ -253,8 +240,7 @@ tracks:
   rex:
     - {include: parts/greet.yaml}
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "parts/greet.yaml")
+    err = error_at(path, "parts/greet.yaml")
     assert "needs parameter 'height'" in err.message
 
 
@@ -265,8 +251,7 @@ tracks:
   rex:
     - {include: parts/greet.yaml, with: {height: 100, lok: 5}}
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "lok")
+    err = error_at(path, "lok")
     assert "did you mean 'look'" in err.message and "parameters: height, look" in err.message
 
 
@@ -288,8 +273,7 @@ tracks:
   rex:
     - {include: parts/greet.yaml, with: {height: 300}}
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "300")
+    err = error_at(path, "300")
     assert err.path == "tracks.rex[0].with.height -> include parts/greet.yaml cues[0].move.body_z"
 
 
@@ -447,8 +431,7 @@ phrases:
 tracks:
   arm: [{phrase: outer, with: {x: 300}}]
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "[$x, 0]")
+    err = error_at(path, "[$x, 0]")
     assert err.path == "phrases.outer.cues[0].with.b -> phrase inner cues[0].pose[6]"
 
 
@@ -516,8 +499,13 @@ tracks:
     ]
 
 
-@pytest.mark.parametrize("value", ["{a: 1}", "true", "[1, x]", "[]"])
-def test_negating_anything_else_is_an_error(write: WriteFn, value: str) -> None:
+@pytest.mark.parametrize(("value", "shown"), [
+    ("deep", "'deep'"), ("{a: 1}", "{'a': 1}"), ("true", "True"), ("[1, x]", "[1, 'x']"),
+    ("[]", "[]"),
+])
+def test_negating_a_non_number_is_reported_at_the_argument(
+    write: WriteFn, value: str, shown: str
+) -> None:
     path = write(MINI + f"""
 phrases:
   nod:
@@ -526,8 +514,8 @@ phrases:
 tracks:
   rex: [{{phrase: nod, with: {{d: {value}}}}}]
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, value) and "-$d needs a number" in err.message
+    err = error_at(path, value)
+    assert "-$d needs a number" in err.message and shown in err.message
 
 
 def test_a_mapping_parameter_and_an_error_inside_it(write: WriteFn) -> None:
@@ -543,8 +531,7 @@ tracks:
     (move,) = cues(load_show(good), "rex")
     assert isinstance(move, MotionCue) and move.targets == {"body_z": 100, "pitch": 5}
     path = write(body + "    - {phrase: go, with: {target: {body_z: 500}}}\n")
-    (err,) = errors(path)
-    assert where(err) == spot(path, "500")
+    err = error_at(path, "500")
     assert err.path == "tracks.rex[0].with.target.body_z -> phrase go cues[0].move.body_z"
 
 
@@ -593,8 +580,7 @@ phrases:
 tracks:
   rex: [{phrase: p}, {phrase: p, with: {h: 300}}]
 """)
-    (err,) = errors(path)
-    assert where(err) == spot(path, "300")
+    err = error_at(path, "300")
     assert err.path == ("tracks.rex[1].with.h -> phrase p cues[0].with.height -> include "
                         "parts/greet.yaml cues[0].move.body_z")
 
