@@ -24,6 +24,11 @@ show: T
 tempo: {bpm: 120}
 performers:
   bob: {model: rider}"""
+TEMPO_CHANGE = """
+show: T
+tempo: [{bar: 1, bpm: 120}, {bar: 3, bpm: 60, beats_per_bar: 3}]
+performers:
+  rex: {model: mini}"""  # 4/4 at 120 bpm for bars 1-2 (4 s), then 3/4 at 60 bpm
 
 
 def cues(show: ResolvedShow, performer: str = "rex") -> tuple[object, ...]:
@@ -252,11 +257,7 @@ tracks:
 
 
 def test_tempo_map_converts_beats_across_changes(write: WriteFn) -> None:
-    path = write("""
-show: T
-tempo: [{bar: 1, bpm: 120}, {bar: 3, bpm: 60, beats_per_bar: 3}]
-performers:
-  rex: {model: mini}
+    path = write(TEMPO_CHANGE + """
 tracks:
   rex:
     - {at: "3.1", move: {pitch: 5}, beats: 1}
@@ -517,11 +518,7 @@ tracks:
 
 
 def test_resolved_show_carries_the_tempo_map(write: WriteFn) -> None:
-    path = write("""
-show: T
-tempo: [{bar: 1, bpm: 120}, {bar: 3, bpm: 60, beats_per_bar: 3}]
-performers:
-  rex: {model: mini}
+    path = write(TEMPO_CHANGE + """
 tracks:
   rex: [{action: stand_up}]
 """)
