@@ -18,7 +18,7 @@ XGO = Link(115200, 0.001)
 
 def _planned(t_us: int, nbytes: int, *, droppable: bool = False) -> PlannedFrame:
     data = write_frame(0x40, bytes(nbytes))
-    w = Write(t_us, 0x40, bytes(nbytes), None, 0, droppable)
+    w = Write(0x40, bytes(nbytes), None, 0, droppable)
     return PlannedFrame(t_us, data, ((0x40, bytes(nbytes)),), (w,), None, 0, droppable, False)
 
 
@@ -134,7 +134,7 @@ def test_show_gap_overrides_profile_gap(make_show, o) -> None:  # type: ignore[n
 
 def _sample_frame(t_us: int, address: int, value: int) -> PlannedFrame:
     data = bytes((value,))
-    w = Write(t_us, address, data, None, 0, True)
+    w = Write(address, data, None, 0, True)
     return PlannedFrame(t_us, write_frame(address, data), ((address, data),), (w,), None, 0,
                         True, False)
 

@@ -69,9 +69,8 @@ def first_tick(t: float, rate: float) -> int:
 
 
 class Write(NamedTuple):
-    """One register's bytes to send at ``t_us``."""
+    """One register's bytes to send (at the tick it is filed under)."""
 
-    t_us: int
     address: int
     data: bytes
     origin: Origin | None
@@ -133,11 +132,11 @@ class _Source:
         # sent/known dictionaries are only told later. None otherwise.
         self.prev: bytes | None = None
 
-    def writes(self, t_us: int, sample: bytes) -> list[Write]:
+    def writes(self, sample: bytes) -> list[Write]:
         """The sample as one Write per register (for ticks other cues write too)."""
         origin, order = self.origin, self.order
         return [
-            Write(t_us, address, sample[b:e], origin, order, True)
+            Write(address, sample[b:e], origin, order, True)
             for address, (b, e) in zip(self.addresses, self.spans, strict=True)
         ]
 
@@ -151,12 +150,12 @@ class _Samples(list[tuple[_Source, bytes]]):
 _Entry = tuple[_Source, bytes] | _Samples | list[Write]
 
 
-def _entry_writes(t_us: int, entry: _Entry) -> list[Write]:
+def _entry_writes(entry: _Entry) -> list[Write]:
     """Any tick entry as a list of Writes."""
     if isinstance(entry, tuple):
-        return entry[0].writes(t_us, entry[1])
+        return entry[0].writes(entry[1])
     if isinstance(entry, _Samples):
-        return [w for src, sample in entry for w in src.writes(t_us, sample)]
+        return [w for src, sample in entry for w in src.writes(sample)]
     return entry
 
 
@@ -252,7 +251,7 @@ class _Merger:
             for address, (b, e), changed in zip(src.addresses, src.spans, mask, strict=True):
                 owner[address] = (ci, b, e)
                 if changed:
-                    writes.append(Write(0, address, sample[b:e], src.origin, src.order, True))
+                    writes.append(Write(address, sample[b:e], src.origin, src.order, True))
         if not writes:
             return ()
         writes.sort(key=_address)
@@ -532,7 +531,7 @@ class _XgoPlanner:
         if entry is None:
             self.ticks[t_us] = writes
             return
-        bucket = _entry_writes(t_us, entry)
+        bucket = _entry_writes(entry)
         if bucket is entry:
             bucket.extend(writes)
         else:
@@ -558,7 +557,7 @@ class _XgoPlanner:
             else:
                 entry.append((src, sample))
                 return
-        self._emit(t_us, src.writes(t_us, sample))
+        self._emit(t_us, src.writes(sample))
 
     def _take_over(self, name: str, t: float) -> DofState | None:
         """A cue writes ``name`` at ``t``: stop sampling a move still running on it.
@@ -584,7 +583,7 @@ class _XgoPlanner:
         try:
             for reg, value in regs:
                 data = reg.encode_value(value)
-                writes.append(Write(t_us, reg.address, data, cue.origin, order, False))
+                writes.append(Write(reg.address, data, cue.origin, order, False))
                 self._take_over(reg.name, cue.start)
                 if reg.linear and reg.size == 1 and isinstance(value, (int, float)):
                     self.commanded[reg.name] = float(value)
@@ -607,7 +606,7 @@ class _XgoPlanner:
             if reached is not None:
                 self.commanded[name] = reached.position  # the move stopped about here
         self._emit(t_us, [
-            Write(t_us, self.action_reg.address, data, cue.origin, order, False, cue.duration)
+            Write(self.action_reg.address, data, cue.origin, order, False, cue.duration)
         ])
         if cue.action_id == RESET_ACTION:
             # The reset action restores the default posture: later moves start from there.
@@ -768,7 +767,7 @@ class _XgoPlanner:
             for i, (address, table) in enumerate(spec):
                 if k <= stops[i]:
                     writes.append(new(Write, (
-                        t_us, address, BYTES[table(pos[i])], origin, order, True, 0.0
+                        address, BYTES[table(pos[i])], origin, order, True, 0.0
                     )))
             emit(t_us, writes)
 
@@ -975,7 +974,7 @@ def _frames_from_ticks(
     for t_us in sorted(ticks):
         entry = ticks[t_us]
         if details:
-            writes_tick(t_us, _entry_writes(t_us, entry),
+            writes_tick(t_us, _entry_writes(entry),
                         t_us in mixed or isinstance(entry, _Samples))
         elif isinstance(entry, tuple):  # one source's sample: nearly every tick
             src, sample = entry

@@ -58,7 +58,7 @@ def plan_xarm_track(profile: Profile, track: ResolvedTrack) -> TrackPlan:
             ))
             continue
         t_us = to_us(cue.start)
-        write = Write(t_us, 0, data, where, order, False, cue.duration)
+        write = Write(0, data, where, order, False, cue.duration)
         frames.append(PlannedFrame(
             t_us=t_us, data=data, fields=(), written=(write,), origin=where, order=order,
             droppable=False, action=False, duration=cue.duration,
