@@ -60,6 +60,7 @@ class TempoMap:
 
     @classmethod
     def constant(cls, bpm: float, beats_per_bar: int = 4) -> TempoMap:
+        """One tempo and meter for the whole show."""
         return cls([Segment(1, bpm, beats_per_bar)])
 
     def _segment_by_beat(self, beat: float) -> int:
@@ -81,9 +82,6 @@ class TempoMap:
     def beats_per_bar_at(self, t: float) -> int:
         """The meter in force at ``t`` seconds."""
         return self.segments[self._segment_by_second(t)].beats_per_bar
-
-    def bpm_at(self, t: float) -> float:
-        return self.segments[self._segment_by_second(t)].bpm
 
     def position_beats(self, bar: int, beat: float) -> float:
         """Bar/beat (1-based; beat may be fractional) -> absolute beat count."""
