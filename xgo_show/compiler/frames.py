@@ -221,8 +221,9 @@ class _Merger:
     ) -> None:
         self.layout = layout
         self.link = link
-        self.gap = gap
         self.action_address = action_address
+        # Link time a frame costs beyond its data: its framing bytes plus the silence after.
+        self.frame_cost_us = (link.wire_time(MIN_LENGTH) + gap) * 1_000_000
         self.plans: dict[tuple[int, ...], tuple[_FramePlan, ...]] = {}
         self.sample_plans: dict[object, tuple[_SampleFrame, ...]] = {}
 
@@ -304,7 +305,7 @@ class _Merger:
 
     def _plan(self, ordered: Sequence[Write], known: Mapping[int, bytes]) -> tuple[_FramePlan, ...]:
         layout, link = self.layout, self.link
-        frame_cost = layout.frame_cost_us(link, self.gap)
+        frame_cost = self.frame_cost_us
         first = ordered[0]
         runs: list[list[tuple[int, int, int]]] = [[(first.address, 0, len(first.data))]]
         run_len = len(first.data)

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 from xgo_show.compiler.bytetable import ByteTable
 from xgo_show.errors import ProfileError
-from xgo_show.profiles.model import Access, Link, Profile, Register
-from xgo_show.wire.xgo import MIN_LENGTH
+from xgo_show.profiles.model import Access, Profile, Register
 
 __all__ = ["FILLER_GROUPS", "Layout"]
 
@@ -29,7 +28,6 @@ class Layout:
         self.by_name: dict[str, Register] = {r.name: r for r in profile.registers}
         self._walks: dict[tuple[int, int], tuple[Register, ...] | None] = {}
         self._tables: dict[str, ByteTable] = {}
-        self._costs: dict[tuple[int, int, float], float] = {}
 
     def register(self, name: str) -> Register:
         """The register called ``name`` (ProfileError listing valid names otherwise)."""
@@ -52,14 +50,6 @@ class Layout:
         if table is None:
             table = self._tables[reg.name] = ByteTable(reg)
         return table
-
-    def frame_cost_us(self, link: Link, gap: float) -> float:
-        """Link time a frame costs beyond its data: 8 bytes of framing plus the silence."""
-        key = (link.baud, link.bits_per_byte, gap)
-        cost = self._costs.get(key)
-        if cost is None:
-            cost = self._costs[key] = (link.wire_time(MIN_LENGTH) + gap) * 1_000_000
-        return cost
 
     def can_fill(self, reg: Register) -> bool:
         """Whether ``reg`` may be re-sent with its current value to bridge a gap."""
