@@ -382,6 +382,26 @@ tracks:
     assert [e.message.split("while the cue at ")[1][:7] for e in cut] == ["line 7 ", "line 8 "]
 
 
+def test_a_move_sent_with_an_action_is_cut_before_it_begins(write: WriteFn) -> None:
+    # Same start time: whichever comes second in the track cuts the other.
+    move_first = write(MINI + """
+tracks:
+  rex:
+    - {at: 1, move: {pitch: 10}, duration: 2}
+    - {at: 1, action: wave}
+""")
+    (err,) = errors(move_first)
+    assert "action 'wave' starts at 1.000 s while the cue at line 7" in err.message
+    action_first = write(MINI + """
+tracks:
+  rex:
+    - {at: 1, action: wave}
+    - {at: 1, move: {pitch: 10}, duration: 2}
+""")
+    (err,) = errors(action_first)
+    assert "starts at 1.000 s while action 'wave'" in err.message
+
+
 def test_led_writes_do_not_interrupt_actions(write: WriteFn) -> None:
     path = write(RIDER + """
 tracks:

@@ -260,24 +260,22 @@ class _Checker:
         """An action that starts while a move or a timed walk still runs cuts it short.
 
         (The robot drops whatever it was following when an action starts, and the compiler
-        stops sampling there too.) One sweep in time order: moves that started before the
-        action enter a heap by end time; those over by the action's start leave it.
+        stops sampling there too.) A move sent just before the action, at the same time, is
+        cut before it begins. One sweep in track order: moves enter a heap by end time; those
+        over by an action's start leave it.
         """
-        # One write per cue stands for it (a cue's writes share its start and end), in track
-        # order, so by start time.
-        first: dict[int, _Write] = {}
+        # One write per cue stands for it (a cue's writes share its start and end).
+        moving: dict[int, _Write] = {}
         for w in writes_all:
-            if w.end > w.start + _EPS:
-                first.setdefault(id(w.cue), w)
-        writes = [w for w in first.values() if self.is_motion(w.cue, profile)]
+            if w.end > w.start + _EPS and id(w.cue) not in moving:
+                moving[id(w.cue)] = w
         running: list[tuple[float, int, _Write]] = []
-        k = 0
-        for act in cues:  # sorted by start
+        for order, act in enumerate(cues):  # sorted by start
             if not isinstance(act, ActionCue):
+                move = moving.get(id(act))
+                if move is not None and self.is_motion(act, profile):
+                    heapq.heappush(running, (move.end, order, move))
                 continue
-            while k < len(writes) and writes[k].start < act.start - _EPS:
-                heapq.heappush(running, (writes[k].end, k, writes[k]))
-                k += 1
             while running and running[0][0] <= act.start + _EPS:
                 heapq.heappop(running)
             if act.interrupts:
