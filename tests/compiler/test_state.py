@@ -133,3 +133,28 @@ def test_frames_to_reach_skips_initial_values_and_merges() -> None:
     frames = frames_to_reach(MINI, {"body_z": b"\x90", "pitch": b"\x70"})
     (frame,) = frames
     assert frame.data == write_frame(0x35, b"\x90\x80\x70")  # roll bridged with its initial
+
+
+def test_compiled_frames_are_what_the_constructor_makes(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    # compile_show fills a ScheduledFrame's __dict__ directly (its constructor costs too much
+    # per frame): that holds only while the dataclass is these fields, set by a plain
+    # __init__, with the lazy label. A new field, __slots__ or __post_init__ must fail here.
+    from dataclasses import fields
+
+    from xgo_show.compiler import ScheduledFrame
+
+    names = [f.name for f in fields(ScheduledFrame)]
+    assert not hasattr(ScheduledFrame, "__slots__")
+    assert not hasattr(ScheduledFrame, "__post_init__")
+    show = make_show({"rex": ("mini", [
+        SetCue(0.0, o("setup", 2), {"gait": "walk"}),
+        MotionCue(0.1, o("crouch", 3), {"body_z": 90.0, "pitch": 8.0}, duration=0.8),
+        ActionCue(1.0, o("wave", 4), 13, "wave", 7.0),
+    ])})
+    frames = compile_show(show).performers[0].frames
+    assert len(frames) > 3
+    for f in frames:
+        assert list(vars(f)) == names
+        label = format_fields(MINI, describe_frame(MINI, f.data))
+        made = ScheduledFrame(f.t, f.data, f.origin, label, f.duration)
+        assert f == made and vars(f) == vars(made)

@@ -7,7 +7,6 @@ for frame and byte for byte. Errors are collected over the whole show and raised
 from __future__ import annotations
 
 import gc
-from dataclasses import fields
 
 from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
 from xgo_show.compiler.frames import (
@@ -148,19 +147,16 @@ def _compile_track(
     labels = FrameLabels(profile)
     frames: list[ScheduledFrame] = []
     append = frames.append
-    if _FAST_SF:
-        new_frame = object.__new__
-        for start_us, f in paced.frames:
-            frame = new_frame(ScheduledFrame)
-            # What the frozen dataclass's __init__ would set, without its per-field
-            # object.__setattr__ (most of the cost of a few hundred thousand frames).
-            frame.__dict__.update(t=start_us / 1_000_000, data=f.data, origin=f.origin,
-                                  label=labels, duration=f.duration)
-            append(frame)
-    else:
-        for start_us, f in paced.frames:
-            append(ScheduledFrame(start_us / 1_000_000, f.data, f.origin, labels(f.data),
-                                  f.duration))
+    new_frame = object.__new__
+    for start_us, f in paced.frames:
+        frame = new_frame(ScheduledFrame)
+        # What the frozen dataclass's __init__ would set, without its per-field
+        # object.__setattr__ (most of the cost of a few hundred thousand frames). Valid while
+        # ScheduledFrame is a plain dataclass of these fields with its lazy label: a test
+        # (test_state.py) fails the day it is not.
+        frame.__dict__.update(t=start_us / 1_000_000, data=f.data, origin=f.origin,
+                              label=labels, duration=f.duration)
+        append(frame)
     end = plan.end if show.end is None else show.end
     if frames:
         end = max(end, frames[-1].t)
@@ -170,12 +166,3 @@ def _compile_track(
     )
     return performer, errors, warnings
 
-
-# The direct construction above only while ScheduledFrame stays a plain frozen dataclass with
-# these fields, without __slots__ or __post_init__, and with its lazy label; else the constructor.
-_FAST_SF = (
-    tuple(f.name for f in fields(ScheduledFrame)) == ("t", "data", "origin", "label", "duration")
-    and not hasattr(ScheduledFrame, "__slots__")
-    and not hasattr(ScheduledFrame, "__post_init__")
-    and hasattr(ScheduledFrame.__dict__.get("label"), "__set__")
-)
