@@ -54,12 +54,17 @@ def build_show(minutes: float = 10.0, performers: int = 10, rate: float = 50.0) 
     return ResolvedShow("benchmark", "bench.yaml", tuple(tracks), control_rate=rate)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--minutes", type=float, default=10.0)
+def show_arguments(doc: str, minutes: float) -> argparse.Namespace:
+    """The benchmark show's size from the command line (also wire_bytes.py's)."""
+    parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    parser.add_argument("--minutes", type=float, default=minutes)
     parser.add_argument("--performers", type=int, default=10)
     parser.add_argument("--rate", type=float, default=50.0)
-    args = parser.parse_args()
+    return parser.parse_args()
+
+
+def main() -> None:
+    args = show_arguments(__doc__, 10.0)
     show = build_show(args.minutes, args.performers, args.rate)
     cues = sum(len(t.cues) for t in show.tracks)
     t0, c0 = time.perf_counter(), time.process_time()

@@ -15,14 +15,13 @@ Usage::
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from compile_speed import build_show
+from compile_speed import build_show, show_arguments
 
 from xgo_show.choreo.resolved import FadeCue, MotionCue, ResolvedShow
 from xgo_show.compiler import compile_show
@@ -76,11 +75,7 @@ def one_changed_register_per_frame(schedule: Schedule) -> int:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--minutes", type=float, default=2.0)
-    parser.add_argument("--performers", type=int, default=10)
-    parser.add_argument("--rate", type=float, default=50.0)
-    args = parser.parse_args()
+    args = show_arguments(__doc__, 2.0)
     show = build_show(args.minutes, args.performers, args.rate)
     schedule = compile_show(show)
     ours = sum(p.total_bytes for p in schedule.performers)
