@@ -38,8 +38,9 @@ def compile_show(show: ResolvedShow) -> Schedule:
     loader's, and decimation) are in ``Schedule.warnings``.
     """
     # The compiler allocates millions of small objects and frees none until it returns: the
-    # cyclic garbage collector would rescan them over and over for nothing (it roughly doubles
-    # the compile time of a long show). Restored on the way out.
+    # cyclic garbage collector would rescan them over and over for nothing (with it on,
+    # benchmarks/compile_speed.py's show takes 2.7 s of CPU instead of 1.6 s). Restored on the
+    # way out.
     was_enabled = gc.isenabled()
     gc.disable()
     try:
