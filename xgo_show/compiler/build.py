@@ -10,7 +10,6 @@ import gc
 
 from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
 from xgo_show.compiler.frames import (
-    ACTION_REGISTER,
     PlannedFrame,
     TrackPlan,
     Write,
@@ -19,6 +18,7 @@ from xgo_show.compiler.frames import (
     plan_xgo_track,
     to_us,
 )
+from xgo_show.compiler.layout import ACTION_REGISTER
 from xgo_show.compiler.pacing import PaceResult, pace
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
 from xgo_show.compiler.state import FrameLabels, layout_of

@@ -24,7 +24,7 @@ from operator import ne
 from typing import NamedTuple
 
 from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
-from xgo_show.compiler.layout import Layout
+from xgo_show.compiler.layout import ACTION_REGISTER, Layout
 from xgo_show.compiler.trajectory import (
     DofState,
     InfeasibleMotion,
@@ -47,7 +47,6 @@ __all__ = [
     "to_us",
 ]
 
-ACTION_REGISTER = "action"
 BYTES = tuple(bytes((i,)) for i in range(256))
 RESET_ACTION = 255  # restores the default posture (Profile.default_posture)
 _EPS = 1e-9

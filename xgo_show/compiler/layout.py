@@ -11,7 +11,10 @@ from xgo_show.compiler.bytetable import ByteTable
 from xgo_show.errors import ProfileError
 from xgo_show.profiles.model import Access, Profile, Register
 
-__all__ = ["FILLER_GROUPS", "Layout"]
+__all__ = ["ACTION_REGISTER", "FILLER_GROUPS", "Layout"]
+
+# The register that starts a preset action (XGO dogs): it takes the robot over.
+ACTION_REGISTER = "action"
 
 # Registers that only hold state (re-sending the value they already hold changes nothing), so
 # the compiler may re-send them to bridge a gap between two registers it writes in one frame.

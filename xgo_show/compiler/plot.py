@@ -10,8 +10,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from xgo_show.compiler.layout import ACTION_REGISTER
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
-from xgo_show.compiler.state import ACTION_KEY, describe_frame, format_value
+from xgo_show.compiler.state import describe_frame, format_value
 from xgo_show.errors import XgoShowError
 from xgo_show.profiles.model import Encoding, Profile
 from xgo_show.profiles.registry import get_profile
@@ -69,7 +70,7 @@ def _draw_xgo(ax: Any, profile: Profile, performer: PerformerSchedule, end: floa
     encodings = {r.name: r.encoding for r in profile.registers}
     for frame in performer.frames:
         for name, value in describe_frame(profile, frame.data):
-            if name == ACTION_KEY:
+            if name == ACTION_REGISTER:
                 actions.append((frame.t, frame.duration,
                                 format_value(profile, name, value)))
             elif encodings.get(name) is Encoding.RGB and isinstance(value, tuple):

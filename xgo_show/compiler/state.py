@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-from xgo_show.compiler.layout import Layout
+from xgo_show.compiler.layout import ACTION_REGISTER, Layout
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
 from xgo_show.errors import ProtocolError
 from xgo_show.profiles.model import Link, Profile, Register
@@ -23,7 +23,6 @@ from xgo_show.profiles.registry import get_profile
 from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, decode_one, write_frame
 
 __all__ = [
-    "ACTION_KEY",
     "FrameLabels",
     "describe_frame",
     "format_fields",
@@ -32,7 +31,6 @@ __all__ = [
     "state_at",
 ]
 
-ACTION_KEY = "action"
 _LAYOUTS: dict[str, Layout] = {}
 
 
@@ -95,7 +93,7 @@ def format_value(profile: Profile, name: str, value: object) -> str:
         return "#" + "".join(f"{int(c):02X}" for c in value)
     if isinstance(value, bytes):
         return value.hex()
-    if name == ACTION_KEY and isinstance(value, int):
+    if name == ACTION_REGISTER and isinstance(value, int):
         for act in profile.actions:
             if act.id == value:
                 return f"{value}({act.name})"
@@ -177,10 +175,10 @@ def state_at(performer: PerformerSchedule, t: float) -> dict[str, bytes]:
         address, payload = _xgo_write(frame.data)
         for reg, raw in _fields(layout_of(profile), address, payload):
             state[reg.name] = bytes(raw)
-            if reg.name == ACTION_KEY:
+            if reg.name == ACTION_REGISTER:
                 action_until = frame.t + frame.duration
-    if ACTION_KEY in state and (action_until is None or t >= action_until):
-        del state[ACTION_KEY]
+    if ACTION_REGISTER in state and (action_until is None or t >= action_until):
+        del state[ACTION_REGISTER]
     return state
 
 
@@ -212,7 +210,7 @@ def frames_to_reach(
     for name in sorted(state, key=lambda n: layout.register(n).address):
         reg = layout.register(name)
         raw = bytes(state[name])
-        if name == ACTION_KEY:
+        if name == ACTION_REGISTER:
             action = raw
             continue
         if not reg.access.writable or reg.unsafe or raw == reg.initial:
@@ -222,8 +220,8 @@ def frames_to_reach(
     for address, data in _runs(layout, wanted):
         wire = write_frame(address, data, write_type=profile.write_type)
         frames.append(_reach_frame(profile, wire))
-    if action is not None and ACTION_KEY in layout.by_name:
-        reg = layout.by_name[ACTION_KEY]
+    if action is not None and ACTION_REGISTER in layout.by_name:
+        reg = layout.by_name[ACTION_REGISTER]
         wire = write_frame(reg.address, action, write_type=profile.write_type)
         frames.append(_reach_frame(profile, wire))
     return frames
