@@ -84,7 +84,8 @@ class PlannedFrame(NamedTuple):
     t_us: int
     data: bytes  # complete wire bytes
     # Every field in the frame, (address, bytes), and what the plan asked for (the gap fillers
-    # are not there). Both empty in sample frames planned without details (plan_xgo_track).
+    # are not there). Both empty in sample frames planned without details (plan_xgo_track)
+    # and in xArm frames: pacing reads them only when decimating, and an xArm has no samples.
     fields: tuple[tuple[int, bytes], ...]
     written: tuple[Write, ...]
     origin: Origin | None

@@ -7,7 +7,7 @@ one packet per cue. Other cues make no sense for an arm and are errors.
 from __future__ import annotations
 
 from xgo_show.choreo.resolved import ArmCue, ResolvedTrack
-from xgo_show.compiler.frames import PlannedFrame, TrackPlan, Write, cue_label, to_us
+from xgo_show.compiler.frames import PlannedFrame, TrackPlan, cue_label, to_us
 from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import XgoShowError
 from xgo_show.profiles.model import Profile
@@ -58,9 +58,8 @@ def plan_xarm_track(profile: Profile, track: ResolvedTrack) -> TrackPlan:
             ))
             continue
         t_us = to_us(cue.start)
-        write = Write(0, data, where, order, False, cue.duration)
         frames.append(PlannedFrame(
-            t_us=t_us, data=data, fields=(), written=(write,), origin=where, order=order,
+            t_us=t_us, data=data, fields=(), written=(), origin=where, order=order,
             droppable=False, action=False, duration=cue.duration,
         ))
         end = max(end, cue.start + cue.duration)
