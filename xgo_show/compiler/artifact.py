@@ -52,6 +52,7 @@ from xgo_show.compiler.schedule import (
     PerformerSchedule,
     Schedule,
     ScheduledFrame,
+    to_us,
 )
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProtocolError, XgoShowError
@@ -70,10 +71,6 @@ __all__ = [
 ]
 
 FORMAT = "xgo-show-schedule"
-
-
-def _us(seconds: float) -> int:
-    return round(seconds * 1_000_000)
 
 
 def _dump(value: object) -> str:
@@ -101,17 +98,17 @@ def dumps_schedule(schedule: Schedule) -> str:
     for p in schedule.performers:
         frames = [
             _dump({
-                "t_us": _us(f.t), "hex": f.data.hex(), "origin": ref(f.origin),
-                "label": f.label, "duration_us": _us(f.duration),
+                "t_us": to_us(f.t), "hex": f.data.hex(), "origin": ref(f.origin),
+                "label": f.label, "duration_us": to_us(f.duration),
             })
             for f in p.frames
         ]
         body = ",\n    ".join(frames)
         items = {
-            "end_us": _dump(_us(p.end)),
+            "end_us": _dump(to_us(p.end)),
             "frames": f"[\n    {body}\n   ]" if frames else "[]",
             "link": _dump({"baud": p.link.baud, "bits_per_byte": p.link.bits_per_byte,
-                           "gap_us": _us(p.link.gap)}),
+                           "gap_us": to_us(p.link.gap)}),
             "model": _dump(p.model),
             "name": _dump(p.name),
             "port": _dump(p.port),

@@ -25,6 +25,7 @@ from typing import NamedTuple
 
 from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
 from xgo_show.compiler.layout import ACTION_REGISTER, Layout
+from xgo_show.compiler.schedule import to_us
 from xgo_show.compiler.trajectory import (
     DofState,
     InfeasibleMotion,
@@ -50,11 +51,6 @@ __all__ = [
 BYTES = tuple(bytes((i,)) for i in range(256))
 RESET_ACTION = 255  # restores the default posture (Profile.default_posture)
 _EPS = 1e-9
-
-
-def to_us(seconds: float) -> int:
-    """Seconds -> integer microseconds (round half to even, deterministic)."""
-    return round(seconds * 1_000_000)
 
 
 def tick_us(k: int, rate: float) -> int:

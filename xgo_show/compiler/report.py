@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from xgo_show.compiler.schedule import PerformerSchedule, Schedule
+from xgo_show.compiler.schedule import PerformerSchedule, Schedule, to_us
 from xgo_show.compiler.state import link_use
 
 __all__ = ["PerformerTotals", "totals", "totals_table", "transcript"]
@@ -53,7 +53,7 @@ def totals(schedule: Schedule) -> list[PerformerTotals]:
 
 
 def _us_text(seconds: float) -> str:
-    us = round(seconds * 1_000_000)
+    us = to_us(seconds)
     return f"{us // 1_000_000}.{us % 1_000_000:06d}"
 
 
@@ -84,7 +84,7 @@ def transcript(schedule: Schedule) -> str:
     entries = []
     for pi, p in enumerate(schedule.performers):
         for fi, f in enumerate(p.frames):
-            entries.append((round(f.t * 1_000_000), pi, fi, p.name, f))
+            entries.append((to_us(f.t), pi, fi, p.name, f))
     entries.sort(key=lambda e: (e[0], e[1], e[2]))
     width = max((len(p.name) for p in schedule.performers), default=0)
     lines = [

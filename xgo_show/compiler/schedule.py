@@ -12,9 +12,14 @@ from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.profiles.model import Link
 
-__all__ = ["SCHEDULE_VERSION", "PerformerSchedule", "Schedule", "ScheduledFrame"]
+__all__ = ["SCHEDULE_VERSION", "PerformerSchedule", "Schedule", "ScheduledFrame", "to_us"]
 
 SCHEDULE_VERSION = 1
+
+
+def to_us(seconds: float) -> int:
+    """Seconds -> integer microseconds (round half to even, deterministic)."""
+    return round(seconds * 1_000_000)
 
 
 @dataclass(frozen=True)
