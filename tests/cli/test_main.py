@@ -41,6 +41,21 @@ def test_every_command_has_help(capsys: pytest.CaptureFixture[str]) -> None:
         assert "usage: xgo-show " + name in capsys.readouterr().out
 
 
+def test_every_command_help_ends_with_examples_kept_on_their_own_lines(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    for name in command_names():
+        with pytest.raises(SystemExit):
+            main([name, "--help"])
+        out = capsys.readouterr().out
+        head, sep, examples = out.rpartition("\nexample:\n")
+        assert sep, f"{name} --help has no example"
+        lines = examples.rstrip("\n").split("\n")
+        # The first example runs the command itself; no example was rewrapped into prose.
+        assert lines[0].startswith(f"  xgo-show {name} "), (name, lines)
+        assert all(line.startswith("  xgo-show ") for line in lines), (name, lines)
+
+
 def test_probe_sim_prints_firmware_model_battery(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["probe", "sim:mini"]) == 0
     out = capsys.readouterr().out.splitlines()

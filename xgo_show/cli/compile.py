@@ -25,6 +25,7 @@ def add_parser(sub: Any) -> None:
             "versioned JSON. Every error is listed as file:line:col. Prints per-performer "
             "totals (frames, bytes, link use) unless --quiet."
         ),
+        epilog="example:\n  xgo-show compile choreographies/hello_mini.yaml -o hello.xshow.json",
     )
     parser.add_argument("show", metavar="SHOW.yaml", help="routine file")
     parser.add_argument(

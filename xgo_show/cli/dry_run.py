@@ -31,6 +31,11 @@ def add_parser(sub: Any) -> None:
             "own pseudo-terminal, in real time (or --fast); then print what every simulated "
             "robot ended up doing."
         ),
+        epilog=(
+            "example:\n"
+            "  xgo-show dry-run choreographies/hello_mini.yaml\n"
+            "  xgo-show dry-run choreographies/mixed_five.yaml --fast --start-bar 40"
+        ),
     )
     parser.add_argument(
         "--fast",

@@ -30,6 +30,7 @@ def add_parser(sub: Any) -> None:
             "use (wire time / duration), duration and warnings. With --frames, also one line "
             "per frame: time, performer, register values and hex bytes."
         ),
+        epilog="example:\n  xgo-show inspect hello.xshow.json --frames",
     )
     parser.add_argument("file", metavar="FILE", help="routine (.yaml) or schedule (.xshow.json)")
     parser.add_argument("--frames", action="store_true", help="list every frame")

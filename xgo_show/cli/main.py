@@ -32,6 +32,18 @@ COMMANDS: tuple[str, ...] = (
 )
 
 
+class _HelpFormatter(argparse.HelpFormatter):
+    """Wraps prose as usual, but keeps each line of an epilog as written where it is indented
+    (the examples), so a command line is never rewrapped into the prose around it."""
+
+    def _fill_text(self, text: str, width: int, indent: str) -> str:
+        fill = super()._fill_text
+        return "\n".join(
+            indent + line if line.startswith(" ") else fill(line, width, indent)
+            for line in text.split("\n")
+        )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="xgo-show",
@@ -43,6 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
     for name in COMMANDS:
         module = importlib.import_module(f"xgo_show.cli.{name}")
         module.add_parser(sub)
+    for command in sub.choices.values():
+        command.formatter_class = _HelpFormatter
     return parser
 
 

@@ -30,6 +30,7 @@ def add_parser(sub: Any) -> None:
             "(sim:mini, sim:lite, sim:rider, sim:xarm) or the pty path `xgo-show simulate` "
             "prints; prefix hex+ to log the traffic."
         ),
+        epilog="example:\n  xgo-show probe /dev/ttyUSB0\n  xgo-show probe sim:rider --timeout 2",
     )
     parser.add_argument("port", metavar="PORT", help="serial device, URL or sim:<model>")
     parser.add_argument(

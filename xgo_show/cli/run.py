@@ -63,7 +63,10 @@ def add_parser(sub: Any) -> None:
         epilog=(
             "While the show runs, Ctrl-Z pauses it (robots held at rest) and a second Ctrl-Z "
             "resumes it. Exit status: 0 the show completed; 2 an error, a failed pre-flight or "
-            "a fault (every robot was safe-stopped); 130 interrupted by Ctrl-C or SIGTERM."
+            "a fault (every robot was safe-stopped); 130 interrupted by Ctrl-C or SIGTERM.\n\n"
+            "example:\n"
+            "  xgo-show run choreographies/hello_mini.yaml --map rex=/dev/ttyUSB0\n"
+            "  xgo-show run choreographies/mixed_five.yaml --sim --start-bar 40"
         ),
     )
     parser.add_argument(

@@ -32,6 +32,11 @@ def add_parser(sub: Any) -> None:
             "(xgo-show itself, the vendor's xgolib) can open. Prints the terminal path as the "
             "first line of output and runs until interrupted (Ctrl-C)."
         ),
+        epilog=(
+            "example:\n"
+            "  xgo-show simulate --model lite    # prints its path, e.g. /dev/pts/3\n"
+            "  xgo-show probe /dev/pts/3         # in another terminal"
+        ),
     )
     parser.add_argument(
         "--model", required=True, choices=sorted(MODELS), help="robot model to simulate"

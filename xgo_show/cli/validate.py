@@ -29,6 +29,7 @@ def add_parser(sub: Any) -> None:
             "file:line:col: severity: path: message, then a summary per file. Exits 1 when "
             "any file has an error, 0 otherwise (warnings are shown but do not fail)."
         ),
+        epilog="example:\n  xgo-show validate choreographies/*.yaml",
     )
     parser.add_argument("files", nargs="+", metavar="FILE", help="routine YAML file(s)")
     parser.add_argument(
