@@ -374,9 +374,7 @@ class _Merger:
             data = b"".join([d for _, d in fields])
             if len(data) != run.nbytes:
                 return None
-            wire = b"".join((
-                run.prefix, data, BYTES[~(run.check_base + sum(data)) & 0xFF], TAIL
-            ))
+            wire = _wire(run.prefix, run.check_base, data)
             written = tuple([ordered[i] for i in run.writes])
             lead = written[0]
             if uniform:
@@ -402,6 +400,14 @@ class _Merger:
                 duration,
             )))
         return frames
+
+
+def _wire(prefix: bytes, check_base: int, data: bytes) -> bytes:
+    """A planned frame's wire bytes: its header (from a merge plan), data, checksum, tail.
+
+    ``check_base`` is the checksum's part that is not data (length + type + address).
+    """
+    return b"".join((prefix, data, BYTES[~(check_base + sum(data)) & 0xFF], TAIL))
 
 
 def _frame_order(f: PlannedFrame) -> tuple[int, int]:
@@ -896,7 +902,7 @@ class _TickFrames:
             lead = sources[f.lead]
             append(new(PlannedFrame, (
                 t_us,
-                b"".join((f.prefix, data, BYTES[~(f.check_base + sum(data)) & 0xFF], TAIL)),
+                _wire(f.prefix, f.check_base, data),
                 (), (), lead.origin, lead.order, True, False, 0.0,
             )))
         self.samples += len(plan)
@@ -988,7 +994,8 @@ def _frames_from_ticks(
             key = (src.addresses, mask)
             plan = plans.get(key)
             if plan is not None and len(plan) == 1 and (one := plan[0].one) is not None:
-                # build() for its commonest plan, inlined: one frame, one slice of the sample.
+                # build() for its commonest plan, inlined (and _wire): one frame, one slice of
+                # the sample.
                 f = plan[0]
                 data = sample[one[1]:one[2]]
                 append(new(PlannedFrame, (
