@@ -244,3 +244,6 @@ def test_inspect_reads_a_schedule_by_its_content_whatever_its_name(
     capsys.readouterr()
     assert main(["inspect", str(schedule)]) == 0
     assert capsys.readouterr().out.startswith("S: 1 performer(s)")
+    # run and dry-run read it the same way (one loader), not as a routine.
+    assert main(["dry-run", str(schedule), "--fast"]) == 0
+    assert "error" not in capsys.readouterr().err

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
+import re
 import sys
 import time
 from collections.abc import Iterator, Sequence
@@ -17,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from xgo_show.compiler.artifact import FORMAT
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import RuntimeFault, XgoShowError
 from xgo_show.profiles import get_profile
@@ -147,11 +149,16 @@ def check_options(args: argparse.Namespace) -> None:
         raise XgoShowError(f"--battery-floor {floor:g}: give a percentage from 0 to 100")
 
 
-def load_schedule_file(path: str) -> Schedule:
-    """A compiled schedule (``*.json``) or a show file compiled now."""
-    if not Path(path).is_file():
-        raise XgoShowError(f"{path}: no such file")
-    if path.endswith(".json"):
+def load_schedule_file(path: str | Path) -> Schedule:
+    """A schedule file, or a routine compiled now (``run``, ``dry-run`` and ``inspect``).
+
+    A schedule is a ``.json`` file, or JSON with the schedule format tag whatever its name (a
+    schedule saved as ``.yaml``); anything else is read as a routine.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise XgoShowError(f"{path}: {'is a directory' if path.is_dir() else 'no such file'}")
+    if path.suffix.lower() == ".json" or _is_schedule(path):
         from xgo_show.compiler import load_schedule
 
         return load_schedule(path)
@@ -159,6 +166,18 @@ def load_schedule_file(path: str) -> Schedule:
     from xgo_show.compiler import compile_show
 
     return compile_show(load_show(path))
+
+
+def _is_schedule(path: Path) -> bool:
+    """Whether the file starts as JSON carrying the schedule format tag."""
+    try:
+        with path.open(encoding="utf-8", errors="replace") as f:
+            head = f.read(4096)
+    except OSError:
+        return False  # the routine loader says what is wrong with the file
+    return head.lstrip().startswith("{") and re.search(
+        rf'"format"\s*:\s*"{re.escape(FORMAT)}"', head
+    ) is not None
 
 
 def start_offset(schedule: Schedule, seconds: float | None, bar: int | None) -> float:
