@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 
 import pytest
 
@@ -24,7 +25,7 @@ def wait_for(cond, timeout: float = 3.0) -> None:
         time.sleep(0.005)
 
 
-def settle(rig) -> None:
+def settle() -> None:
     """Give the pty servers a moment to take in the last bytes written."""
     time.sleep(0.05)
 
@@ -42,6 +43,19 @@ def run_in_thread(runner: ShowRunner) -> tuple[threading.Thread, list[ShowResult
     return th, out
 
 
+def run_until(
+    runner: ShowRunner, performer: str, sent: int, then: Callable[[], object]
+) -> ShowResult:
+    """Run the show in a thread; once ``performer`` has sent ``sent`` frames, call ``then``
+    (a stop, a pulled cable, a fall); return the show's result."""
+    th, out = run_in_thread(runner)
+    wait_for(lambda: runner.executors[performer].progress.sent >= sent)
+    then()
+    th.join(5)
+    assert out, "runner did not return"
+    return out[0]
+
+
 def test_multi_performer_schedule_arrives_complete_and_in_order(rig, perf, sched) -> None:
     schedule = sched(
         perf("rex", "mini", count=30, spacing=0.01),
@@ -51,7 +65,7 @@ def test_multi_performer_schedule_arrives_complete_and_in_order(rig, perf, sched
     rig.for_schedule(schedule)
     log = RunLog(None)
     result = ShowRunner(schedule, rig.transports, log=log).run(handle_signals=False)
-    settle(rig)
+    settle()
     assert result.completed, result.reason
     for p in schedule.performers:
         server = rig.servers[p.name]
@@ -81,13 +95,8 @@ def test_port_closed_mid_show_safe_stops_everyone(rig, sched, walking) -> None:
     rig.for_schedule(schedule)
     log = RunLog(None)
     runner = ShowRunner(schedule, rig.transports, log=log)
-    th, out = run_in_thread(runner)
-    wait_for(lambda: runner.executors["lola"].progress.sent >= 5)
-    rig.servers["lola"].close()  # the cable is pulled
-    th.join(5)
-    assert out, "runner did not return"
-    result = out[0]
-    settle(rig)
+    result = run_until(runner, "lola", 5, rig.servers["lola"].close)  # the cable is pulled
+    settle()
     assert not result.completed
     assert result.reason.startswith("fault on lola")
     assert "lola" in result.faults
@@ -115,12 +124,8 @@ def test_continue_policy_keeps_the_others_running(rig, sched, walking) -> None:
     schedule = _walkers(sched, walking, "continue")
     rig.for_schedule(schedule)
     runner = ShowRunner(schedule, rig.transports)
-    th, out = run_in_thread(runner)
-    wait_for(lambda: runner.executors["lola"].progress.sent >= 5)
-    rig.servers["lola"].close()
-    th.join(5)
-    result = out[0]
-    settle(rig)
+    result = run_until(runner, "lola", 5, rig.servers["lola"].close)
+    settle()
     assert not result.completed
     assert set(result.stops) == {"lola"}
     for name in ("rex", "rita"):
@@ -136,13 +141,13 @@ def test_fallen_rider_halts_the_show(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=2.0), walking("rita", "rider", seconds=2.0))
     rig.for_schedule(schedule)
     runner = ShowRunner(schedule, rig.transports)
-    th, out = run_in_thread(runner)
-    wait_for(lambda: runner.executors["rita"].progress.sent >= 3)
-    with rig.servers["rita"].lock:
-        rig.servers["rita"].robot.fall()  # type: ignore[attr-defined]
-    th.join(5)
-    result = out[0]
-    settle(rig)
+
+    def fall() -> None:
+        with rig.servers["rita"].lock:
+            rig.servers["rita"].robot.fall()  # type: ignore[attr-defined]
+
+    result = run_until(runner, "rita", 3, fall)
+    settle()
     assert "fallen" in result.reason
     assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
     assert rig.servers["rex"].snapshot()["actions"][-1]["id"] == 255
@@ -152,12 +157,12 @@ def test_low_battery_during_the_show_is_a_fault(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=2.0))
     rig.for_schedule(schedule)
     runner = ShowRunner(schedule, rig.transports, battery_floor=30)
-    th, out = run_in_thread(runner)
-    wait_for(lambda: runner.executors["rex"].progress.sent >= 3)
-    with rig.servers["rex"].lock:
-        rig.servers["rex"].robot.set_battery(12)  # type: ignore[attr-defined]
-    th.join(5)
-    result = out[0]
+
+    def drain() -> None:
+        with rig.servers["rex"].lock:
+            rig.servers["rex"].robot.set_battery(12)  # type: ignore[attr-defined]
+
+    result = run_until(runner, "rex", 3, drain)
     assert "battery" in result.reason and "below the floor" in result.reason
     assert result.stops["rex"].ok
 
@@ -197,7 +202,7 @@ def test_xarm_low_voltage_during_the_show_halts_everyone(rig, sched, walking) ->
     th, out = run_in_thread(runner)
     th.join(10)
     result = out[0]
-    settle(rig)
+    settle()
     assert not result.completed
     assert result.reason.startswith("fault on arm: battery ")
     assert "V is below the floor of 6.48 V" in result.reason
@@ -249,7 +254,7 @@ def test_an_exception_in_the_coordinating_thread_safe_stops_everyone(
         runner = ShowRunner(schedule, rig.transports, log=log, progress=progress, progress_hz=20)
         with pytest.raises(RuntimeError, match="progress display broke"):
             runner.run(handle_signals=False)
-    settle(rig)
+    settle()
     result = runner.result
     assert result is not None and not result.completed
     assert result.reason == "exception: RuntimeError('progress display broke')"
@@ -276,12 +281,8 @@ def test_stop_from_another_thread_is_a_safe_stop(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=2.0))
     rig.for_schedule(schedule)
     runner = ShowRunner(schedule, rig.transports)
-    th, out = run_in_thread(runner)
-    wait_for(lambda: runner.executors["rex"].progress.sent >= 3)
-    runner.stop("operator")
-    th.join(5)
-    result = out[0]
-    settle(rig)
+    result = run_until(runner, "rex", 3, lambda: runner.stop("operator"))
+    settle()
     assert result.reason == "operator"
     assert result.stops["rex"].ok and result.stops["rex"].elapsed < 0.1
     assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
@@ -300,7 +301,7 @@ def test_unsafe_register_is_refused_before_anything_moves(rig, perf, sched) -> N
     rig.for_schedule(schedule)
     with pytest.raises(UnsafeScheduleError, match="servo_zero"):
         ShowRunner(schedule, rig.transports)
-    settle(rig)
+    settle()
     assert rig.servers["rex"].robot.received == []
     found = check_unsafe(schedule, {"rex": profile}, allow_unsafe=True)
     assert len(found) == 1 and "servo_zero" in found[0]
@@ -324,7 +325,7 @@ def test_unsafe_xarm_commands_are_refused_before_anything_moves(rig, sched) -> N
     with pytest.raises(UnsafeScheduleError, match="ServoOffsetWrite") as err:
         ShowRunner(schedule, rig.transports)
     assert "arm frame 1 at 0.200s" in str(err.value) and "--allow-unsafe" in str(err.value)
-    settle(rig)
+    settle()
     assert rig.servers["arm"].robot.received == []
     found = check_unsafe(schedule, {"arm": xarm}, allow_unsafe=True)
     assert len(found) == 4
@@ -351,12 +352,8 @@ def test_xarm_gets_group_stop_when_the_show_is_stopped(rig, sched, walking) -> N
     )
     rig.for_schedule(schedule)
     runner = ShowRunner(schedule, rig.transports)
-    th, out = run_in_thread(runner)
-    wait_for(lambda: runner.executors["arm"].progress.sent >= 2)
-    runner.stop("operator")
-    th.join(5)
-    result = out[0]
-    settle(rig)
+    result = run_until(runner, "arm", 2, lambda: runner.stop("operator"))
+    settle()
     assert result.stops["arm"].ok and result.stops["arm"].frames == ("GroupStop",)
     snap = rig.servers["arm"].snapshot()
     assert len(snap["stops"]) == 1
@@ -387,7 +384,7 @@ def test_a_blocked_port_delays_no_one_else_and_ends_in_a_halt(rig, sched, walkin
         rig.transports["lola"] = blocked
         runner = ShowRunner(schedule, rig.transports, telemetry=False)
         result = runner.run(handle_signals=False)
-        settle(rig)
+        settle()
     finally:
         os.close(master)
         os.close(slave)
