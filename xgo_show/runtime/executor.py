@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import enum
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
@@ -175,6 +175,8 @@ class PerformerExecutor:
         self.log = log
         self.on_fault = on_fault
         self.rest_at_end = rest_at_end
+        # What a pause and the normal end send: the same frames every time.
+        self._rest = [(f.data, f.label) for f in rest_frames(profile)]
         self.records: list[SendRecord] = []
         self.samples: list[TelemetrySample] = []
         self.fault: str | None = None
@@ -346,7 +348,7 @@ class PerformerExecutor:
         index = next((i for i, f in enumerate(frames) if f.t >= offset - 1e-9), len(frames))
         if offset > 0 and self.reach is not None:
             self._set_state(ExecutorState.REACHING)
-            self._send_reach(offset)
+            self._send_now("reach", self.reach(offset))
         self._set_state(ExecutorState.RUNNING)
         while index < len(frames):
             if self._flags.abort.is_set():
@@ -373,11 +375,8 @@ class PerformerExecutor:
                 break
         if self._flags.abort.is_set():
             return
-        if self.rest_at_end:
-            for stop in rest_frames(self.profile):
-                self._wait(self._ready_at, polls=False)
-                if not self._write(stop.data, "rest", None, None, stop.label):
-                    return
+        if self.rest_at_end and not self._send_now("rest", self._rest):
+            return
         self._set_state(ExecutorState.FINISHED)
 
     def _hold(self) -> None:
@@ -389,10 +388,8 @@ class PerformerExecutor:
         self._set_state(ExecutorState.PAUSED)
         if self.log is not None:
             self.log.event("pause", performer=self.name, show_time=round(show_time, 6))
-        for stop in rest_frames(self.profile):
-            self._wait(self._ready_at, polls=False)
-            if not self._write(stop.data, "rest", None, None, stop.label):
-                return
+        if not self._send_now("rest", self._rest):
+            return
         while not self._flags.resume and not self._flags.abort.is_set():
             self._poll_once()
             self._flags.wake.wait(0.02)
@@ -407,19 +404,16 @@ class PerformerExecutor:
             self.log.event("resume", performer=self.name, show_time=round(show_time, 6))
         if self.reach is not None:
             self._set_state(ExecutorState.REACHING)
-            self._send_reach(show_time)
+            self._send_now("reach", self.reach(show_time))
         self._set_state(ExecutorState.RUNNING)
 
-    def _send_reach(self, show_time: float) -> None:
-        assert self.reach is not None
-        for data, label in self.reach(show_time):
-            if self._flags.abort.is_set():
-                return
-            self._wait(self._ready_at, polls=False)
-            if not self._write(data, "reach", None, None, label):
-                return
+    def _send_now(self, kind: str, frames: Iterable[tuple[bytes, str]]) -> bool:
+        """Send frames outside the schedule (reach, rest) as soon as the link is free each
+        time (:meth:`_write` waits for it); return False if aborted."""
+        # all() stops at the first write refused (aborted): nothing is sent after it.
+        return all(self._write(data, kind, None, None, label) for data, label in frames)
 
-    def _wait(self, deadline: float, *, polls: bool = True) -> bool:
+    def _wait(self, deadline: float) -> bool:
         """Wait for ``deadline``, sending due telemetry requests where they fit.
 
         Returns False when woken early by pause or abort.
@@ -431,7 +425,7 @@ class PerformerExecutor:
             if now >= deadline:
                 return True
             target = deadline
-            item = self.telemetry.due(now) if polls and self.telemetry is not None else None
+            item = self.telemetry.due(now) if self.telemetry is not None else None
             if item is not None:
                 link = self.schedule.link
                 room = (
@@ -443,7 +437,7 @@ class PerformerExecutor:
                     continue
                 if self._ready_at + room <= deadline:
                     target = max(self._ready_at, now)
-            elif polls and self.telemetry is not None:
+            elif self.telemetry is not None:
                 target = min(deadline, max(self.telemetry.next_due, now))
             if target <= now:
                 target = deadline
