@@ -304,10 +304,6 @@ class PerformerExecutor:
             self.schedule.frames[sent - 1].label if sent else "",
         )
 
-    def show_time_of(self, monotonic: float) -> float:
-        """Convert a monotonic time to show time on this executor's timeline."""
-        return self._timeline.show_time(monotonic)
-
     # ------------------------------------------------------------------ writer
 
     def _set_state(self, state: ExecutorState) -> None:
