@@ -48,7 +48,7 @@ def test_every_command_help_ends_with_examples_kept_on_their_own_lines(
         with pytest.raises(SystemExit):
             main([name, "--help"])
         out = capsys.readouterr().out
-        head, sep, examples = out.rpartition("\nexample:\n")
+        _, sep, examples = out.rpartition("\nexample:\n")
         assert sep, f"{name} --help has no example"
         lines = examples.rstrip("\n").split("\n")
         # The first example runs the command itself; no example was rewrapped into prose.

@@ -7,9 +7,9 @@ import json
 
 import pytest
 
+from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.executor import ExecutorState, Progress
-from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.runtime.report import ProgressPrinter, error_stats, format_report, percentile
 from xgo_show.runtime.runlog import RunLog, read_log
 from xgo_show.runtime.show_runner import ShowProgress, ShowRunner
