@@ -8,6 +8,19 @@
 
 from __future__ import annotations
 
-from xgo_show.choreo.loader import check_file, load_show, validate_file
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from xgo_show.choreo.loader import check_file, load_show, validate_file
 
 __all__ = ["check_file", "load_show", "validate_file"]
+
+
+def __getattr__(name: str) -> Any:
+    # Imported on first use: the loader pulls in pydantic and the routine model (~0.15 s),
+    # which commands that only need, say, xgo_show.choreo.timebase should not pay for.
+    if name in __all__:
+        from xgo_show.choreo import loader
+
+        return getattr(loader, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

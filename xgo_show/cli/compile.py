@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from xgo_show.choreo import load_show
+import xgo_show.choreo as choreo  # its loader is imported on first use
 from xgo_show.compiler import compile_show, save_schedule
 from xgo_show.compiler.report import totals_table
 
@@ -48,7 +48,7 @@ def default_output(show: Path) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     source = Path(args.show)
-    schedule = compile_show(load_show(source))
+    schedule = compile_show(choreo.load_show(source))
     out = Path(args.output) if args.output else default_output(source)
     save_schedule(schedule, out)
     if args.plot:

@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any, TextIO
 
-from xgo_show.choreo import validate_file
+import xgo_show.choreo as choreo  # its loader is imported on first use
 from xgo_show.diagnostics import Diagnostic
 
 __all__ = ["add_parser", "report", "run"]
@@ -59,5 +59,5 @@ def run(args: argparse.Namespace) -> int:
             print(f"{name}: error: {reason}", file=sys.stdout)
             ok = False
             continue
-        ok = report(name, validate_file(path), sys.stdout, quiet=args.quiet) and ok
+        ok = report(name, choreo.validate_file(path), sys.stdout, quiet=args.quiet) and ok
     return 0 if ok else 1
