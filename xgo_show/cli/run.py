@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import math
-import re
 import sys
 import time
 from collections.abc import Iterator, Sequence
@@ -18,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from xgo_show.compiler.artifact import FORMAT
+from xgo_show.compiler.artifact import is_schedule_file
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import RuntimeFault, XgoShowError
 from xgo_show.profiles import get_profile
@@ -158,7 +157,7 @@ def load_schedule_file(path: str | Path) -> Schedule:
     path = Path(path)
     if not path.is_file():
         raise XgoShowError(f"{path}: {'is a directory' if path.is_dir() else 'no such file'}")
-    if path.suffix.lower() == ".json" or _is_schedule(path):
+    if path.suffix.lower() == ".json" or is_schedule_file(path):
         from xgo_show.compiler import load_schedule
 
         return load_schedule(path)
@@ -166,18 +165,6 @@ def load_schedule_file(path: str | Path) -> Schedule:
     from xgo_show.compiler import compile_show
 
     return compile_show(load_show(path))
-
-
-def _is_schedule(path: Path) -> bool:
-    """Whether the file starts as JSON carrying the schedule format tag."""
-    try:
-        with path.open(encoding="utf-8", errors="replace") as f:
-            head = f.read(4096)
-    except OSError:
-        return False  # the routine loader says what is wrong with the file
-    return head.lstrip().startswith("{") and re.search(
-        rf'"format"\s*:\s*"{re.escape(FORMAT)}"', head
-    ) is not None
 
 
 def start_offset(schedule: Schedule, seconds: float | None, bar: int | None) -> float:

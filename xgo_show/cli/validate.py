@@ -13,7 +13,11 @@ import sys
 from pathlib import Path
 from typing import Any, TextIO
 
-import xgo_show.choreo as choreo  # its loader is imported on first use
+import xgo_show.choreo as choreo
+from xgo_show.compiler.artifact import (  # its loader is imported on first use
+    SCHEDULE_HINT,
+    is_schedule_file,
+)
 from xgo_show.diagnostics import Diagnostic
 
 __all__ = ["add_parser", "report", "run"]
@@ -57,6 +61,10 @@ def run(args: argparse.Namespace) -> int:
         if not path.is_file():
             reason = "is a directory" if path.is_dir() else "no such file"
             print(f"{name}: error: {reason}", file=sys.stdout)
+            ok = False
+            continue
+        if is_schedule_file(path):
+            print(f"{name}: error: {SCHEDULE_HINT}", file=sys.stdout)
             ok = False
             continue
         ok = report(name, choreo.validate_file(path), sys.stdout, quiet=args.quiet) and ok

@@ -42,6 +42,7 @@ frame, the performer and the frame's index).
 from __future__ import annotations
 
 import json
+import re
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -63,7 +64,9 @@ from xgo_show.wire.xgo import decode_one
 
 __all__ = [
     "FORMAT",
+    "SCHEDULE_HINT",
     "dumps_schedule",
+    "is_schedule_file",
     "load_schedule",
     "loads_schedule",
     "save_schedule",
@@ -71,6 +74,11 @@ __all__ = [
 ]
 
 FORMAT = "xgo-show-schedule"
+#: what to tell someone who hands a compiled schedule to a command that takes a routine
+SCHEDULE_HINT = (
+    "is a compiled schedule already: run it with 'xgo-show run' or read it with "
+    "'xgo-show inspect'"
+)
 
 
 def _dump(value: object) -> str:
@@ -139,6 +147,18 @@ def dumps_schedule(schedule: Schedule) -> str:
         ),
     ]
     return "{\n" + ",\n".join(parts) + "\n}\n"
+
+
+def is_schedule_file(path: str | Path) -> bool:
+    """Whether ``path`` starts as JSON carrying the schedule format tag (whatever its name)."""
+    try:
+        with Path(path).open(encoding="utf-8", errors="replace") as f:
+            head = f.read(4096)
+    except OSError:
+        return False  # whoever reads it next says what is wrong with the file
+    return head.lstrip().startswith("{") and re.search(
+        rf'"format"\s*:\s*"{re.escape(FORMAT)}"', head
+    ) is not None
 
 
 def save_schedule(schedule: Schedule, path: str | Path) -> Path:
