@@ -402,6 +402,20 @@ tracks:
     assert "starts at 1.000 s while action 'wave'" in err.message
 
 
+def test_a_fade_may_cut_a_fade_only_on_purpose(write: WriteFn) -> None:
+    fades = """
+tracks:
+  bob:
+    - {led: {led1: red}, fade: 2}
+    - {at: 1, led: {led1: blue}, fade: 0.5%s}
+"""
+    with pytest.raises(ChoreographyError, match="led1 is already driven"):
+        load_show(write(RIDER + fades % ""))
+    show = load_show(write(RIDER + fades % ", interrupt: true"))
+    (_, blue) = cues(show, "bob")
+    assert isinstance(blue, FadeCue) and blue.interrupts
+
+
 def test_led_writes_do_not_interrupt_actions(write: WriteFn) -> None:
     path = write(RIDER + """
 tracks:

@@ -249,6 +249,33 @@ def test_fade_ending_off_grid_ends_at_its_end_not_over_a_set_there(make_show, o)
     assert _replay("rider", frames).raw("led1") == bytes((0, 0, 255))
 
 
+def test_a_fade_cut_by_another_stops_there_and_the_next_starts_from_its_colour(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    # 0 -> red over 2 s, cut at 1 s (half red, 128) by a 0.5 s fade to blue.
+    show = make_show({"wheels": ("rider", [
+        FadeCue(0.0, o("red"), "led1", (255, 0, 0), 2.0),
+        FadeCue(1.0, o("blue"), "led1", (0, 0, 255), 0.5, interrupts=True),
+    ])})
+    frames = _frames(show)
+    red = [f for f in frames if f.origin == o("red")]
+    blue = [f for f in frames if f.origin == o("blue")]
+    assert max(f.t for f in red) < 1.0  # nothing of the red fade after the cut
+    assert blue[0].t == pytest.approx(1.0)
+    assert blue[0].data[5] == 128  # blue starts from the red the first fade had reached
+    assert blue[-1].t == pytest.approx(1.5) and blue[-1].label == "led1=#0000FF"
+    assert _replay("rider", frames).raw("led1") == bytes((0, 0, 255))
+
+
+def test_a_set_cuts_a_fade_under_way(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    show = make_show({"wheels": ("rider", [
+        FadeCue(0.0, o("red"), "led1", (255, 0, 0), 2.0),
+        SetCue(1.0, o("green"), {"led1": (0, 255, 0)}, interrupts=True),
+    ])})
+    frames = _frames(show)
+    assert max(f.t for f in frames if f.origin == o("red")) < 1.0
+    assert frames[-1].origin == o("green")
+    assert _replay("rider", frames).raw("led1") == bytes((0, 255, 0))
+
+
 @settings(max_examples=40, deadline=None)
 @given(
     start=st.integers(0, 2000).map(lambda ms: ms / 1000),

@@ -853,7 +853,7 @@ class _Emitter:
         end = start + (length if length is not None else fade)
         if fade > 0:
             for name, rgb in colors.items():
-                self.add(FadeCue(start, self.origin, name, rgb, fade), start + fade,
+                self.add(FadeCue(start, self.origin, name, rgb, fade, cue.interrupt), start + fade,
                          {name: origins[name]})
         else:
             self.add(SetCue(start, self.origin, colors, cue.interrupt), end, origins)

@@ -80,6 +80,7 @@ class FadeCue:
     register: str
     to: tuple[int, int, int]
     duration: float
+    interrupts: bool = False  # may cut a fade of the same register still under way
 
 
 @dataclass(frozen=True)

@@ -446,6 +446,25 @@ class _Diag:
         )
 
 
+@dataclass
+class _Fade:
+    """A planned LED fade; ``cut`` is when a later cue took its register over, if one did."""
+
+    cue: FadeCue
+    order: int
+    reg: Register
+    start: tuple[int, int, int]  # the colour it fades from
+    cut: float | None = None
+
+    def colour_at(self, t: float) -> tuple[int, int, int]:
+        """The colour at show time ``t`` (clamped to the fade's span)."""
+        duration = self.cue.duration
+        frac = 1.0 if duration <= 0 else min(max((t - self.cue.start) / duration, 0.0), 1.0)
+        (r0, g0, b0), (r1, g1, b1) = self.start, self.cue.to
+        return (round(r0 + (r1 - r0) * frac), round(g0 + (g1 - g0) * frac),
+                round(b0 + (b1 - b0) * frac))
+
+
 @dataclass(eq=False)
 class _Run:
     """A planned trajectory: its plan, its registers, and when each DoF's sampling stops."""
@@ -495,6 +514,8 @@ class _XgoPlanner:
                 self.colours[reg.name] = (reg.initial[0], reg.initial[1], reg.initial[2])
         self.active: dict[str, tuple[_Run, int]] = {}  # register -> latest run and its DoF
         self.runs: list[_Run] = []
+        self.fades: list[_Fade] = []
+        self.fading: dict[str, _Fade] = {}  # the last fade of each RGB register
         self.ticks: dict[int, _Entry] = {}
         self.mixed: set[int] = set()  # ticks that more than one cue writes (see _emit)
         self.action_reg = layout.by_name.get(ACTION_REGISTER)
@@ -521,6 +542,8 @@ class _XgoPlanner:
                 self.diag.error(cue.origin, f"{cue_label(cue.origin)}: {exc}")
         for run in self.runs:
             self._sample_run(run)
+        for fade in self.fades:
+            self._sample_fade(fade)
 
     def _emit(self, t_us: int, writes: list[Write]) -> None:
         """File one cue's writes at ``t_us`` (one per register, in address order).
@@ -591,6 +614,7 @@ class _XgoPlanner:
                 if reg.linear and reg.size == 1 and isinstance(value, (int, float)):
                     self.commanded[reg.name] = float(value)
                 elif reg.encoding is Encoding.RGB:
+                    self._cut_fade(reg.name, cue.start)
                     self.colours[reg.name] = (data[0], data[1], data[2])
         finally:
             self._emit(t_us, writes)  # what was encoded before an error still goes out
@@ -625,20 +649,40 @@ class _XgoPlanner:
             self.diag.error(cue.origin, f"{cue.register} is not an RGB register; it cannot fade")
             return
         reg.encode_value(cue.to)
-        start = self.colours.get(cue.register, (0, 0, 0))
+        # Cutting a fade still under way starts from the colour it had reached.
+        reached = self._cut_fade(cue.register, cue.start)
+        start = reached if reached is not None else self.colours.get(cue.register, (0, 0, 0))
         self.colours[cue.register] = cue.to
         self.end = max(self.end, cue.start + cue.duration)
-        # Steps on the tick grid strictly before the end, then the exact colour at the end
-        # itself (as a move's last sample: never after it, over a cue starting there).
-        rate, t0, duration = self.rate, cue.start, cue.duration
-        end_us = to_us(t0 + duration)
-        (r0, g0, b0), (r1, g1, b1) = start, cue.to
-        dr, dg, db = r1 - r0, g1 - g0, b1 - b0
-        src = _Source((reg,), cue.origin, order)
+        fade = _Fade(cue, order, reg, start)
+        self.fades.append(fade)
+        self.fading[cue.register] = fade
+
+    def _cut_fade(self, name: str, t: float) -> tuple[int, int, int] | None:
+        """A cue writes RGB register ``name`` at ``t``: stop a fade of it still under way there.
+
+        Returns the colour the fade had reached, or None if none was running.
+        """
+        fade = self.fading.get(name)
+        if fade is None or fade.cut is not None or t >= fade.cue.start + fade.cue.duration - _EPS:
+            return None
+        fade.cut = t
+        return fade.colour_at(t)
+
+    def _sample_fade(self, fade: _Fade) -> None:
+        """Steps on the tick grid strictly before the end, then the exact colour at the end
+        itself (as a move's last sample: never after it, over a cue starting there). A fade
+        another cue cut stops before that cue's start, with no final colour."""
+        cue, rate = fade.cue, self.rate
+        stop_us = to_us(cue.start + cue.duration if fade.cut is None else fade.cut)
+        src = _Source((fade.reg,), cue.origin, fade.order)
         ticks, emit = self.ticks, self._emit_sample
+        t0, duration = cue.start, cue.duration
+        (r0, g0, b0), (r1, g1, b1) = fade.start, cue.to
+        dr, dg, db = r1 - r0, g1 - g0, b1 - b0
         k = first_tick(t0, rate)
-        # tick_us(k, rate), inlined
-        while duration > 0 and (t_us := round(k * 1_000_000 / rate)) < end_us:
+        # tick_us(k, rate) and fade.colour_at, inlined: this runs for every tick of every fade
+        while duration > 0 and (t_us := round(k * 1_000_000 / rate)) < stop_us:
             frac = min(max((k / rate - t0) / duration, 0.0), 1.0)
             sample = bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac)))
             if t_us in ticks:
@@ -646,7 +690,8 @@ class _XgoPlanner:
             else:
                 ticks[t_us] = (src, sample)  # emit's common case, inlined
             k += 1
-        emit(end_us, src, bytes(cue.to))
+        if fade.cut is None:
+            emit(stop_us, src, bytes(cue.to))
 
     def _motion(self, cue: MotionCue, order: int) -> None:
         diag = self.diag
