@@ -43,15 +43,16 @@ def _new_live_threads(before: set[threading.Thread]) -> list[threading.Thread]:
     return [t for t in threading.enumerate() if t not in before and t.is_alive() and not t.daemon]
 
 
+def wait_until(predicate: Callable[[], bool], timeout: float = 2.0) -> None:
+    """Poll ``predicate`` every 5 ms until it holds; fail after ``timeout`` seconds."""
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise AssertionError("the condition did not hold in time")
+        time.sleep(0.005)
+
+
 @pytest.fixture
 def wait() -> Callable[[Callable[[], bool]], None]:
-    """``wait(predicate, timeout=2.0)``: poll every 5 ms until it holds, fail after ``timeout``."""
-
-    def poll(predicate: Callable[[], bool], timeout: float = 2.0) -> None:
-        deadline = time.monotonic() + timeout
-        while not predicate():
-            if time.monotonic() > deadline:
-                raise AssertionError("the condition did not hold in time")
-            time.sleep(0.005)
-
-    return poll
+    """``wait(predicate, timeout=2.0)``: :func:`wait_until` as a fixture."""
+    return wait_until

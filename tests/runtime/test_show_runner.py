@@ -8,6 +8,7 @@ from collections.abc import Callable
 
 import pytest
 
+from tests.conftest import wait_until
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.executor import ExecutorState
 from xgo_show.runtime.report import format_report
@@ -15,14 +16,6 @@ from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.safety import UnsafeScheduleError, check_unsafe, rest_frames
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 from xgo_show.wire.xgo import TYPE_READ, write_frame
-
-
-def wait_for(cond, timeout: float = 3.0) -> None:
-    deadline = time.monotonic() + timeout
-    while not cond():
-        if time.monotonic() > deadline:
-            raise AssertionError("condition not reached in time")
-        time.sleep(0.005)
 
 
 def settle() -> None:
@@ -49,7 +42,7 @@ def run_until(
     """Run the show in a thread; once ``performer`` has sent ``sent`` frames, call ``then``
     (a stop, a pulled cable, a fall); return the show's result."""
     th, out = run_in_thread(runner)
-    wait_for(lambda: runner.executors[performer].progress.sent >= sent)
+    wait_until(lambda: runner.executors[performer].progress.sent >= sent, timeout=3.0)
     then()
     th.join(5)
     assert out, "runner did not return"
@@ -221,9 +214,9 @@ def test_report_names_each_rest_once_after_a_pause(rig, sched, walking) -> None:
     rig.for_schedule(schedule)
     runner = ShowRunner(schedule, rig.transports, telemetry=False)
     th, out = run_in_thread(runner)
-    wait_for(lambda: runner.executors["rex"].progress.sent >= 3)
+    wait_until(lambda: runner.executors["rex"].progress.sent >= 3, timeout=3.0)
     runner.pause()
-    wait_for(lambda: runner.executors["rex"].state is ExecutorState.PAUSED)
+    wait_until(lambda: runner.executors["rex"].state is ExecutorState.PAUSED, timeout=3.0)
     runner.resume()
     th.join(10)
     result = out[0]
