@@ -1,0 +1,197 @@
+"""The offset estimator and drift fit against synthetic clocks and delays (asymmetric included).
+
+A synthetic relay clock reads ``c + offset + rate * (c - c0)`` at conductor time ``c``; every
+exchange gets its own one-way delays. Whatever the delays, the true offset must lie within the
+bound the estimator reports, and the true rate within the drift fit's rate bound.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from xgo_show.net.offset import (
+    DriftFit,
+    Exchange,
+    OffsetEstimate,
+    Timebase,
+    estimate_offset,
+)
+
+_EPS = 1e-9  # float rounding over clock readings of some thousand seconds
+
+
+@dataclass(frozen=True)
+class SyntheticRelay:
+    offset: float
+    rate: float
+    c0: float = 1000.0
+
+    def clock(self, c: float) -> float:
+        return c + self.offset + self.rate * (c - self.c0)
+
+    def true_offset(self, c: float) -> float:
+        return self.clock(c) - c
+
+    def exchange(self, t0: float, up: float, work: float, down: float) -> Exchange:
+        """Request sent at t0, ``up`` on the way, ``work`` at the relay, ``down`` back."""
+        arrive = t0 + up
+        leave = arrive + work
+        return Exchange(t0, self.clock(arrive), self.clock(leave), leave + down)
+
+
+delays = st.floats(min_value=0.0, max_value=0.02)
+works = st.floats(min_value=0.0, max_value=0.001)
+relays = st.builds(
+    SyntheticRelay,
+    offset=st.floats(min_value=-1e5, max_value=1e5),
+    rate=st.floats(min_value=-200e-6, max_value=200e-6),
+)
+
+
+@st.composite
+def bursts(draw: st.DrawFn) -> tuple[SyntheticRelay, list[Exchange]]:
+    relay = draw(relays)
+    legs = draw(st.lists(st.tuples(delays, works, delays, delays), min_size=1, max_size=30))
+    t = draw(st.floats(min_value=1000.0, max_value=5000.0))
+    out = []
+    for up, work, down, gap in legs:
+        x = relay.exchange(t, up, work, down)
+        out.append(x)
+        t = x.t3 + gap
+    return relay, out
+
+
+@given(bursts())
+@settings(max_examples=200, deadline=None)
+def test_the_true_offset_is_always_within_the_reported_bound(
+    case: tuple[SyntheticRelay, list[Exchange]],
+) -> None:
+    relay, exchanges = case
+    est = estimate_offset(exchanges)
+    assert est.consistent
+    assert abs(est.offset - relay.true_offset(est.at)) <= est.bound + _EPS
+    assert est.rtt == min(x.rtt for x in exchanges)
+    assert est.bound <= est.rtt / 2 + 500e-6 * (est.rtt + 0.7) + _EPS
+    assert est.samples == len(exchanges)
+
+
+@given(relays, st.floats(min_value=0.0, max_value=0.01), st.floats(min_value=0.0, max_value=0.01))
+def test_one_exchange_is_the_classic_ntp_formula(
+    relay: SyntheticRelay, up: float, down: float
+) -> None:
+    x = relay.exchange(2000.0, up, 0.0001, down)
+    est = estimate_offset([x])
+    assert est.offset == pytest.approx(((x.t1 - x.t0) + (x.t2 - x.t3)) / 2, abs=1e-6)
+    assert est.rtt == pytest.approx(up + down, abs=1e-7)  # less the rate error over 0.1 ms
+
+
+def test_a_wholly_asymmetric_path_is_off_by_half_the_round_trip_and_says_so() -> None:
+    relay = SyntheticRelay(offset=3.0, rate=0.0)
+    # Requests arrive at once; every reply takes 5 ms: the estimate cannot tell, the bound can.
+    exchanges = [relay.exchange(1000.0 + i * 0.01, 0.0, 0.0001, 0.005) for i in range(25)]
+    est = estimate_offset(exchanges)
+    assert est.offset == pytest.approx(3.0 - 0.0025, abs=1e-6)
+    assert est.bound == pytest.approx(0.0025, abs=1e-5)  # plus what 500 ppm could drift
+
+
+def test_a_fast_leg_in_each_direction_narrows_the_bound_below_half_the_lowest_round_trip() -> None:
+    relay = SyntheticRelay(offset=-7.0, rate=0.0)
+    fast_up = relay.exchange(1000.0, 0.0, 0.0, 0.004)  # rtt 4 ms, upper side exact
+    fast_down = relay.exchange(1000.01, 0.004, 0.0, 0.0)  # rtt 4 ms, lower side exact
+    est = estimate_offset([fast_up, fast_down])
+    assert est.bound < 1e-5
+    assert est.offset == pytest.approx(-7.0, abs=1e-5)
+
+
+def test_invalid_readings_are_skipped_and_none_at_all_is_an_error() -> None:
+    good = SyntheticRelay(1.0, 0.0).exchange(1000.0, 0.001, 0.0, 0.001)
+    backwards = Exchange(1000.0, 5.0, 4.0, 1000.1)
+    assert not backwards.valid
+    assert estimate_offset([good, backwards]).samples == 1
+    with pytest.raises(ValueError, match="no valid time-sync exchange"):
+        estimate_offset([backwards])
+
+
+def test_a_stepped_clock_makes_the_burst_inconsistent_and_falls_back_on_the_best_exchange() -> None:
+    before = SyntheticRelay(1.0, 0.0).exchange(1000.0, 0.001, 0.0, 0.001)
+    after = SyntheticRelay(1.5, 0.0).exchange(1000.01, 0.0005, 0.0, 0.0005)
+    est = estimate_offset([before, after])
+    assert not est.consistent
+    assert est.offset == pytest.approx(1.5, abs=1e-9)
+    assert est.bound == pytest.approx(0.0005, abs=1e-6)
+
+
+def _burst_estimate(
+    relay: SyntheticRelay, t: float, legs: list[tuple[float, float]]
+) -> OffsetEstimate:
+    """One burst of exchanges 3 ms apart from conductor time ``t``, legs as (up, down) delays."""
+    return estimate_offset(
+        [relay.exchange(t + i * 0.003, up, 0.0001, down) for i, (up, down) in enumerate(legs)]
+    )
+
+
+@given(
+    relays,
+    st.lists(st.lists(st.tuples(delays, delays), min_size=1, max_size=6), min_size=2, max_size=40),
+    st.floats(min_value=0.2, max_value=5.0),
+)
+@settings(max_examples=100, deadline=None)
+def test_the_drift_fit_bounds_hold_for_offset_and_rate(
+    relay: SyntheticRelay, bursts_legs: list[list[tuple[float, float]]], interval: float
+) -> None:
+    fit = DriftFit(window=16)
+    tb = None
+    for k, legs in enumerate(bursts_legs):
+        tb = fit.add(_burst_estimate(relay, 1000.0 + k * interval, legs))
+        assert abs(tb.offset - relay.true_offset(tb.ref)) <= tb.bound + _EPS
+        assert abs(tb.rate - relay.rate) <= tb.rate_bound + _EPS
+    assert tb is not None
+    later = tb.ref + 30.0
+    assert abs(tb.to_relay(later) - relay.clock(later)) <= tb.bound_at(later) + _EPS
+
+
+def test_the_drift_fit_learns_100_ppm_within_a_ppm_in_a_minute_of_noisy_bursts() -> None:
+    import random
+
+    rng = random.Random(7)
+    relay = SyntheticRelay(offset=42.0, rate=100e-6)
+    fit = DriftFit()
+    for k in range(60):
+        legs = [(50e-6 + rng.expovariate(5000), 50e-6 + rng.expovariate(5000)) for _ in range(8)]
+        tb = fit.add(_burst_estimate(relay, 1000.0 + k, legs))
+    assert abs(tb.rate - 100e-6) < 1e-6
+    assert tb.rate_bound < 5e-6
+    assert abs(tb.offset - relay.true_offset(tb.ref)) < 50e-6
+
+
+def test_a_step_restarts_the_drift_window() -> None:
+    fit = DriftFit()
+    for k in range(5):
+        fit.add(_burst_estimate(SyntheticRelay(1.0, 0.0), 1000.0 + k, [(0.0001, 0.0001)]))
+    assert len(fit) == 5
+    tb = fit.add(_burst_estimate(SyntheticRelay(2.0, 0.0), 1006.0, [(0.0001, 0.0001)]))
+    assert len(fit) == 1
+    assert tb.offset == pytest.approx(2.0, abs=1e-6)
+
+
+def test_estimates_must_come_in_time_order() -> None:
+    fit = DriftFit()
+    fit.add(OffsetEstimate(1.0, 0.001, 0.002, 1000.0, 1))
+    with pytest.raises(ValueError, match="time order"):
+        fit.add(OffsetEstimate(1.0, 0.001, 0.002, 999.0, 1))
+
+
+@given(
+    st.floats(min_value=-1e4, max_value=1e4),
+    st.floats(min_value=-500e-6, max_value=500e-6),
+    st.floats(min_value=0.0, max_value=1e5),
+    st.floats(min_value=0.0, max_value=1e5),
+)
+def test_timebase_maps_both_ways(offset: float, rate: float, ref: float, c: float) -> None:
+    tb = Timebase(offset, rate, ref, 0.0, 0.0)
+    assert math.isclose(tb.to_conductor(tb.to_relay(c)), c, rel_tol=0, abs_tol=1e-7)

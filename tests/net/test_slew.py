@@ -1,0 +1,148 @@
+"""The slewing show clock: continuous, monotonic, bounded rate changes, converges exactly."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from xgo_show.net.offset import Timebase
+from xgo_show.net.slew import SlewingClock
+from xgo_show.net.testhooks import SkewedClock
+from xgo_show.runtime.clock import FakeClock, MonotonicClock
+
+SLEW = 500e-6
+
+
+def test_before_any_estimate_it_reads_the_base_clock() -> None:
+    base = FakeClock(50.0)
+    clock = SlewingClock(base)
+    assert clock.now() == 50.0
+    assert clock.timebase is None
+
+
+def test_the_first_estimate_is_taken_at_once() -> None:
+    base = FakeClock(50.0)
+    clock = SlewingClock(base)
+    tb = Timebase(offset=10.0, rate=100e-6, ref=40.0, bound=1e-4)
+    assert clock.follow(tb) == 0.0
+    assert clock.now() == pytest.approx(tb.to_conductor(50.0), abs=1e-12)
+    base.advance(100.0)
+    assert clock.now() == pytest.approx(tb.to_conductor(150.0), abs=1e-12)
+    assert clock.timebase == tb
+
+
+def test_a_later_estimate_is_slewed_to_without_a_jump_at_the_bounded_rate() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base, max_slew=SLEW)
+    clock.follow(Timebase(offset=0.0, ref=100.0))
+    # The conductor now thinks the relay is 1 ms further ahead: the show clock must slow down.
+    new = Timebase(offset=0.001, ref=100.0)
+    before = clock.now()
+    assert clock.follow(new) == pytest.approx(-0.001, abs=1e-12)
+    assert clock.now() == before
+    base.advance(1.0)
+    assert clock.now() - before == pytest.approx(1.0 - SLEW, abs=1e-12)
+    assert clock.error() == pytest.approx(-0.0005, abs=1e-12)
+    base.advance(1.0)  # 2 s at 500 ppm: caught up exactly
+    assert clock.error() == pytest.approx(0.0, abs=1e-12)
+    base.advance(5.0)
+    assert clock.now() == pytest.approx(new.to_conductor(base.now()), abs=1e-12)
+
+
+timebases = st.builds(
+    Timebase,
+    offset=st.floats(min_value=-0.005, max_value=0.005),
+    rate=st.floats(min_value=-150e-6, max_value=150e-6),
+    ref=st.just(100.0),
+)
+
+
+@given(
+    st.lists(st.tuples(timebases, st.floats(min_value=0.0, max_value=1.0)), min_size=1, max_size=8)
+)
+@settings(max_examples=60, deadline=None)
+def test_frames_are_never_skipped_or_bunched_whatever_the_estimates(
+    updates: list[tuple[Timebase, float]],
+) -> None:
+    """Frames every 20 ms of show time: their base-time spacing stays within the slew bound."""
+    base = FakeClock(100.0)
+    clock = SlewingClock(base, max_slew=SLEW)
+    clock.follow(Timebase(0.0, 0.0, 100.0))
+    frame = 0.02
+    t = clock.now()
+    last_base = base.now()
+    for tb, wait in updates:
+        clock.follow(tb)
+        end = base.now() + wait
+        while base.now() < end:
+            t += frame
+            due = clock.to_base(t)
+            gap = due - last_base
+            # One frame's base-time spacing: the rate error (150 ppm at most here) and the slew,
+            # never more (to first order: 1 / (1 - 650e-6) is 1 + 650.4e-6).
+            assert abs(gap / frame - 1) <= 150e-6 + SLEW + 1e-6
+            assert clock.sleep_until(t)
+            assert clock.now() == pytest.approx(t, abs=1e-9)
+            last_base = base.now()
+
+
+def test_a_long_wait_is_cut_into_hops_so_a_correction_meanwhile_moves_the_wake_up() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base)
+    clock.follow(Timebase(0.0, 0.0, 100.0))
+    assert clock.sleep_until(103.0)
+    assert len(base.waits) > 10
+    assert base.waits[-1] == pytest.approx(103.0)
+    assert all(b - a <= 0.25 + 1e-9 for a, b in zip(base.waits, base.waits[1:], strict=False))
+
+
+def test_an_interrupt_cuts_the_wait_short() -> None:
+    clock = SlewingClock(FakeClock(100.0))
+    stop = threading.Event()
+    stop.set()
+    assert not clock.sleep_until(200.0, stop)
+    assert clock.now() == 100.0
+
+
+def test_reset_keeps_time_running_and_lets_the_next_estimate_set_the_clock_at_once() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base)
+    clock.follow(Timebase(5.0, 0.0, 0.0))
+    assert clock.now() == pytest.approx(95.0)
+    clock.reset()
+    assert clock.timebase is None
+    base.advance(1.0)
+    assert clock.now() == pytest.approx(96.0)
+    clock.follow(Timebase(-2.0, 0.0, 0.0))
+    assert clock.now() == pytest.approx(103.0)
+
+
+def test_max_slew_must_be_a_small_fraction() -> None:
+    with pytest.raises(ValueError, match="max_slew"):
+        SlewingClock(FakeClock(), max_slew=0.5)
+
+
+def test_on_a_skewed_real_clock_waits_land_on_the_conductors_time() -> None:
+    """A relay clock 12.5 s ahead and 100 ppm fast, mapped back: a 30 ms wait lasts 30 ms."""
+    real = MonotonicClock()
+    skewed = SkewedClock(real, offset=12.5, ppm=100.0)
+    clock = SlewingClock(skewed)
+    start = real.now()
+    clock.follow(Timebase(12.5, 100e-6, start))
+    assert clock.now() == pytest.approx(real.now(), abs=1e-4)
+    deadline = clock.now() + 0.03
+    assert clock.sleep_until(deadline)
+    assert real.now() - deadline == pytest.approx(0.0, abs=0.002)
+
+
+def test_a_skewed_clock_is_offset_and_fast_by_what_it_was_told() -> None:
+    base = FakeClock(1000.0)
+    skewed = SkewedClock(base, offset=-3.0, ppm=250.0)
+    assert skewed.now() == pytest.approx(997.0)
+    base.advance(1000.0)
+    assert skewed.now() == pytest.approx(1997.0 + 0.25)
+    assert skewed.sleep_until(3000.0)
+    assert skewed.now() == pytest.approx(3000.0)

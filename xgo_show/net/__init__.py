@@ -1,0 +1,1 @@
+"""Networked shows over Eclipse Zenoh: time sync, show clocks, heartbeats, relays."""

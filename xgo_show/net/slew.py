@@ -1,0 +1,138 @@
+"""A relay's show clock: its own monotonic clock mapped onto the conductor's timebase.
+
+A relay runs the ordinary executor on a :class:`SlewingClock`. Its ``now()`` is the
+conductor's time as this host best knows it, so every time the conductor sends (start, pause,
+resume, seek, stop) means the same instant on every host, and the relay's run log reads in the
+conductor's time. The mapping comes from :class:`~xgo_show.net.offset.Timebase` estimates the
+conductor keeps sending during a show (see :mod:`xgo_show.net.timesync`).
+
+A new estimate is never applied as a jump. The clock keeps running from where it is, at the
+new estimate's rate plus or minus ``max_slew`` (500 ppm by default: 10 us over a 20 ms frame),
+until it meets the new mapping, and follows it from then on. So ``now()`` is continuous and
+strictly increasing, no frame interval changes by more than ``max_slew`` of itself, and a
+1 ms correction takes 2 s. Only the first estimate (or the first after :meth:`reset`, which a
+relay calls between shows) sets the mapping at once.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+
+from xgo_show.net.offset import Timebase
+from xgo_show.runtime.clock import Clock
+
+__all__ = ["DEFAULT_MAX_SLEW", "SlewingClock"]
+
+#: Largest rate change a correction may apply (a fraction: 500e-6 is 500 ppm).
+DEFAULT_MAX_SLEW = 500e-6
+
+# A wait longer than this is cut into hops so a correction that arrives meanwhile moves the
+# wake-up; the last hop is at most _HOP long, so it can be off by at most _HOP * max_slew
+# (25 us). Frame intervals (20 ms at 50 Hz) take one wait.
+_HOP = 0.05
+_LONG_HOP = 0.25
+
+
+@dataclass(frozen=True, slots=True)
+class _Segment:
+    """``now = c0 + (b - b0) * slope`` until base time ``b1``, then ``target.to_conductor(b)``."""
+
+    b0: float
+    c0: float
+    slope: float
+    b1: float
+    target: Timebase
+
+    def at(self, b: float) -> float:
+        if b < self.b1:
+            return self.c0 + (b - self.b0) * self.slope
+        return self.target.to_conductor(b)
+
+    def base_time(self, c: float) -> float:
+        """The base time at which this segment reads ``c`` (the inverse of :meth:`at`)."""
+        if self.b1 > self.b0 and c < self.c0 + (self.b1 - self.b0) * self.slope:
+            return self.b0 + (c - self.c0) / self.slope
+        return self.target.to_relay(c)
+
+
+_IDENTITY = Timebase(0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+class SlewingClock:
+    """A :class:`~xgo_show.runtime.clock.Clock` reading the conductor's time on a relay.
+
+    ``base`` is this host's clock (the same one the time-sync server stamps replies with).
+    Until the first :meth:`follow`, ``now()`` is ``base.now()``. Thread-safe.
+    """
+
+    def __init__(self, base: Clock, *, max_slew: float = DEFAULT_MAX_SLEW) -> None:
+        if not 0 < max_slew < 0.1:
+            raise ValueError("max_slew must be a small positive fraction (e.g. 500e-6)")
+        self.base = base
+        self.max_slew = max_slew
+        self._lock = threading.Lock()
+        self._segment = _Segment(0.0, 0.0, 1.0, 0.0, _IDENTITY)
+        self._set = False
+
+    @property
+    def timebase(self) -> Timebase | None:
+        """The estimate being followed (None before the first)."""
+        with self._lock:
+            return self._segment.target if self._set else None
+
+    def now(self) -> float:
+        b = self.base.now()
+        with self._lock:
+            return self._segment.at(b)
+
+    def error(self) -> float:
+        """How far ``now()`` still is from the newest estimate (positive: behind it)."""
+        b = self.base.now()
+        with self._lock:
+            seg = self._segment
+        return seg.target.to_conductor(b) - seg.at(b)
+
+    def follow(self, timebase: Timebase) -> float:
+        """Slew towards a new estimate (set it at once if none is set); return the correction.
+
+        The correction is how far the new estimate is from ``now()`` (positive: the clock will
+        run fast until it has caught up); it takes ``abs(correction) / max_slew`` seconds.
+        """
+        b = self.base.now()
+        with self._lock:
+            if not self._set:
+                self._segment = _Segment(b, timebase.to_conductor(b), 1.0, b, timebase)
+                self._set = True
+                return 0.0
+            c = self._segment.at(b)
+            error = timebase.to_conductor(b) - c
+            slope = 1.0 / (1.0 + timebase.rate)
+            slew = self.max_slew if error > 0 else -self.max_slew
+            duration = abs(error) / self.max_slew
+            self._segment = _Segment(b, c, slope + slew, b + duration, timebase)
+            return error
+
+    def reset(self) -> None:
+        """Forget the mapping (between shows): the next :meth:`follow` sets it at once."""
+        b = self.base.now()
+        with self._lock:
+            c = self._segment.at(b)
+            self._segment = _Segment(b, c, 1.0, b, Timebase(b - c, 0.0, 0.0, 0.0, 0.0))
+            self._set = False
+
+    def to_base(self, t: float) -> float:
+        """The base clock's reading when this clock will read ``t`` (as things stand now)."""
+        with self._lock:
+            return self._segment.base_time(t)
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        base = self.base
+        while True:
+            target = self.to_base(deadline)
+            left = target - base.now()
+            if left <= _HOP:
+                return base.sleep_until(target, interrupt)
+            hop = min(target - _HOP / 2, base.now() + _LONG_HOP)
+            if not base.sleep_until(hop, interrupt):
+                return False

@@ -1,0 +1,126 @@
+"""Test-only hooks that let one machine behave like several: a wrong clock and a slow network.
+
+All hosts of a test share this machine's clock and loopback, so without help the time-sync
+estimator would only ever see an offset of zero and a round trip of a few microseconds. Two
+environment variables, read by the relay process, change that; nothing reads them in a show:
+
+- ``XGO_SHOW_TEST_CLOCK="offset=12.5,ppm=-80"``: the relay's clock reads 12.5 s ahead of this
+  machine's monotonic clock and runs 80 ppm slow (:class:`SkewedClock`).
+- ``XGO_SHOW_TEST_SYNC_DELAY="mean=0.005,jitter=0.002,seed=1"``: every time-sync reply waits a
+  uniformly random 3-7 ms after the relay stamped it, a one-way (so asymmetric) network delay
+  (:class:`DelayInjector`; ``tc netem`` is not available in this kernel).
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import threading
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+from xgo_show.runtime.clock import Clock, MonotonicClock
+
+__all__ = [
+    "CLOCK_ENV",
+    "DELAY_ENV",
+    "DelayInjector",
+    "SkewedClock",
+    "clock_from_env",
+    "delay_from_env",
+]
+
+CLOCK_ENV = "XGO_SHOW_TEST_CLOCK"
+DELAY_ENV = "XGO_SHOW_TEST_SYNC_DELAY"
+
+
+class SkewedClock:
+    """A clock ``offset`` seconds off ``base`` and running ``ppm`` parts per million fast.
+
+    ``now() = base.now() + offset + (base.now() - anchor) * ppm * 1e-6``, with ``anchor`` the
+    base time when it was made, so ``offset`` is the offset at creation.
+    """
+
+    def __init__(self, base: Clock, *, offset: float = 0.0, ppm: float = 0.0) -> None:
+        if abs(ppm) >= 10_000:
+            raise ValueError("a test clock's rate error must be under 10,000 ppm")
+        self.base = base
+        self.offset = offset
+        self.ppm = ppm
+        self._rate = ppm * 1e-6
+        self._anchor = base.now()
+
+    def now(self) -> float:
+        b = self.base.now()
+        return b + self.offset + (b - self._anchor) * self._rate
+
+    def to_base(self, t: float) -> float:
+        """The base clock's reading when this clock reads ``t``."""
+        return self._anchor + (t - self.offset - self._anchor) / (1.0 + self._rate)
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        return self.base.sleep_until(self.to_base(deadline), interrupt)
+
+
+@dataclass
+class DelayInjector:
+    """Delays of ``mean`` +- ``jitter`` seconds (uniform), reproducible with ``seed``."""
+
+    mean: float
+    jitter: float = 0.0
+    seed: int | None = None
+    _random: random.Random = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.mean < 0 or self.jitter < 0 or self.jitter > self.mean:
+            raise ValueError("an injected delay needs 0 <= jitter <= mean")
+        self._random = random.Random(self.seed)
+
+    def draw(self) -> float:
+        """One delay in seconds."""
+        return self.mean + self._random.uniform(-self.jitter, self.jitter)
+
+    def wait(self) -> float:
+        """Sleep one drawn delay; return it."""
+        delay = self.draw()
+        time.sleep(delay)
+        return delay
+
+
+def _fields(name: str, text: str, allowed: tuple[str, ...]) -> dict[str, float]:
+    values: dict[str, float] = {}
+    for part in text.split(","):
+        key, sep, value = part.partition("=")
+        key = key.strip()
+        if not sep or key not in allowed:
+            raise ValueError(f"{name}={text!r}: expected {', '.join(k + '=N' for k in allowed)}")
+        try:
+            values[key] = float(value)
+        except ValueError:
+            raise ValueError(f"{name}={text!r}: {key} is not a number") from None
+    return values
+
+
+def clock_from_env(env: Mapping[str, str] | None = None, base: Clock | None = None) -> Clock:
+    """The relay's base clock: ``base`` (the monotonic clock), skewed if the test asked."""
+    env = os.environ if env is None else env
+    base = MonotonicClock() if base is None else base
+    text = env.get(CLOCK_ENV, "").strip()
+    if not text:
+        return base
+    values = _fields(CLOCK_ENV, text, ("offset", "ppm"))
+    return SkewedClock(base, offset=values.get("offset", 0.0), ppm=values.get("ppm", 0.0))
+
+
+def delay_from_env(env: Mapping[str, str] | None = None) -> DelayInjector | None:
+    """The delay to inject on time-sync replies, if the test asked for one."""
+    env = os.environ if env is None else env
+    text = env.get(DELAY_ENV, "").strip()
+    if not text:
+        return None
+    values = _fields(DELAY_ENV, text, ("mean", "jitter", "seed"))
+    seed = values.get("seed")
+    return DelayInjector(
+        values.get("mean", 0.0), values.get("jitter", 0.0), None if seed is None else int(seed)
+    )
