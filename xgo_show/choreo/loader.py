@@ -16,6 +16,7 @@ from xgo_show.choreo.params import Argument, substitute
 from xgo_show.choreo.resolve import resolve_show
 from xgo_show.choreo.resolved import ResolvedShow
 from xgo_show.choreo.salvage import salvage_show
+from xgo_show.choreo.section_rules import check_waits
 from xgo_show.choreo.source import Document, read_yaml
 from xgo_show.choreo.validation import validate
 from xgo_show.diagnostics import Diagnostic, Origin
@@ -66,7 +67,7 @@ def _check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]
     res = resolve_show(model, doc)
     diags = res.diagnostics
     if res.show is not None:
-        diags = diags + check_show(res)
+        diags = diags + check_show(res) + check_waits(res)
     diags = _sorted(diags)
     if res.show is None or any(d.is_error for d in diags):
         return None, diags
@@ -81,7 +82,7 @@ def _check_remainder(doc: Document, data: dict[str, object]) -> list[Diagnostic]
     if salvage is None:
         return []
     res = resolve_show(salvage.show, doc, salvage)
-    return res.diagnostics + check_show(res)
+    return res.diagnostics + check_show(res) + check_waits(res)
 
 
 def is_part(data: object) -> bool:

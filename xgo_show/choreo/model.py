@@ -55,11 +55,13 @@ __all__ = [
     "PositionField",
     "RepeatCueModel",
     "RestCueModel",
+    "SectionModel",
     "SetCueModel",
     "SettingsModel",
     "ShowFile",
     "TempoConstant",
     "TempoEntry",
+    "WaitModel",
     "WalkCueModel",
     "cue_kind",
 ]
@@ -576,6 +578,43 @@ class PerformerModel(_Model):
     arm: bool = Field(False, description="Dogs: carries the arm and gripper accessory.")
 
 
+class WaitModel(_Model):
+    """Hold the show at the section's start until a trigger arrives (or the timeout passes)."""
+
+    trigger: Name = Field(description="The trigger's name (any client may fire it).")
+    timeout: Positive | None = Field(
+        None, description="Seconds to wait at most (default: until the trigger comes)."
+    )
+    else_: Name | None = Field(
+        None,
+        alias="else",
+        description="After the timeout: a section to jump to, 'continue' (play on, the "
+        "default) or 'stop' (end the show).",
+    )
+
+    model_config = ConfigDict(populate_by_name=True)
+
+    @model_validator(mode="after")
+    def _else_needs_timeout(self) -> WaitModel:
+        if self.else_ is not None and self.timeout is None:
+            raise PydanticCustomError(
+                "wait", "'else' says what happens after the timeout: give 'timeout' too", {}
+            )
+        return self
+
+
+class SectionModel(_Model):
+    """A named part of the show from ``at`` to the next section's start."""
+
+    name: Name = Field(description="The section's name (seek targets, else: jumps, status).")
+    at: PositionField | None = Field(
+        None, description="Start, from the show's start (default 0 for the first section)."
+    )
+    wait: WaitModel | None = Field(
+        None, description="Hold at the section's start until a trigger releases it."
+    )
+
+
 class PhraseModel(_Model):
     """A reusable sequence of cues with parameters (``$name`` in the cues)."""
 
@@ -598,6 +637,10 @@ class ShowFile(_Model):
         default_factory=list, description="Files whose phrases this show may use."
     )
     phrases: dict[Name, PhraseModel] = Field(default_factory=dict)
+    sections: list[SectionModel] = Field(
+        default_factory=list,
+        description="Named parts of the show, in order; a section may wait for a trigger.",
+    )
     tracks: Annotated[dict[Name, list[CueModel]], Field(min_length=1)]
 
 

@@ -52,6 +52,7 @@ from xgo_show.choreo.resolved import (
     ResolvedTrack,
     SetCue,
 )
+from xgo_show.choreo.section_rules import resolve_sections
 from xgo_show.choreo.source import Document, Loc, parse_yaml, read_text
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.choreo.validation import did_you_mean, validate
@@ -259,6 +260,13 @@ class _Resolver:
                     self.diags.append(Diagnostic(
                         "warning", f"{player.name}: this cue ends at {src.end:.3f} s, after the "
                         f"show's end at {end:.3f} s (settings.end)", src.origin, src.path))
+        show_end = end
+        if show_end is None and not untimed:
+            show_end = max((src.end for src in self.sources.values()), default=0.0)
+        top = _Block(doc, (), 0.0, True, phrases, ())
+        sections = resolve_sections(
+            show, doc, lambda pos, loc: self.position(pos, top, loc), show_end, self.diags
+        )
         tracks = tuple(
             ResolvedTrack(p.name, p.model.model, tuple(sorted(p.cues, key=lambda c: c.start)),
                           p.model.port)
@@ -282,6 +290,7 @@ class _Resolver:
                 (seg.bar, seg.bpm, seg.beats_per_bar)
                 for seg in (self.tempo.segments if self.tempo else ())
             ),
+            sections=sections,
         )
         return Resolution(resolved, self.diags, self.sources,
                           {n: p.model for n, p in performers.items()}, untimed)

@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
+from xgo_show.choreo.sections import Section
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.profiles.model import Limits
 
@@ -126,3 +127,5 @@ class ResolvedShow:
     # (bpm/beats_per_bar above are its first segment). Bar <-> seconds with tempo changes:
     # xgo_show.choreo.timebase.TempoMap([Segment(*row) for row in tempo_map]).
     tempo_map: tuple[tuple[int, float, int], ...] = ()
+    # Named parts of the show in time order; a section may wait for a trigger (see sections).
+    sections: tuple[Section, ...] = ()

@@ -105,6 +105,13 @@ def _prune(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
         return _pop(work, "phrases")
     if head == "tracks":
         return _prune_track(work, loc, info)
+    if head == "sections":
+        # A broken wait loses only itself (its section still starts where it says, so the
+        # other sections and their waits are still checked); anything else, all sections.
+        section = sub[entry] if isinstance(sub, list) and isinstance(entry, int) else None
+        if len(loc) > 2 and loc[2] == "wait" and _pop(section, "wait"):
+            return True
+        return _pop(work, "sections")
     return _pop(work, head)  # an unknown top-level field
 
 

@@ -12,6 +12,7 @@ import argparse
 import sys
 from typing import Any
 
+from xgo_show.choreo.sections import format_sections
 from xgo_show.cli.run import load_schedule_file
 from xgo_show.compiler.report import totals_table, transcript
 
@@ -25,7 +26,8 @@ def add_parser(sub: Any) -> None:
         help="show what a schedule sends: totals, or every frame",
         description=(
             "Print per-performer totals of a routine or compiled schedule: frames, bytes, link "
-            "use (wire time / duration), duration and warnings. With --frames, also one line "
+            "use (wire time / duration), duration and warnings; the show's sections and the "
+            "triggers they wait for. With --frames, also one line "
             "per frame: time, performer, register values and hex bytes."
         ),
         epilog="example:\n  xgo-show inspect hello.xshow.json --frames",
@@ -42,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     out.write(f"{schedule.name}: {len(schedule.performers)} performer(s), "
               f"{schedule.duration:.3f} s at {schedule.control_rate:g} Hz\n")
     out.write(totals_table(schedule))
+    out.write(format_sections(schedule.sections, schedule.tempo(), end=schedule.duration))
     for d in schedule.warnings:
         out.write(d.format() + "\n")
     if args.frames:

@@ -8,7 +8,10 @@ Format (version 1)::
      "show": {"name": str, "source": str, "control_rate": float (Hz),
               "on_failure": "halt_all" | "continue", "battery_floor": int (%),
               "bpm": float | null, "beats_per_bar": int,
-              "tempo_map": [[first bar, bpm, beats_per_bar], ...]},
+              "tempo_map": [[first bar, bpm, beats_per_bar], ...],
+              "sections": [{"name": str, "start_us": int, "origin": int | null,
+                            "wait": null | {"trigger": str, "timeout_us": int | null,
+                                            "else": str}}, ...]},
      "origins": [{"file": str, "line": int, "column": int, "cue": str}, ...],
      "warnings": [{"severity": "warning", "message": str, "origin": int | null,
                    "path": str}, ...],
@@ -27,6 +30,9 @@ Format (version 1)::
   exactly the one written.
 - ``origin`` fields index the ``origins`` table (first-use order), so a cue's file position is
   stored once, not once per frame; ``null`` means no origin.
+- ``sections`` (optional: absent means none) are the show's named parts in time order; a
+  ``wait`` holds the show at the section's start until its trigger (see
+  :mod:`xgo_show.choreo.sections`; ``else`` is a section name, ``continue`` or ``stop``).
 - ``hex`` is the frame's exact wire bytes, lowercase hex without separators.
 - Keys are sorted, one frame per line: the same schedule always gives the same bytes, and two
   compiled shows diff line by line.
@@ -43,10 +49,11 @@ from __future__ import annotations
 
 import json
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from xgo_show.choreo.sections import ELSE_KEYWORDS, Section, Wait
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.compiler.schedule import (
     SCHEDULE_VERSION,
@@ -123,7 +130,7 @@ def dumps_schedule(schedule: Schedule) -> str:
         }
         text = ",\n   ".join(f"{_dump(k)}: {v}" for k, v in items.items())
         performers.append(f"  {{\n   {text}\n  }}")
-    show = {
+    show: dict[str, object] = {
         "battery_floor": schedule.battery_floor,
         "beats_per_bar": schedule.beats_per_bar,
         "bpm": schedule.bpm,
@@ -133,6 +140,20 @@ def dumps_schedule(schedule: Schedule) -> str:
         "source": schedule.source,
         "tempo_map": [list(row) for row in schedule.tempo_map],
     }
+    if schedule.sections:
+        show["sections"] = [
+            {
+                "name": sec.name,
+                "start_us": to_us(sec.start),
+                "origin": ref(sec.origin),
+                "wait": None if sec.wait is None else {
+                    "trigger": sec.wait.trigger,
+                    "timeout_us": None if sec.wait.timeout is None else to_us(sec.wait.timeout),
+                    "else": sec.wait.otherwise,
+                },
+            }
+            for sec in schedule.sections
+        ]
     origin_rows = [
         _dump({"file": o.file, "line": o.line, "column": o.column, "cue": o.cue}) for o in origins
     ]
@@ -234,6 +255,37 @@ def _tempo_map(r: _Reader, show: Mapping[str, Any]) -> tuple[tuple[int, float, i
         TempoMap([Segment(*row) for row in out]) if out else None
     except ValueError as exc:
         raise r.fail("show.tempo_map", str(exc)) from exc
+    return tuple(out)
+
+
+def _sections(
+    r: _Reader, show: Mapping[str, Any], origin: Callable[[Mapping[str, Any], str], Origin | None]
+) -> tuple[Section, ...]:
+    """``show.sections``: optional (a show without sections, or a file from before them)."""
+    rows = show.get("sections", [])
+    if not isinstance(rows, list):
+        raise r.fail("show.sections", f"expected a list, not {type(rows).__name__}")
+    out: list[Section] = []
+    for i, raw in enumerate(rows):
+        where = f"show.sections[{i}]"
+        row = r.obj(raw, where)
+        start = r.us(row, "start_us", where)
+        if out and start <= out[-1].start:
+            raise r.fail(f"{where}.start_us", "sections must be in time order")
+        wait = None
+        wraw = r.get(row, "wait", dict, where, optional=True)
+        if wraw is not None:
+            ww = f"{where}.wait"
+            timeout = None
+            if wraw.get("timeout_us") is not None:
+                timeout = r.us(wraw, "timeout_us", ww)
+            wait = Wait(r.get(wraw, "trigger", str, ww), timeout, r.get(wraw, "else", str, ww))
+        out.append(Section(r.get(row, "name", str, where), start, wait, origin(row, where)))
+    names = {s.name for s in out}
+    for i, sec in enumerate(out):
+        target = sec.wait.otherwise if sec.wait is not None else None
+        if target is not None and target not in names and target not in ELSE_KEYWORDS:
+            raise r.fail(f"show.sections[{i}].wait.else", f"no section named {target!r}")
     return tuple(out)
 
 
@@ -375,6 +427,7 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
         raise r.fail("show.battery_floor", f"{battery_floor} is not a percentage (0 to 100)")
     bpm = r.get(show, "bpm", (int, float), "show", optional=True)
     tempo_map = _tempo_map(r, show)
+    sections = _sections(r, show, origin)
     return Schedule(
         name=r.get(show, "name", str, "show"),
         source=r.get(show, "source", str, "show"),
@@ -387,4 +440,5 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
         bpm=None if bpm is None else float(bpm),
         beats_per_bar=r.get(show, "beats_per_bar", int, "show"),
         tempo_map=tempo_map,
+        sections=sections,
     )

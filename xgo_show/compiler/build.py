@@ -83,6 +83,7 @@ def _compile(show: ResolvedShow) -> Schedule:
         bpm=show.bpm,
         beats_per_bar=show.beats_per_bar,
         tempo_map=show.tempo_map,
+        sections=show.sections,
     )
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from xgo_show.choreo.sections import Section
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.profiles.model import Link
@@ -96,6 +97,9 @@ class Schedule:
     # The show's whole tempo map as (first bar, bpm, beats_per_bar) rows; empty without a tempo
     # (bpm/beats_per_bar above are its first row, kept for simple consumers).
     tempo_map: tuple[tuple[int, float, int], ...] = ()
+    # Named parts of the show in time order; a section with a wait holds the show at its
+    # start until a trigger releases it (xgo_show.choreo.sections). Empty: one straight run.
+    sections: tuple[Section, ...] = ()
 
     def tempo(self) -> TempoMap | None:
         """The tempo map (bar/beat <-> seconds, tempo changes included), or None without one."""
