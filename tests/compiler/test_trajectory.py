@@ -11,7 +11,7 @@ import pytest
 import xgo_show.compiler.trajectory as trajectory_module
 from xgo_show.choreo.resolved import MotionCue
 from xgo_show.compiler import compile_show, state_at
-from xgo_show.compiler.trajectory import DofState, InfeasibleMotion, plan_motion
+from xgo_show.compiler.trajectory import DofState, InfeasibleMotion, min_duration, plan_motion
 from xgo_show.errors import CompileError
 from xgo_show.profiles import Limits, get_profile
 
@@ -151,3 +151,21 @@ def test_compiler_never_sets_intermediate_positions_at_run_time(
     ])}))
     assert len(made) == 2
     assert all(list(inp.intermediate_positions) == [] for inp in made)
+
+
+def test_min_duration_is_the_shortest_feasible_move() -> None:
+    # The resolver's duration for a move written without one: the plan with no duration, and
+    # a move given exactly that long is feasible while a shorter one is not.
+    start, targets = {"body_z": 97.0, "pitch": 0.0}, {"body_z": 110.0, "pitch": -12.5}
+    limits = {"body_z": LIM, "pitch": SLOW}
+    shortest = min_duration(start, targets, limits)
+    current = [DofState(start["body_z"]), DofState(start["pitch"])]
+    goals = [targets["body_z"], targets["pitch"]]
+    assert shortest == plan_motion(["body_z", "pitch"], 0.0, current, goals, [LIM, SLOW]).duration
+    plan_motion(["body_z", "pitch"], 0.0, current, goals, [LIM, SLOW], shortest)
+    with pytest.raises(InfeasibleMotion):
+        plan_motion(["body_z", "pitch"], 0.0, current, goals, [LIM, SLOW], shortest * 0.9)
+    # Registers without a start or limits do not count; none left: no time at all.
+    assert min_duration(start, {**targets, "yaw": 5.0}, limits) == shortest
+    assert min_duration(start, {"yaw": 5.0}, limits) == 0.0
+    assert min_duration(start, targets, {"body_z": Limits(-1.0, 1.0, 1.0)}) == 0.0

@@ -19,13 +19,12 @@ from xgo_show.choreo.resolved import ActionCue, ArmCue, Cue, FadeCue, MotionCue,
 from xgo_show.choreo.validation import did_you_mean
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ValueRangeError
+from xgo_show.families import get_family
 from xgo_show.profiles import Encoding, Profile, Register, get_profile
 from xgo_show.profiles.xarm import position_to_degrees
 
-__all__ = ["ACCESSORY_REGISTERS", "PERIODIC_PAIRS", "check_show"]
+__all__ = ["PERIODIC_PAIRS", "check_show"]
 
-# Registers that exist only with the arm/gripper accessory mounted (performer ``arm: true``).
-ACCESSORY_REGISTERS = frozenset({"gripper", "arm_x", "arm_z", "arm_mode", "servo_52", "servo_53"})
 # Periodic motion and the direct position on the same axis "cannot work at the same time".
 PERIODIC_PAIRS: Mapping[str, str] = {
     "periodic_roll": "roll",
@@ -109,7 +108,7 @@ class _Checker:
         if reg.name == "action":
             self.error("write preset actions with an action: cue", origin, src, name)
             return None
-        if name in ACCESSORY_REGISTERS and profile.family == "xgo" and not arm:
+        if not arm and name in get_family(profile).accessory_registers(profile):
             self.error(f"{name} needs the arm accessory: set 'arm: true' on performer "
                        f"{src.performer!r}", origin, src, name)
             return None

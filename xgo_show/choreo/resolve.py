@@ -13,8 +13,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ruckig import InputParameter, Result, Ruckig, Trajectory
-
 from xgo_show.choreo.colors import parse_color
 from xgo_show.choreo.model import (
     ActionCueModel,
@@ -58,15 +56,15 @@ from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.choreo.validation import did_you_mean, validate
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProfileError, ValueRangeError
+from xgo_show.families import get_family
 from xgo_show.profiles import Encoding, Limits, Profile, get_profile
 from xgo_show.profiles.xarm import degrees_to_position
 
 if TYPE_CHECKING:
     from xgo_show.choreo.salvage import Salvage
 
-__all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "min_duration", "resolve_show"]
+__all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "resolve_show"]
 
-_RESET_ACTION = 255
 MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
 MAX_SECONDS = 3600.0  # a show longer than an hour is a typo (or needs splitting)
 
@@ -593,27 +591,6 @@ def _initial_state(profile: Profile) -> dict[str, float]:
     return state
 
 
-def min_duration(
-    start: Mapping[str, float], targets: Mapping[str, float], limits: Mapping[str, Limits]
-) -> float:
-    """Shortest rest-to-rest time of a synchronised jerk-limited move (ruckig), seconds."""
-    names = [n for n in targets if n in limits and n in start]
-    if not names:
-        return 0.0
-    otg = Ruckig(len(names))
-    inp = InputParameter(len(names))
-    inp.current_position = [start[n] for n in names]
-    inp.target_position = [targets[n] for n in names]
-    inp.max_velocity = [limits[n].velocity for n in names]
-    inp.max_acceleration = [limits[n].acceleration for n in names]
-    inp.max_jerk = [limits[n].jerk for n in names]
-    traj = Trajectory(len(names))
-    result = otg.calculate(inp, traj)
-    if result not in (Result.Working, Result.Finished):
-        return 0.0
-    return float(traj.duration)
-
-
 class _Emitter:
     """Turns one leaf cue into IR cues on its performer."""
 
@@ -632,6 +609,13 @@ class _Emitter:
 
     def error(self, message: str, *parts: str | int, key: bool = False) -> None:
         self.res.error(self.doc, (*self.loc, *parts), message, key=key)
+
+    def refused(self) -> bool:
+        """Report and return True when this cue's kind is not for the performer's robot family."""
+        why = get_family(self.profile).refuse_cue(self.kind, self.profile)
+        if why is not None:
+            self.error(why, self.kind, key=True)
+        return why is not None
 
     def needs_length(self, message: str, *parts: str | int, key: bool = False) -> None:
         """Report that this cue needs a duration, beats or bars, unless it had one that was
@@ -692,11 +676,8 @@ class _Emitter:
                       cue.interrupt),
             start + slot, {"action": self.at("action")}, running,
         )
-        if act.id == _RESET_ACTION:  # restores the default posture (as the compiler assumes)
-            for name in self.profile.default_posture:
-                reg = next((r for r in self.profile.registers if r.name == name), None)
-                if reg is not None and reg.linear and reg.initial:
-                    self.perf.state[name] = reg.to_physical(reg.initial[0])
+        # The reset action restores the default posture (the planner starts moves from it too).
+        self.perf.state.update(get_family(self.profile).after_action(self.profile, act.id))
         return start + slot
 
     def limits_for(self, names: Sequence[str], cue: MoveCueModel | None) -> dict[str, Limits]:
@@ -749,6 +730,8 @@ class _Emitter:
                                    and cue.interrupt), t + seg, values)
                 t += seg
             else:
+                from xgo_show.compiler.trajectory import min_duration
+
                 seg = min_duration(self.perf.state, targets, limits)
                 self.add(MotionCue(t, self.origin, targets, None, overrides,
                                    cue is not None and cue.interrupt), t + seg, values)
@@ -769,9 +752,7 @@ class _Emitter:
         return self.motion(points, origins, start, length, cue)
 
     def on_gripper(self, cue: GripperCueModel, start: float, length: float | None) -> float | None:
-        if self.profile.family == "xarm":
-            self.error("on the xArm the gripper is servo 1: use pose: {1: POSITION}", "gripper",
-                       key=True)
+        if self.refused():
             return None
         return self.motion({"gripper": [cue.gripper]}, {"gripper": [self.at("gripper")]},
                            start, length, None)
@@ -872,9 +853,7 @@ class _Emitter:
         self, positions: dict[int, int], origins: dict[int, Loc], start: float,
         length: float | None,
     ) -> float | None:
-        if self.profile.family != "xarm":
-            self.error(f"{self.kind} is for the xArm; the {self.profile.title} moves with "
-                       "move: (registers) or arm: / gripper:", self.kind, key=True)
+        if self.refused():
             return None
         if length is None:
             self.needs_length(f"{self.kind} needs duration, beats or bars (the xArm moves "

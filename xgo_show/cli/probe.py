@@ -63,7 +63,9 @@ def probe(
     with open_client(url, model, timeout=timeout) as client:
         if isinstance(client, XarmClient):
             return _probe_xarm(client, given=model)
-        return _probe_xgo(client, given=model)
+        if isinstance(client, XgoClient):
+            return _probe_xgo(client, given=model)
+        raise XgoShowError(f"probe cannot read a {client.model} yet (no probe for its family)")
 
 
 def _probe_xgo(client: XgoClient, *, given: str | None) -> list[tuple[str, str]]:

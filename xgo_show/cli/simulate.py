@@ -16,6 +16,7 @@ from types import FrameType
 from typing import Any
 
 from xgo_show.errors import XgoShowError
+from xgo_show.families import get_family
 from xgo_show.profiles import MODELS, get_profile
 from xgo_show.sim import PtyServer, create_robot
 
@@ -65,16 +66,8 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Serve until SIGINT/SIGTERM; 0 on a clean stop."""
-    options: dict[str, Any] = {}
-    if get_profile(args.model).family == "xgo":
-        options["seed"] = args.seed
-        if args.battery is not None:
-            options["battery"] = args.battery
-    elif args.battery is not None:
-        raise XgoShowError(
-            "--battery is a percentage for XGO robots; the xArm reports millivolts "
-            "(its simulator starts at 7600 mV)"
-        )
+    family = get_family(get_profile(args.model))
+    options = family.simulate_options(seed=args.seed, battery=args.battery)
     robot = create_robot(args.model, **options)
     stop = threading.Event()
 

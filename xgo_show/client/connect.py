@@ -4,10 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from xgo_show.client.base import DEFAULT_TIMEOUT
-from xgo_show.client.xarm import XarmClient
+from xgo_show.client.base import DEFAULT_TIMEOUT, ClientBase
 from xgo_show.client.xgo import XgoClient
 from xgo_show.errors import ProfileError, TransportTimeout
+from xgo_show.families import get_family
 from xgo_show.profiles import get_profile, model_from_firmware
 from xgo_show.transports import open_transport, split_wrappers
 from xgo_show.transports.base import Transport
@@ -22,15 +22,16 @@ def open_client(
     timeout: float = DEFAULT_TIMEOUT,
     baudrate: int | None = None,
     **options: Any,
-) -> XgoClient | XarmClient:
+) -> ClientBase[Any]:
     """Open ``url`` and return a client for the robot on it (close it, or use ``with``).
 
-    ``model`` ("mini", "lite", "rider", "xarm") selects the profile and the client
-    (:class:`XarmClient` for the xArm, else :class:`XgoClient`). When it is None the URL may
-    name it (``sim:<model>``; ``hid:`` is always the xArm), and otherwise the robot's firmware
-    string (register 0x07) does, which only XGO robots have: give ``model="xarm"`` for an arm on
-    a serial port. The baud rate defaults to the model's link rate (115200 for XGO, 9600 for the
-    xArm). ``options`` go to :func:`~xgo_show.transports.open_transport`.
+    ``model`` ("mini", "lite", "rider", "xarm") selects the profile, and its family the
+    client (:class:`XarmClient` for the xArm, :class:`XgoClient` for XGO robots). When it is
+    None the URL may name it (``sim:<model>``; ``hid:`` is always the xArm), and otherwise the
+    robot's firmware string (register 0x07) does, which only XGO robots have: give
+    ``model="xarm"`` for an arm on a serial port. The baud rate defaults to the model's link
+    rate (115200 for XGO, 9600 for the xArm). ``options`` go to
+    :func:`~xgo_show.transports.open_transport`.
 
     Raises :class:`~xgo_show.errors.TransportError` (cannot open, no reply),
     :class:`~xgo_show.errors.ProtocolError` (garbage) or
@@ -46,9 +47,7 @@ def open_client(
     try:
         if profile is None:
             profile = get_profile(_identify(transport, url, timeout))
-        if profile.family == "xarm":
-            return XarmClient(transport, profile, timeout=timeout)
-        return XgoClient(transport, profile, timeout=timeout)
+        return get_family(profile).client(transport, profile, timeout=timeout)
     except BaseException:
         transport.close()
         raise

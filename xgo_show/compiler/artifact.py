@@ -64,10 +64,10 @@ from xgo_show.compiler.schedule import (
 )
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProtocolError, XgoShowError
+from xgo_show.families import get_family
 from xgo_show.profiles.model import Link
 from xgo_show.profiles.registry import get_profile
 from xgo_show.wire import xarm as xarm_wire
-from xgo_show.wire.xgo import decode_one
 
 __all__ = [
     "FORMAT",
@@ -383,6 +383,7 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
         link = Link(baud, r.us(link_raw, "gap_us", f"{where}.link"),
                     r.get(link_raw, "bits_per_byte", int, f"{where}.link"))
         perf_name = r.get(p, "name", str, where)
+        frame_problem = get_family(profile).frame_problem
         frames: list[ScheduledFrame] = []
         last = 0.0
         for j, fraw in enumerate(r.get(p, "frames", list, where)):
@@ -396,18 +397,9 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
                 data = bytes.fromhex(r.get(f, "hex", str, fw))
             except ValueError as exc:
                 raise r.fail(f"{fw}.hex", "not hexadecimal") from exc
-            which = f"performer {perf_name} frame {j}"
-            if profile.family == "xgo":
-                used, frame = decode_one(data)
-                if frame is None or used != len(data):
-                    raise r.fail(f"{fw}.hex",
-                                 f"{which}: not one valid XGO frame (bad length or checksum)")
-            elif profile.family == "xarm":
-                problem = xarm_frame_problem(data)
-                if problem is not None:
-                    raise r.fail(f"{fw}.hex", f"{which}: {problem}")
-            elif not data:
-                raise r.fail(f"{fw}.hex", f"{which}: empty frame")
+            problem = frame_problem(data)
+            if problem is not None:
+                raise r.fail(f"{fw}.hex", f"performer {perf_name} frame {j}: {problem}")
             frames.append(ScheduledFrame(
                 t, data, origin(f, fw), r.get(f, "label", str, fw), r.us(f, "duration_us", fw)
             ))

@@ -9,21 +9,12 @@ from __future__ import annotations
 import gc
 
 from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
-from xgo_show.compiler.frames import (
-    PlannedFrame,
-    TrackPlan,
-    Write,
-    cue_label,
-    merge_writes,
-    plan_xgo_track,
-    to_us,
-)
-from xgo_show.compiler.layout import ACTION_REGISTER
+from xgo_show.compiler.frames import cue_label, to_us
 from xgo_show.compiler.pacing import PaceResult, pace
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
-from xgo_show.compiler.state import FrameLabels, layout_of
 from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import CompileError, ProfileError
+from xgo_show.families import get_family
 from xgo_show.profiles.model import Link, Profile
 from xgo_show.profiles.registry import get_profile
 
@@ -94,24 +85,9 @@ def _compile_track(
     link = Link(profile.link.baud, gap, profile.link.bits_per_byte)
     period_us = to_us(1.0 / show.control_rate)
     path = f"tracks.{track.performer}"
-    plan: TrackPlan
-    if profile.family == "xarm":
-        from xgo_show.compiler.xarm import plan_xarm_track
-
-        plan = plan_xarm_track(profile, track)
-        remerge = None
-    else:
-        layout = layout_of(profile)
-        plan = plan_xgo_track(layout, track, rate=show.control_rate, link=link, gap=gap,
-                              details=show.decimate)
-
-        action = layout.by_name.get(ACTION_REGISTER)
-        action_address = action.address if action is not None else None
-
-        def remerge(t_us: int, writes: list[Write]) -> list[PlannedFrame]:
-            return merge_writes(layout, link, gap, t_us, writes, {},
-                                action_address=action_address)
-
+    family = get_family(profile)
+    plan, remerge = family.plan_track(profile, track, rate=show.control_rate, link=link, gap=gap,
+                                      details=show.decimate)
     errors = list(plan.diagnostics)
     warnings: list[Diagnostic] = []
     paced: PaceResult = pace(
@@ -146,7 +122,7 @@ def _compile_track(
             paced.first_drop_origin, path,
         ))
     # Labels are made from the bytes when first read (see ScheduledFrame.label): most never are.
-    labels = FrameLabels(profile)
+    labels = family.frame_labels(profile)
     frames: list[ScheduledFrame] = []
     append = frames.append
     new_frame = object.__new__

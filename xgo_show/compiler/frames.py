@@ -35,6 +35,7 @@ from xgo_show.compiler.trajectory import (
 )
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProfileError, ProtocolError
+from xgo_show.families.xgo.posture import posture_after
 from xgo_show.profiles.model import Encoding, Limits, Link, Register
 from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, TAIL, write_frame
 
@@ -49,7 +50,6 @@ __all__ = [
 ]
 
 BYTES = tuple(bytes((i,)) for i in range(256))
-RESET_ACTION = 255  # restores the default posture (Profile.default_posture)
 _EPS = 1e-9
 
 
@@ -635,12 +635,8 @@ class _XgoPlanner:
         self._emit(t_us, [
             Write(self.action_reg.address, data, cue.origin, order, False, cue.duration)
         ])
-        if cue.action_id == RESET_ACTION:
-            # The reset action restores the default posture: later moves start from there.
-            for name in self.profile.default_posture:
-                reg = self.layout.register(name)
-                if reg.initial is not None:
-                    self.commanded[name] = reg.to_physical(reg.initial[0])
+        # The reset action restores the default posture: later moves start from there.
+        self.commanded.update(posture_after(self.profile, cue.action_id))
         self.end = max(self.end, cue.start + cue.duration)
 
     def _fade(self, cue: FadeCue, order: int) -> None:

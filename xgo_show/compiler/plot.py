@@ -14,10 +14,11 @@ from xgo_show.compiler.layout import ACTION_REGISTER
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.compiler.state import describe_frame, format_value
 from xgo_show.errors import XgoShowError
+from xgo_show.families import get_family
 from xgo_show.profiles.model import Encoding, Profile
 from xgo_show.profiles.registry import get_profile
 
-__all__ = ["plot_schedule"]
+__all__ = ["draw_xarm_panel", "draw_xgo_panel", "plot_schedule"]
 
 
 def _pyplot() -> Any:
@@ -41,10 +42,7 @@ def plot_schedule(schedule: Schedule, path: str | Path) -> Path:
     end = max(schedule.duration, 1e-3)
     for ax, performer in zip(axes[:, 0], schedule.performers, strict=False):
         profile = get_profile(performer.model)
-        if profile.family == "xarm":
-            _draw_xarm(ax, performer, end)
-        else:
-            _draw_xgo(ax, profile, performer, end)
+        get_family(profile).plot_panel(ax, profile, performer, end)
         ax.set_title(f"{performer.name} ({profile.title})", loc="left", fontsize=10)
         ax.grid(True, alpha=0.3)
         ax.set_xlim(0, end)
@@ -61,7 +59,8 @@ def plot_schedule(schedule: Schedule, path: str | Path) -> Path:
     return target
 
 
-def _draw_xgo(ax: Any, profile: Profile, performer: PerformerSchedule, end: float) -> None:
+def draw_xgo_panel(ax: Any, profile: Profile, performer: PerformerSchedule, end: float) -> None:
+    """An XGO performer's panel: register curves, preset actions, LED colour strips."""
     series: dict[str, tuple[list[float], list[float]]] = {}
     colours: dict[str, list[tuple[float, tuple[int, int, int]]]] = {}
     marks: list[tuple[float, str]] = []
@@ -122,7 +121,8 @@ def _colour_bar(ax: Any, t: float, width: float, y: float, rgb: tuple[int, int, 
     )
 
 
-def _draw_xarm(ax: Any, performer: PerformerSchedule, end: float) -> None:
+def draw_xarm_panel(ax: Any, performer: PerformerSchedule, end: float) -> None:
+    """An xArm performer's panel: each servo's target position, moving over each ServoMove."""
     profile = get_profile(performer.model)
     tracks: dict[str, tuple[list[float], list[float]]] = {}
     for frame in performer.frames:

@@ -7,8 +7,9 @@
 - :func:`frames_to_reach` builds the few frames that bring a robot from its initial values to
   such a state (to start or resume a show in the middle).
 
-xArm performers have no register table; their state is one entry per servo, ``servo_<id>``, the
-position as two bytes little-endian, as a ServoMove carries it.
+Each asks the performer's robot family (:mod:`xgo_show.families`); the XGO family's answers
+are here (``describe_xgo_frame``, ``xgo_state_at``, ``xgo_frames_to_reach``), the xArm's in
+:mod:`xgo_show.compiler.xarm`.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from collections.abc import Mapping, Sequence
 from xgo_show.compiler.layout import ACTION_REGISTER, Layout
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
 from xgo_show.errors import ProtocolError
+from xgo_show.families import get_family
 from xgo_show.profiles.model import Link, Profile, Register
 from xgo_show.profiles.registry import get_profile
 from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, decode_one, write_frame
@@ -25,10 +27,15 @@ from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, decode_one, write_frame
 __all__ = [
     "FrameLabels",
     "describe_frame",
+    "describe_xgo_frame",
     "format_fields",
     "format_value",
+    "frame_label",
     "frames_to_reach",
+    "reach_frame",
     "state_at",
+    "xgo_frames_to_reach",
+    "xgo_state_at",
 ]
 
 _LAYOUTS: dict[str, Layout] = {}
@@ -72,9 +79,11 @@ def describe_frame(profile: Profile, data: bytes) -> list[tuple[str, object]]:
     n)`` then ``("servo_<id>", position)`` per servo. Raises :class:`ProtocolError` for bytes
     that are not such a frame.
     """
-    if profile.family == "xarm":
-        time_ms, positions = _xarm_move(data)
-        return [("time_ms", time_ms), *((f"servo_{i}", p) for i, p in positions)]
+    return get_family(profile).describe_frame(profile, data)
+
+
+def describe_xgo_frame(profile: Profile, data: bytes) -> list[tuple[str, object]]:
+    """One (register, physical value) pair per field an XGO write frame covers, in order."""
     address, payload = _xgo_write(data)
     fields = _fields(layout_of(profile), address, payload)
     return [(reg.name, reg.decode_value(raw)) for reg, raw in fields]
@@ -105,6 +114,11 @@ def format_fields(profile: Profile, fields: Sequence[tuple[str, object]]) -> str
     return " ".join(f"{name}={format_value(profile, name, value)}" for name, value in fields)
 
 
+def frame_label(profile: Profile, data: bytes) -> str:
+    """A frame's label: ``format_fields(profile, describe_frame(profile, data))``."""
+    return format_fields(profile, describe_frame(profile, data))
+
+
 def field_label(profile: Profile, address: int, raw: bytes) -> str:
     """``name=value`` of one field: the piece :func:`format_fields` builds labels of."""
     reg = layout_of(profile).by_address[address]
@@ -112,9 +126,9 @@ def field_label(profile: Profile, address: int, raw: bytes) -> str:
 
 
 class FrameLabels:
-    """``frame bytes -> label`` for one profile: ``format_fields(profile, describe_frame(...))``.
+    """``frame bytes -> label`` for one XGO profile: :func:`frame_label`, faster.
 
-    The compiler gives each frame it makes one of these (per performer) as a lazy
+    The compiler gives each frame it makes one of these (per XGO performer) as a lazy
     :attr:`ScheduledFrame.label`. An XGO write frame is cut into its fields by the cached layout
     walk and each distinct field's ``name=value`` text is made once (compiled frames are well
     formed; anything else goes through :func:`describe_frame`, which checks).
@@ -129,14 +143,14 @@ class FrameLabels:
 
     def __call__(self, data: bytes) -> str:
         profile = self.profile
-        if profile.family != "xgo" or len(data) < MIN_LENGTH or data[2] != len(data):
-            return format_fields(profile, describe_frame(profile, data))
+        if len(data) < MIN_LENGTH or data[2] != len(data):
+            return frame_label(profile, data)
         address, payload = data[4], data[5:-3]
         walk = self._walks.get((address, len(payload)))
         if walk is None:
             regs = layout_of(profile).walk(address, len(payload))
             if regs is None:  # not a layout the compiler makes: let describe_frame say why
-                return format_fields(profile, describe_frame(profile, data))
+                return frame_label(profile, data)
             offsets, at = [], 0
             for reg in regs:
                 offsets.append((reg.address, at, at + reg.size))
@@ -163,15 +177,18 @@ def state_at(performer: PerformerSchedule, t: float) -> dict[str, bytes]:
     the last move started at or before ``t``.
     """
     profile = get_profile(performer.model)
+    return get_family(profile).state_at(profile, performer.frames, t)
+
+
+def xgo_state_at(
+    profile: Profile, frames: Sequence[ScheduledFrame], t: float
+) -> dict[str, bytes]:
+    """:func:`state_at` of an XGO performer: register name -> bytes."""
     state: dict[str, bytes] = {}
     action_until: float | None = None
-    for frame in performer.frames:
+    for frame in frames:
         if frame.t > t:
             break
-        if profile.family == "xarm":
-            for servo, pos in _xarm_move(frame.data)[1]:
-                state[f"servo_{servo}"] = pos.to_bytes(2, "little")
-            continue
         address, payload = _xgo_write(frame.data)
         for reg, raw in _fields(layout_of(profile), address, payload):
             state[reg.name] = bytes(raw)
@@ -192,18 +209,11 @@ def frames_to_reach(
     running action is started last, once the rest is in place. xArm: one ServoMove taking
     ``move_time`` seconds. Frames carry ``t = 0`` and a label; pace them like any other.
     """
-    if profile.family == "xarm":
-        positions = {
-            int(name.removeprefix("servo_")): int.from_bytes(raw, "little")
-            for name, raw in state.items()
-            if name.startswith("servo_")
-        }
-        if not positions:
-            return []
-        from xgo_show.wire.xarm import servo_move
+    return get_family(profile).frames_to_reach(profile, state, move_time=move_time)
 
-        data = servo_move(round(move_time * 1000), dict(sorted(positions.items())))
-        return [_reach_frame(profile, data, move_time)]
+
+def xgo_frames_to_reach(profile: Profile, state: Mapping[str, bytes]) -> list[ScheduledFrame]:
+    """:func:`frames_to_reach` for an XGO robot: register writes, a running action last."""
     layout = layout_of(profile)
     wanted: dict[int, bytes] = {}
     action: bytes | None = None
@@ -219,16 +229,17 @@ def frames_to_reach(
     frames: list[ScheduledFrame] = []
     for address, data in _runs(layout, wanted):
         wire = write_frame(address, data, write_type=profile.write_type)
-        frames.append(_reach_frame(profile, wire))
+        frames.append(reach_frame(profile, wire))
     if action is not None and ACTION_REGISTER in layout.by_name:
         reg = layout.by_name[ACTION_REGISTER]
         wire = write_frame(reg.address, action, write_type=profile.write_type)
-        frames.append(_reach_frame(profile, wire))
+        frames.append(reach_frame(profile, wire))
     return frames
 
 
-def _reach_frame(profile: Profile, wire: bytes, duration: float = 0.0) -> ScheduledFrame:
-    label = format_fields(profile, describe_frame(profile, wire))
+def reach_frame(profile: Profile, wire: bytes, duration: float = 0.0) -> ScheduledFrame:
+    """A frame of :func:`frames_to_reach`: at ``t = 0``, labelled from its bytes."""
+    label = frame_label(profile, wire)
     return ScheduledFrame(0.0, wire, None, label, duration)
 
 
@@ -265,19 +276,6 @@ def _initial_bridge(layout: Layout, last: int, nxt: int) -> bytes | None:
             return None
         out += reg.initial
     return bytes(out)
-
-
-def _xarm_move(data: bytes) -> tuple[int, list[tuple[int, int]]]:
-    """(time ms, [(servo id, position)]) of one ServoMove packet."""
-    from xgo_show.wire.xarm import ServoMove, decode_one, parse_request
-
-    used, packet = decode_one(data)
-    if packet is None or used != len(data):
-        raise ProtocolError(f"not a single xArm packet: {data.hex(' ')}")
-    request = parse_request(packet)
-    if not isinstance(request, ServoMove):
-        raise ProtocolError(f"not an xArm ServoMove: {data.hex(' ')}")
-    return request.time_ms, sorted(request.positions.items())
 
 
 def link_use(link: Link, frames: Sequence[ScheduledFrame], duration: float) -> float:

@@ -4,6 +4,8 @@ Each MotionCue becomes one multi-DoF ruckig trajectory from the registers' curre
 targets at rest. ruckig's default time synchronisation makes every DoF arrive together. A cue's
 duration is honoured with ``InputParameter.minimum_duration``; when the limits make the move
 longer than that, the cue is infeasible and :class:`InfeasibleMotion` says by how much.
+:func:`min_duration` is the same computation without a duration: the shortest move, which the
+resolver gives a motion cue written without one (the one place ruckig is called).
 
 Never set ``InputParameter.intermediate_positions``: in ruckig's community build that sends the
 request to a remote cloud service. The compiler must stay a pure, offline function (a test
@@ -12,7 +14,7 @@ checks that this module never touches it).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from ruckig import InputParameter, Result, Ruckig, RuckigError, Trajectory
@@ -24,6 +26,7 @@ __all__ = [
     "InfeasibleMotion",
     "MotionPlan",
     "TrajectoryError",
+    "min_duration",
     "plan_motion",
 ]
 
@@ -124,3 +127,22 @@ def plan_motion(
         worst = max(range(dofs), key=lambda i: (alone[i], -i))
         raise InfeasibleMotion(traj.duration, worst, duration)
     return MotionPlan(tuple(names), start, float(traj.duration), traj, list(targets))
+
+
+def min_duration(
+    start: Mapping[str, float], targets: Mapping[str, float], limits: Mapping[str, Limits]
+) -> float:
+    """Shortest rest-to-rest time of a synchronised jerk-limited move, seconds.
+
+    Only registers with a start, a target and limits count; 0.0 when none does or when ruckig
+    finds no trajectory (the compiler then reports the cue with its reason).
+    """
+    names = [n for n in targets if n in limits and n in start]
+    if not names:
+        return 0.0
+    try:
+        plan = plan_motion(names, 0.0, [DofState(start[n]) for n in names],
+                           [targets[n] for n in names], [limits[n] for n in names])
+    except TrajectoryError:
+        return 0.0
+    return plan.duration

@@ -19,13 +19,8 @@ from typing import TextIO
 
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import XgoShowError
-from xgo_show.profiles import Profile, get_profile, model_from_firmware
-from xgo_show.profiles.xarm import (
-    BATTERY_MV_EMPTY,
-    BATTERY_MV_FULL,
-    battery_floor_mv,
-    battery_percent,
-)
+from xgo_show.families import get_family
+from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.transports.base import Transport
 
@@ -37,7 +32,6 @@ __all__ = [
     "open_ports",
     "preflight",
     "request_realtime",
-    "xarm_floor_text",
 ]
 
 Opener = Callable[..., Transport]
@@ -107,8 +101,10 @@ class PreflightReport:
             cells = [c.ljust(w) for c, w in zip(row, widths, strict=False)]
             out.append("  ".join([*cells, row[-1]]).rstrip())
         floor = f"battery floor {self.battery_floor:g}%"
-        if any(get_profile(r.model).family == "xarm" for r in self.rows):
-            floor += f" (xArm: {xarm_floor_text(self.battery_floor)})"
+        families = dict.fromkeys(get_family(get_profile(r.model)) for r in self.rows)
+        notes = [n for f in families if (n := f.battery_floor_note(self.battery_floor))]
+        if notes:
+            floor += f" ({'; '.join(notes)})"
         out.append(f"{floor}; real-time scheduling: {self.realtime}")
         return "\n".join(out)
 
@@ -171,54 +167,7 @@ def preflight(
 
 def _check_robot(row: PreflightRow, transport: Transport, floor: float, timeout: float) -> None:
     profile = get_profile(row.model)
-    if profile.family == "xarm":
-        _check_xarm(row, transport, profile, floor, timeout)
-        return
-    from xgo_show.client import XgoClient
-
-    client = XgoClient(transport, profile, timeout=timeout)
-    try:
-        row.firmware = client.firmware()
-        row.detected = model_from_firmware(row.firmware)
-        if row.detected != profile.model:
-            seen = row.detected or "an unknown model"
-            row.problems.append(f"firmware {row.firmware!r} is {seen}, not {profile.model}")
-        row.battery = float(client.battery())
-        if row.battery < floor:
-            row.problems.append(f"battery {row.battery:.0f}% is below the floor of {floor:g}%")
-    except XgoShowError as exc:
-        row.problems.append(str(exc))
-
-
-def xarm_floor_text(floor: float) -> str:
-    """The xArm's battery floor in volts, with where it comes from: ``6.48 V (20% of ...)``."""
-    return (
-        f"{battery_floor_mv(floor) / 1000:.2f} V = {floor:g}% of "
-        f"{BATTERY_MV_EMPTY / 1000:.2f}..{BATTERY_MV_FULL / 1000:.2f} V"
-    )
-
-
-def _check_xarm(
-    row: PreflightRow, transport: Transport, profile: Profile, floor: float, timeout: float
-) -> None:
-    # The xArm has no firmware string: an answer in its protocol is what identifies it. Its
-    # battery is reported in millivolts: the show's percentage floor is mapped onto the
-    # servos' working range (profiles.xarm).
-    from xgo_show.client import XarmClient
-
-    try:
-        millivolts = XarmClient(transport, profile, timeout=timeout).battery_mv()
-    except XgoShowError as exc:
-        row.problems.append(str(exc))
-        return
-    row.firmware = "xArm controller"
-    row.detected = profile.model
-    row.voltage = millivolts / 1000
-    row.battery = battery_percent(millivolts)
-    if millivolts < battery_floor_mv(floor):
-        row.problems.append(
-            f"battery {row.voltage:.2f} V is below the floor of {xarm_floor_text(floor)}"
-        )
+    get_family(profile).preflight(row, transport, profile, floor, timeout)
 
 
 def request_realtime(priority: int = 10, *, nice: int = -10) -> str:

@@ -10,6 +10,7 @@ import inspect
 from typing import Any
 
 from xgo_show.errors import ProfileError
+from xgo_show.families import get_family
 from xgo_show.profiles import get_profile
 from xgo_show.sim.base import ReceivedFrame, SimulatedRobot
 from xgo_show.sim.pty_server import PtyServer
@@ -27,7 +28,7 @@ __all__ = [
 
 
 def create_robot(model: str, **options: Any) -> SimulatedRobot:
-    """A simulated robot for ``model``; ``options`` go to the robot class.
+    """A simulated robot for ``model``; ``options`` go to its family's simulator class.
 
     XGO models take :class:`XgoRobot` options (``battery``, ``drain_per_minute``, ``seed``,
     ``firmware``, …), the xArm :class:`XarmRobot` options (``battery_mv``,
@@ -35,7 +36,7 @@ def create_robot(model: str, **options: Any) -> SimulatedRobot:
     lists the valid ones; an unknown option raises :class:`ProfileError` naming it.
     """
     profile = get_profile(model)
-    cls: type[XgoRobot] | type[XarmRobot] = XarmRobot if profile.family == "xarm" else XgoRobot
+    cls = get_family(profile).simulator_class()
     valid = [name for name in inspect.signature(cls).parameters if name != "profile"]
     unknown = sorted(set(options) - set(valid))
     if unknown:

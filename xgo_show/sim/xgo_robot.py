@@ -55,6 +55,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from xgo_show.errors import ProfileError, ProtocolError, ValueRangeError
+from xgo_show.families.xgo.posture import RESET_ACTION
 from xgo_show.profiles.model import Encoding, Profile, Register
 from xgo_show.sim.base import FrameRobot, Rejected
 from xgo_show.wire.xgo import XgoDecoder, XgoFrame, reply_frame
@@ -64,7 +65,6 @@ __all__ = [
     "DEFAULT_DRAIN_PER_MINUTE",
     "FEEDBACK_RATE",
     "MOTION_GROUPS",
-    "RESTORE_POSTURE",
     "XgoRobot",
 ]
 
@@ -73,7 +73,6 @@ DEFAULT_ACTION_DURATION = 3.0
 # Percent per minute: a full battery lasts a little over five hours of simulated time.
 DEFAULT_DRAIN_PER_MINUTE = 0.3
 FEEDBACK_RATE = 50.0  # Hz, Rider automatic data feedback (document: "a frequency of 50Hz")
-RESTORE_POSTURE = 255
 # Register groups whose writes command motion and therefore interrupt a running action.
 MOTION_GROUPS = frozenset({"speed", "posture", "periodic", "leg", "servo", "arm", "gripper"})
 
@@ -311,7 +310,7 @@ class XgoRobot(FrameRobot[XgoFrame]):
             raise Rejected(str(exc)) from exc
 
     def _check_action(self, action_id: int) -> None:
-        if action_id in (0, RESTORE_POSTURE):
+        if action_id in (0, RESET_ACTION):
             return
         try:
             self.profile.action(action_id)
@@ -338,7 +337,7 @@ class XgoRobot(FrameRobot[XgoFrame]):
             self._interrupt(now, f"action {action_id}")
         if action_id == 0:
             return
-        if action_id == RESTORE_POSTURE:
+        if action_id == RESET_ACTION:
             # "Restore default posture"; the vendor's reset() adds that the robot stops moving
             # and its parameters return to their initial state: posture back, safe stop applied.
             for name in self.profile.default_posture:
