@@ -3,7 +3,7 @@
 Four simulated XGO robots run in their own processes (``xgo-show simulate --record``), each
 on a real pseudo-terminal, timestamping every frame they receive with the machine-wide
 monotonic clock. One more process keeps a CPU busy. The same four-performer schedule is played
-twice in one run, first by :class:`~xgo_show.runtime.show_runner.ShowRunner` (telemetry on),
+twice in one run, first by the runtime's ShowRunner (telemetry on),
 then by a naive loop per port that writes a frame and sleeps the interval to the next one (the
 vendor library's pattern). Errors are measured from the simulators' receive times:
 
@@ -31,9 +31,10 @@ from pathlib import Path
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import MonotonicClock
+from xgo_show.runtime.events import Event, FrameSent
+from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.preflight import request_realtime
 from xgo_show.runtime.report import percentile
-from xgo_show.runtime.show_runner import ShowRunner
 from xgo_show.transports import open_transport
 from xgo_show.transports.base import Transport
 from xgo_show.wire.xgo import TYPE_READ, write_frame
@@ -129,16 +130,17 @@ def run_ours(
     from the runner's own records. Against the receive-time error it tells our lateness apart
     from the time the bytes spent in the kernel (pty or serial driver) and the simulator.
     """
-    runner = ShowRunner(schedule, links, clock=MonotonicClock(), reach={})
+    runner = local_runner(schedule, links, clock=MonotonicClock())
+    issued: list[float] = []
+
+    def on_frame(event: Event) -> None:
+        if isinstance(event, FrameSent) and event.kind == "frame" and event.error is not None:
+            issued.append(event.error * 1000.0)
+
+    runner.events.subscribe(on_frame, FrameSent)
     result = runner.run(lead=0.3, handle_signals=False)
     if not result.completed:
         raise SystemExit(f"our run did not complete: {result.reason}")
-    issued = [
-        r.error * 1000.0
-        for ex in result.executors.values()
-        for r in ex.records
-        if r.kind == "frame" and r.error is not None
-    ]
     return {name: result.start_at for name in links}, issued
 
 

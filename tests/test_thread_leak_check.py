@@ -23,6 +23,9 @@ def test_a_leaked_non_daemon_thread_fails_the_test(pytester: pytest.Pytester) ->
         def test_daemon_is_fine():
             threading.Thread(target=stop.wait, name="daemon", daemon=True).start()
 
+        def test_leaks_a_runtime_daemon():
+            threading.Thread(target=stop.wait, name="xgo-show writer rex", daemon=True).start()
+
         def test_cleans_up():
             t = threading.Thread(target=lambda: None, name="short")
             t.start()
@@ -30,5 +33,10 @@ def test_a_leaked_non_daemon_thread_fails_the_test(pytester: pytest.Pytester) ->
         """
     )
     result = pytester.runpytest_inprocess("-p", "no:cacheprovider")
-    result.assert_outcomes(passed=3, errors=1)
-    result.stdout.fnmatch_lines(["*test left non-daemon threads running: leaky-worker*"])
+    result.assert_outcomes(passed=4, errors=2)
+    result.stdout.fnmatch_lines(
+        [
+            "*test left threads running: leaky-worker*",
+            "*test left threads running: xgo-show writer rex*",
+        ]
+    )

@@ -394,14 +394,14 @@ def test_start_bar_follows_the_tempo_map(tmp_path) -> None:
 
 
 def test_sim_summary_names_actions_and_what_cut_them() -> None:
-    from xgo_show.cli.run import format_sim_summaries
+    from xgo_show.sim.bench import SimSummary, format_summaries
 
-    summary = {
-        "model": "mini", "changed": {}, "frames_received": 3, "frames_rejected": 0,
-        "rejected": [],
-        "action_names": ["wave (13) cut after 0.50 of 7.00 s by write body_z", "reset (255)"],
-    }
-    text = format_sim_summaries({"rex": summary}, fast=True)
+    summary = SimSummary(
+        model="mini", changed={}, raw={}, actions=[13, 255], frames_received=3,
+        frames_rejected=0,
+        action_names=["wave (13) cut after 0.50 of 7.00 s by write body_z", "reset (255)"],
+    )
+    text = format_summaries({"rex": summary}, fast=True)
     assert "actions run: wave (13) cut after 0.50 of 7.00 s by write body_z, reset (255)" in text
     assert "--fast sends frames without waiting" in text
-    assert "--fast" not in format_sim_summaries({"rex": summary}, fast=False)
+    assert "--fast" not in format_summaries({"rex": summary}, fast=False)

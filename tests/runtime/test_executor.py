@@ -14,6 +14,7 @@ import pytest
 from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
+from xgo_show.runtime.events import EventRecorder
 from xgo_show.runtime.executor import ExecutorState, PerformerExecutor
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryPoller
@@ -68,6 +69,7 @@ def test_frames_go_out_at_start_plus_offset(perf) -> None:
     link = sim_link(clock)
     schedule = perf("rex", count=8, spacing=0.1)
     ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
     start = clock.now() + 0.5
     ex.run(start)
     received = link.robot.received[: len(schedule.frames)]
@@ -77,9 +79,9 @@ def test_frames_go_out_at_start_plus_offset(perf) -> None:
     for frame in schedule.frames:
         assert any(abs(w - (start + frame.t)) < 1e-12 for w in clock.waits)
     assert ex.state is ExecutorState.FINISHED
-    assert all(r.error == pytest.approx(0.0) for r in ex.records if r.kind == "frame")
+    assert all(r.error == pytest.approx(0.0) for r in rec.sent() if r.kind == "frame")
     # The normal end rests the robot (speeds to neutral), after the last frame.
-    assert [r.kind for r in ex.records[len(schedule.frames) :]] == ["rest"] * len(rest_frames(MINI))
+    assert [r.kind for r in rec.sent()[len(schedule.frames) :]] == ["rest"] * len(rest_frames(MINI))
 
 
 def test_late_frame_shifts_the_next_ones_without_bunching(perf) -> None:
@@ -96,8 +98,9 @@ def test_late_frame_shifts_the_next_ones_without_bunching(perf) -> None:
 
     clock.hook = oversleep
     ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
     ex.run(start)
-    sent = [r.actual for r in ex.records if r.kind == "frame"]
+    sent = [r.actual for r in rec.sent() if r.kind == "frame"]
     assert sent[3] == pytest.approx(late_deadline + 0.010)
     # The frames behind it follow at the link's minimum spacing (not all at once) …
     assert sent[4] - sent[3] == pytest.approx(MIN_SPACING)
@@ -107,7 +110,7 @@ def test_late_frame_shifts_the_next_ones_without_bunching(perf) -> None:
     assert [f.t for f in link.robot.received[:40]] == pytest.approx(sent)
 
 
-def test_a_frames_lazy_label_is_made_after_its_write_not_before(perf) -> None:
+def test_a_frames_label_is_made_when_read_never_on_the_writers_time(perf) -> None:
     """Making a label costs microseconds: it must not sit between the wake and the write."""
     clock = FakeClock()
     made: list[bytes] = []
@@ -127,12 +130,14 @@ def test_a_frames_lazy_label_is_made_after_its_write_not_before(perf) -> None:
     link = Watching(create_robot("mini"), clock=clock.now, sleep=clock.advance)
     link.open()
     ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI, rest_at_end=False)
+    rec = EventRecorder(ex.events)
     assert ex.progress.label == ""
     ex.run(clock.now() + 0.1)
     assert unmade_at_write == [True] * len(frames)
-    # Each label is made once, after its write, and lands in the record and the progress.
+    # No label is made on the writer's time: only when a listener reads one.
+    assert made == []
+    assert [r.label for r in rec.sent()] == [f.data.hex() for f in frames]
     assert made == [f.data for f in frames]
-    assert [r.label for r in ex.records] == [f.data.hex() for f in frames]
     assert ex.progress.label == frames[-1].data.hex()
 
 
@@ -149,6 +154,7 @@ def test_pause_holds_the_robot_and_resume_reaches_back_then_shifts(perf) -> None
         return [(reach_frame, "roll back")]
 
     ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI, reach=reach)
+    rec = EventRecorder(ex.events)
     pause_at = start + schedule.frames[4].t
 
     def pause_hook(deadline: float) -> None:
@@ -165,7 +171,7 @@ def test_pause_holds_the_robot_and_resume_reaches_back_then_shifts(perf) -> None
     clock.advance(5.0)  # five seconds of pause
     ex.resume()
     assert ex.join(5)
-    kinds = [r.kind for r in ex.records]
+    kinds = [r.kind for r in rec.sent()]
     n_rest = len(rest_frames(MINI))
     # Five frames, then the hold (rest frames), then the reach frame, then the rest of the show.
     assert kinds[:5] == ["frame"] * 5
@@ -173,7 +179,7 @@ def test_pause_holds_the_robot_and_resume_reaches_back_then_shifts(perf) -> None
     assert kinds[5 + n_rest] == "reach"
     assert kinds[6 + n_rest : 11 + n_rest] == ["frame"] * 5
     assert reached_at == [pytest.approx(schedule.frames[4].t)]
-    frames = [r for r in ex.records if r.kind == "frame"]
+    frames = [r for r in rec.sent() if r.kind == "frame"]
     # After the pause every frame is planned and sent 5 s (plus the hold's few ms) later.
     shift = frames[5].actual - (start + schedule.frames[5].t)
     assert 5.0 <= shift < 5.02
@@ -193,6 +199,7 @@ def test_start_mid_show_sends_state_reaching_frames_first(perf) -> None:
     ex = PerformerExecutor(
         schedule, link, clock=clock, profile=MINI, reach=lambda t: [(pose, f"state at {t}")]
     )
+    rec = EventRecorder(ex.events)
     start = clock.now() + 0.2
     ex.run(start, offset=0.5)
     got = schedule_frames(link)
@@ -208,6 +215,7 @@ def test_safe_stop_drops_pending_frames_and_stops_the_robot(perf, walking) -> No
     link = sim_link(clock)
     schedule = walking("rex", seconds=1.0)
     ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
     start = clock.now() + 0.1
     stopped: list[object] = []
 
@@ -221,10 +229,10 @@ def test_safe_stop_drops_pending_frames_and_stops_the_robot(perf, walking) -> No
     result = ex.stop_result
     assert result is not None and result.ok
     assert ex.state is ExecutorState.STOPPED
-    sent_frames = [r for r in ex.records if r.kind == "frame"]
+    sent_frames = [r for r in rec.sent() if r.kind == "frame"]
     assert len(sent_frames) < len(schedule.frames)
     # Nothing from the schedule after the stop frames.
-    kinds = [r.kind for r in ex.records]
+    kinds = [r.kind for r in rec.sent()]
     assert kinds[kinds.index("stop") :] == ["stop"] * len(stop_frames(MINI))
     snap = link.robot.snapshot()
     assert snap["registers"]["vx"] == 0.0
@@ -259,15 +267,16 @@ def test_telemetry_reads_fit_between_frames_without_delaying_any(perf) -> None:
     schedule = perf("rita", "rider", count=200, spacing=0.003, end=1.6)
     poller = TelemetryPoller(rider, interval=0.01)
     ex = PerformerExecutor(schedule, link, clock=clock, profile=rider, telemetry=poller)
+    rec = EventRecorder(ex.events)
     start = clock.now() + 0.1
     ex.run(start)
-    frames = [r for r in ex.records if r.kind == "frame"]
-    reads = [r for r in ex.records if r.kind == "read"]
+    frames = [r for r in rec.sent() if r.kind == "frame"]
+    reads = [r for r in rec.sent() if r.kind == "read"]
     assert len(frames) == len(schedule.frames)
     assert all(r.error == pytest.approx(0.0) for r in frames)  # no frame delayed by a read
     assert len(reads) > 20
     # Every write, read or not, keeps the link's wire time + gap after the previous one.
-    by_time = [r for r in ex.records if r.kind in ("frame", "read")]
+    by_time = [r for r in rec.sent() if r.kind in ("frame", "read")]
     for a, b in itertools.pairwise(by_time):
         assert b.actual - a.actual >= rider.link.wire_time(a.nbytes) + rider.link.gap - 1e-9
     got = link.robot.received
@@ -321,10 +330,11 @@ def test_xarm_battery_reads_fit_between_frames_with_room_for_the_reply() -> None
     schedule = PerformerSchedule("arm", "xarm", xarm.link, frames, end=1.5)
     poller = TelemetryPoller(xarm, interval=0.01, battery_floor=20)
     ex = PerformerExecutor(schedule, link, clock=clock, profile=xarm, telemetry=poller)
+    rec = EventRecorder(ex.events)
     start = clock.now() + 0.1
     ex.run(start)
-    sent = [r for r in ex.records if r.kind == "frame"]
-    reads = [r for r in ex.records if r.kind == "read"]
+    sent = [r for r in rec.sent() if r.kind == "frame"]
+    reads = [r for r in rec.sent() if r.kind == "read"]
     assert len(sent) == len(frames)
     assert all(r.error == pytest.approx(0.0) for r in sent)  # no frame delayed by a read
     tight = [r for r in reads if sent[0].actual < r.actual < sent[19].actual]
@@ -332,7 +342,7 @@ def test_xarm_battery_reads_fit_between_frames_with_room_for_the_reply() -> None
     assert tight == []  # no read in a 25 ms gap
     assert len(roomy) >= 15  # one in (nearly) every 45 ms gap
     room = xarm.link.wire_time(4 + 6) + xarm.link.gap
-    by_time = [r for r in ex.records if r.kind in ("frame", "read")]
+    by_time = [r for r in rec.sent() if r.kind in ("frame", "read")]
     for a, b in itertools.pairwise(by_time):
         need = room if a.kind == "read" else xarm.link.wire_time(a.nbytes) + xarm.link.gap
         assert b.actual - a.actual >= need - 1e-9

@@ -10,6 +10,7 @@ import pytest
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.executor import ExecutorState, Progress
+from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.report import ProgressPrinter, error_stats, format_report, percentile
 from xgo_show.runtime.runlog import RunLog, read_log
 from xgo_show.runtime.show_runner import ShowProgress, ShowRunner
@@ -88,7 +89,9 @@ def test_report_and_log_of_a_completed_run(perf, sched, tmp_path) -> None:
         link.open()
     log_path = tmp_path / "run.jsonl"
     with RunLog(log_path) as log:
-        result = ShowRunner(schedule, links, fast=True, log=log).run(handle_signals=False)
+        runner = local_runner(schedule, links, clock=FakeClock(), telemetry=False)
+        log.attach(runner.events)
+        result = runner.run(handle_signals=False)
     assert result.completed
     text = format_report(result)
     assert text.splitlines()[0] == "show completed"

@@ -10,12 +10,22 @@ import pytest
 
 from tests.conftest import wait_until
 from xgo_show.profiles import get_profile
+from xgo_show.runtime.events import EventRecorder, ProgressTick
 from xgo_show.runtime.executor import ExecutorState
+from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.report import format_report
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.safety import UnsafeScheduleError, check_unsafe, rest_frames
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 from xgo_show.wire.xgo import TYPE_READ, write_frame
+
+
+def make_runner(schedule, transports, *, log: RunLog | None = None, **options) -> ShowRunner:  # type: ignore[no-untyped-def]
+    """A runner over the rig's open ports, its events also written to ``log``."""
+    runner = local_runner(schedule, transports, **options)
+    if log is not None:
+        log.attach(runner.events)
+    return runner
 
 
 def settle() -> None:
@@ -42,7 +52,7 @@ def run_until(
     """Run the show in a thread; once ``performer`` has sent ``sent`` frames, call ``then``
     (a stop, a pulled cable, a fall); return the show's result."""
     th, out = run_in_thread(runner)
-    wait_until(lambda: runner.executors[performer].progress.sent >= sent, timeout=3.0)
+    wait_until(lambda: runner.performers[performer].progress.sent >= sent, timeout=3.0)
     then()
     th.join(5)
     assert out, "runner did not return"
@@ -57,18 +67,19 @@ def test_multi_performer_schedule_arrives_complete_and_in_order(rig, perf, sched
     )
     rig.for_schedule(schedule)
     log = RunLog(None)
-    result = ShowRunner(schedule, rig.transports, log=log).run(handle_signals=False)
+    runner = make_runner(schedule, rig.transports, log=log)
+    rec = EventRecorder(runner.events)
+    result = runner.run(handle_signals=False)
     settle()
     assert result.completed, result.reason
     for p in schedule.performers:
         server = rig.servers[p.name]
         assert show_frames(server, p.model) == [f.data for f in p.frames]
         assert all(f.accepted for f in server.robot.received), p.name
-        records = [r for r in result.executors[p.name].records if r.kind == "frame"]
+        records = [r for r in rec.sent(p.name) if r.kind == "frame"]
         assert [r.index for r in records] == list(range(len(p.frames)))
     # Telemetry replies were parsed on the same ports.
-    assert result.executors["rex"].telemetry is not None
-    assert result.executors["rex"].telemetry.last.get("battery") == 100.0
+    assert result.performers["rex"].readings.get("battery") == 100.0
     assert [e["event"] for e in log.events()] == ["start", "end"]
     frames_logged = [r for r in log.records if r["kind"] == "frame" and r["send"] == "frame"]
     assert len(frames_logged) == sum(len(p.frames) for p in schedule.performers)
@@ -87,7 +98,7 @@ def test_port_closed_mid_show_safe_stops_everyone(rig, sched, walking) -> None:
     schedule = _walkers(sched, walking, "halt_all")
     rig.for_schedule(schedule)
     log = RunLog(None)
-    runner = ShowRunner(schedule, rig.transports, log=log)
+    runner = make_runner(schedule, rig.transports, log=log)
     result = run_until(runner, "lola", 5, rig.servers["lola"].close)  # the cable is pulled
     settle()
     assert not result.completed
@@ -98,7 +109,7 @@ def test_port_closed_mid_show_safe_stops_everyone(rig, sched, walking) -> None:
         assert snap["raw"]["vx"] == "80", name  # neutral speed
         assert snap["actions"][-1]["id"] == 255, name  # default posture restored
         assert result.stops[name].ok
-        assert result.executors[name].state is ExecutorState.STOPPED
+        assert result.performers[name].state is ExecutorState.STOPPED
         assert len(show_frames(rig.servers[name], snap["model"])) < len(
             schedule.performer(name).frames
         )
@@ -116,13 +127,13 @@ def test_port_closed_mid_show_safe_stops_everyone(rig, sched, walking) -> None:
 def test_continue_policy_keeps_the_others_running(rig, sched, walking) -> None:
     schedule = _walkers(sched, walking, "continue")
     rig.for_schedule(schedule)
-    runner = ShowRunner(schedule, rig.transports)
+    runner = make_runner(schedule, rig.transports)
     result = run_until(runner, "lola", 5, rig.servers["lola"].close)
     settle()
     assert not result.completed
     assert set(result.stops) == {"lola"}
     for name in ("rex", "rita"):
-        assert result.executors[name].state is ExecutorState.FINISHED
+        assert result.performers[name].state is ExecutorState.FINISHED
         server = rig.servers[name]
         assert show_frames(server, server.robot.model) == [
             f.data for f in schedule.performer(name).frames
@@ -133,7 +144,7 @@ def test_continue_policy_keeps_the_others_running(rig, sched, walking) -> None:
 def test_fallen_rider_halts_the_show(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=2.0), walking("rita", "rider", seconds=2.0))
     rig.for_schedule(schedule)
-    runner = ShowRunner(schedule, rig.transports)
+    runner = make_runner(schedule, rig.transports)
 
     def fall() -> None:
         with rig.servers["rita"].lock:
@@ -149,7 +160,7 @@ def test_fallen_rider_halts_the_show(rig, sched, walking) -> None:
 def test_low_battery_during_the_show_is_a_fault(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=2.0))
     rig.for_schedule(schedule)
-    runner = ShowRunner(schedule, rig.transports, battery_floor=30)
+    runner = make_runner(schedule, rig.transports, battery_floor=30)
 
     def drain() -> None:
         with rig.servers["rex"].lock:
@@ -176,13 +187,13 @@ def _arm_moves(seconds: float = 3.0):  # type: ignore[no-untyped-def]
 def test_xarm_battery_is_polled_during_the_show(rig, sched) -> None:
     schedule = sched(_arm_moves(1.0))
     rig.for_schedule(schedule)
-    runner = ShowRunner(schedule, rig.transports)
+    runner = make_runner(schedule, rig.transports)
+    rec = EventRecorder(runner.events)
     result = runner.run(handle_signals=False)
     assert result.completed, result.reason
-    ex = result.executors["arm"]
-    reads = [r for r in ex.records if r.kind == "read"]
+    reads = [r for r in rec.sent("arm") if r.kind == "read"]
     assert len(reads) >= 3 and all(r.label == "battery_v" for r in reads)
-    assert ex.telemetry is not None and ex.telemetry.last["battery_v"] == pytest.approx(7.6, 0.01)
+    assert result.performers["arm"].readings["battery_v"] == pytest.approx(7.6, 0.01)
     assert "telemetry: battery 7.60 V" in format_report(result)
 
 
@@ -191,7 +202,7 @@ def test_xarm_low_voltage_during_the_show_halts_everyone(rig, sched, walking) ->
     rig.add("rex", "mini")
     # 7.0 V draining 1 V a second: below the 20% floor (6.48 V) after about half a second.
     rig.add("arm", "xarm", battery_mv=7000, drain_mv_per_minute=60_000)
-    runner = ShowRunner(schedule, rig.transports, battery_floor=20)
+    runner = make_runner(schedule, rig.transports, battery_floor=20)
     th, out = run_in_thread(runner)
     th.join(10)
     result = out[0]
@@ -204,19 +215,19 @@ def test_xarm_low_voltage_during_the_show_halts_everyone(rig, sched, walking) ->
     assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
     assert rig.servers["rex"].snapshot()["actions"][-1]["id"] == 255
     assert len(rig.servers["arm"].snapshot()["stops"]) == 1
-    assert result.executors["arm"].state is ExecutorState.FAILED
+    assert result.performers["arm"].state is ExecutorState.FAILED
     # Stopped well before the end of the 3 s show.
-    assert result.executors["arm"].progress.show_time < 2.0
+    assert result.performers["arm"].progress.show_time < 2.0
 
 
 def test_report_names_each_rest_once_after_a_pause(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=1.0))
     rig.for_schedule(schedule)
-    runner = ShowRunner(schedule, rig.transports, telemetry=False)
+    runner = make_runner(schedule, rig.transports, telemetry=False)
     th, out = run_in_thread(runner)
-    wait_until(lambda: runner.executors["rex"].progress.sent >= 3, timeout=3.0)
+    wait_until(lambda: runner.performers["rex"].progress.sent >= 3, timeout=3.0)
     runner.pause()
-    wait_until(lambda: runner.executors["rex"].state is ExecutorState.PAUSED, timeout=3.0)
+    wait_until(lambda: runner.performers["rex"].state is ExecutorState.PAUSED, timeout=3.0)
     runner.resume()
     th.join(10)
     result = out[0]
@@ -237,20 +248,21 @@ def test_an_exception_in_the_coordinating_thread_safe_stops_everyone(
     rig.for_schedule(schedule)
     calls = []
 
-    def progress(snapshot) -> None:  # type: ignore[no-untyped-def]
-        calls.append(snapshot)
-        if len(calls) == 3:  # the show is well under way
-            raise RuntimeError("progress display broke")
+    def progress(event) -> None:  # type: ignore[no-untyped-def]
+        calls.append(event)
+        if len(calls) == 3:  # the show is well under way: Ctrl-C with no signal handlers
+            raise KeyboardInterrupt
 
     path = tmp_path / "run.jsonl"
     with RunLog(str(path)) as log:
-        runner = ShowRunner(schedule, rig.transports, log=log, progress=progress, progress_hz=20)
-        with pytest.raises(RuntimeError, match="progress display broke"):
+        runner = make_runner(schedule, rig.transports, log=log, progress_hz=20)
+        runner.events.subscribe(progress, ProgressTick)
+        with pytest.raises(KeyboardInterrupt):
             runner.run(handle_signals=False)
     settle()
     result = runner.result
     assert result is not None and not result.completed
-    assert result.reason == "exception: RuntimeError('progress display broke')"
+    assert result.reason == "exception: KeyboardInterrupt()"
     assert set(result.stops) == {"rex", "rita", "arm"} and all(
         s.ok for s in result.stops.values()
     )
@@ -264,16 +276,33 @@ def test_an_exception_in_the_coordinating_thread_safe_stops_everyone(
     assert {e["performer"] for e in stops} == {"rex", "rita", "arm"}
     assert all(e["reason"] == result.reason and e["ok"] for e in stops)
     error = next(e for e in events if e["event"] == "exception")
-    assert error["type"] == "RuntimeError" and "progress display broke" in error["error"]
+    assert error["type"] == "KeyboardInterrupt"
     end = events[-1]
     assert end["event"] == "end" and end["reason"] == result.reason and not end["completed"]
     assert set(end["states"].values()) == {"stopped"}
 
 
+def test_a_broken_listener_never_stops_the_show(rig, sched, perf) -> None:
+    schedule = sched(perf("rex", "mini", count=20, spacing=0.01))
+    rig.for_schedule(schedule)
+    runner = make_runner(schedule, rig.transports, progress_hz=50)
+
+    def broken(event) -> None:  # type: ignore[no-untyped-def]
+        raise RuntimeError("display broke")
+
+    runner.events.subscribe(broken)
+    result = runner.run(handle_signals=False)
+    assert result.completed, result.reason
+    assert result.stats["rex"].frames == 20
+    # Every event reached it and failed there, counted, without touching the robots.
+    assert runner.events.listener_errors >= 20
+    assert isinstance(runner.events.last_listener_error, RuntimeError)
+
+
 def test_stop_from_another_thread_is_a_safe_stop(rig, sched, walking) -> None:
     schedule = sched(walking("rex", "mini", seconds=2.0))
     rig.for_schedule(schedule)
-    runner = ShowRunner(schedule, rig.transports)
+    runner = make_runner(schedule, rig.transports)
     result = run_until(runner, "rex", 3, lambda: runner.stop("operator"))
     settle()
     assert result.reason == "operator"
@@ -293,7 +322,7 @@ def test_unsafe_register_is_refused_before_anything_moves(rig, perf, sched) -> N
     schedule = sched(bad)
     rig.for_schedule(schedule)
     with pytest.raises(UnsafeScheduleError, match="servo_zero"):
-        ShowRunner(schedule, rig.transports)
+        make_runner(schedule, rig.transports)
     settle()
     assert rig.servers["rex"].robot.received == []
     found = check_unsafe(schedule, {"rex": profile}, allow_unsafe=True)
@@ -316,7 +345,7 @@ def test_unsafe_xarm_commands_are_refused_before_anything_moves(rig, sched) -> N
     schedule = sched(PerformerSchedule("arm", "xarm", xarm.link, frames, end=1.0))
     rig.for_schedule(schedule)
     with pytest.raises(UnsafeScheduleError, match="ServoOffsetWrite") as err:
-        ShowRunner(schedule, rig.transports)
+        make_runner(schedule, rig.transports)
     assert "arm frame 1 at 0.200s" in str(err.value) and "--allow-unsafe" in str(err.value)
     settle()
     assert rig.servers["arm"].robot.received == []
@@ -344,7 +373,7 @@ def test_xarm_gets_group_stop_when_the_show_is_stopped(rig, sched, walking) -> N
         PerformerSchedule("arm", "xarm", xarm.link, moves, end=2.0),
     )
     rig.for_schedule(schedule)
-    runner = ShowRunner(schedule, rig.transports)
+    runner = make_runner(schedule, rig.transports)
     result = run_until(runner, "arm", 2, lambda: runner.stop("operator"))
     settle()
     assert result.stops["arm"].ok and result.stops["arm"].frames == ("GroupStop",)
@@ -375,7 +404,7 @@ def test_a_blocked_port_delays_no_one_else_and_ends_in_a_halt(rig, sched, walkin
         blocked = open_transport(os.ttyname(slave), baudrate=115200, write_timeout=0.5)
         blocked.open()
         rig.transports["lola"] = blocked
-        runner = ShowRunner(schedule, rig.transports, telemetry=False)
+        runner = make_runner(schedule, rig.transports, telemetry=False)
         result = runner.run(handle_signals=False)
         settle()
     finally:
@@ -384,8 +413,7 @@ def test_a_blocked_port_delays_no_one_else_and_ends_in_a_halt(rig, sched, walkin
     assert result.reason.startswith("fault on lola")
     assert "blocked" in result.faults["lola"]
     # rex kept its timeline while lola's port was stuck, then was stopped with everyone.
-    rex = result.executors["rex"]
-    assert sum(1 for r in rex.records if r.kind == "frame") >= 8
+    assert result.stats["rex"].frames >= 8
     assert result.stops["rex"].ok
     assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
     assert not result.stops["lola"].ok

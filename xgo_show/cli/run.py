@@ -9,10 +9,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import math
 import sys
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,24 +21,16 @@ from typing import Any
 from xgo_show.compiler.artifact import is_schedule_file
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import RuntimeFault, XgoShowError
-from xgo_show.profiles import get_profile
-from xgo_show.runtime.clock import MonotonicClock
-from xgo_show.runtime.preflight import (
-    PreflightError,
-    countdown,
-    open_ports,
-    preflight,
-    request_realtime,
-)
+from xgo_show.runtime.clock import FakeClock, MonotonicClock
+from xgo_show.runtime.events import ProgressTick
+from xgo_show.runtime.launch import Launch
+from xgo_show.runtime.preflight import countdown, request_realtime
 from xgo_show.runtime.report import ProgressPrinter, format_report
 from xgo_show.runtime.runlog import RunLog
-from xgo_show.runtime.safety import check_unsafe
-from xgo_show.runtime.show_runner import ShowRunner
-from xgo_show.sim import PtyServer, create_robot
+from xgo_show.sim.bench import SimBench, format_summaries
 
 __all__ = [
     "PlayOptions",
-    "SimBench",
     "add_common_arguments",
     "add_parser",
     "check_options",
@@ -205,112 +198,6 @@ def parse_maps(schedule: Schedule, maps: Sequence[str]) -> dict[str, str]:
     return out
 
 
-class SimBench:
-    """One simulated robot per performer, each served on its own real pseudo-terminal."""
-
-    def __init__(self, schedule: Schedule, names: Sequence[str], **robot_options: Any) -> None:
-        self.servers: dict[str, PtyServer] = {}
-        self.initial: dict[str, dict[str, Any]] = {}
-        models = {p.name: p.model for p in schedule.performers}
-        try:
-            for name in names:
-                robot = create_robot(models[name], **robot_options)
-                self.initial[name] = robot.snapshot()
-                self.servers[name] = PtyServer(robot).start()
-        except BaseException:
-            self.close()
-            raise
-
-    @property
-    def urls(self) -> dict[str, str]:
-        return {name: s.path for name, s in self.servers.items()}
-
-    def summaries(self) -> dict[str, dict[str, Any]]:
-        """What each robot ended up doing (JSON-able)."""
-        out = {}
-        for name, server in self.servers.items():
-            snap = server.snapshot()
-            with server.lock:
-                rejected = [
-                    {"hex": f.data.hex(), "reason": f.reason}
-                    for f in server.robot.received
-                    if not f.accepted
-                ]
-            out[name] = summarize_sim(snap, self.initial[name], rejected)
-        return out
-
-    def close(self) -> None:
-        for server in self.servers.values():
-            server.close()
-
-
-def summarize_sim(
-    snap: dict[str, Any], initial: dict[str, Any], rejected: list[dict[str, str]]
-) -> dict[str, Any]:
-    """Final writable registers that differ from the start, actions, frames, rejections."""
-    profile = get_profile(snap["model"])
-    writable = {r.name for r in profile.registers if r.access.writable and not r.unsafe}
-    changed = {
-        name: value
-        for name, value in snap.get("registers", {}).items()
-        if name in writable and initial.get("registers", {}).get(name) != value
-    }
-    # xArm: servo positions instead of registers.
-    for servo, state in snap.get("servos", {}).items():
-        before = initial.get("servos", {}).get(servo, {}).get("position")
-        if state.get("position") != before:
-            changed[f"servo_{servo}"] = state.get("position")
-    return {
-        "model": snap["model"],
-        "changed": changed,
-        "raw": {name: snap.get("raw", {}).get(name) for name in changed},
-        "actions": [a.get("id") for a in snap.get("actions", [])],
-        # For people: "wave (13)", and where an action did not run its course, what cut it.
-        "action_names": [_action_text(a) for a in snap.get("actions", [])],
-        "frames_received": snap.get("frames_received"),
-        "frames_rejected": snap.get("frames_rejected"),
-        "rejected": rejected,
-        "battery": snap.get("battery", snap.get("battery_mv")),
-        "stops": len(snap.get("stops", [])),
-        "fallen": snap.get("fallen"),
-    }
-
-
-def format_sim_summaries(summaries: dict[str, dict[str, Any]], *, fast: bool = False) -> str:
-    """The dry-run's closing lines: what each simulated robot received and ended up doing."""
-    lines = ["simulated robots at the end:"]
-    for name, s in summaries.items():
-        changed = ", ".join(f"{k}={_short(v)}" for k, v in s["changed"].items()) or "none"
-        actions = ", ".join(s["action_names"]) or "none"
-        lines.append(
-            f"  {name} ({s['model']}): {s['frames_received']} frames received, "
-            f"{s['frames_rejected']} rejected; actions run: {actions}"
-        )
-        lines.append(f"    registers changed: {changed}")
-        for r in s["rejected"]:
-            lines.append(f"    rejected {r['hex']}: {r['reason']}")
-    if fast and any("cut after" in a for s in summaries.values() for a in s["action_names"]):
-        lines.append("  (--fast sends frames without waiting, so the simulators see preset actions "
-                     "cut short; run without --fast to see them run their course)")
-    return "\n".join(lines)
-
-
-def _action_text(action: dict[str, Any]) -> str:
-    text = f"{action.get('name') or 'action'} ({action.get('id')})"
-    cut, start = action.get("interrupted_at"), action.get("start")
-    if cut is not None and start is not None:
-        text += f" cut after {cut - start:.2f} of {action.get('duration', 0.0):.2f} s"
-        if action.get("interrupted_by"):
-            text += f" by {action['interrupted_by']}"
-    return text
-
-
-def _short(value: Any) -> str:
-    if isinstance(value, float):
-        return f"{value:.4g}"
-    return str(value)
-
-
 @dataclass
 class PlayOptions:
     """Everything ``run`` and ``dry-run`` decide before playing."""
@@ -340,111 +227,57 @@ def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> Pl
     )
 
 
-@contextlib.contextmanager
-def _opened(sims: SimBench | None) -> Iterator[None]:
-    try:
-        yield
-    finally:
-        if sims is not None:
-            sims.close()
-
-
 def play(schedule: Schedule, opts: PlayOptions) -> int:
-    """Run ``schedule`` with ``opts``; print pre-flight, progress and the report."""
+    """Run ``schedule`` with ``opts``: the launch stages, printing pre-flight, progress and
+    the report (and, on simulators, what each robot did)."""
     out = sys.stdout
-    profiles = {p.name: get_profile(p.model) for p in schedule.performers}
-    unsafe = check_unsafe(schedule, profiles, allow_unsafe=opts.allow_unsafe)
-    urls = {p.name: p.port for p in schedule.performers if p.port}
     sim_names = [p.name for p in schedule.performers if p.name not in opts.maps] if opts.sim else []
-    sims = SimBench(schedule, sim_names) if sim_names else None
-    if sims is not None:
-        urls.update(sims.urls)
-    urls.update(opts.maps)
-    log = RunLog(opts.log)
-    transports: dict[str, Any] = {}
-    with _opened(sims), log:
-        try:
-            return _play(schedule, opts, urls, sims, log, transports, unsafe, out)
-        finally:
-            for t in transports.values():
-                t.close()
-
-
-def _play(
-    schedule: Schedule,
-    opts: PlayOptions,
-    urls: dict[str, str],
-    sims: SimBench | None,
-    log: RunLog,
-    transports: dict[str, Any],
-    unsafe: list[str],
-    out: Any,
-) -> int:
-    if unsafe:
-        print(f"warning: {len(unsafe)} unsafe write(s) allowed by --allow-unsafe", file=out)
-        log.event("unsafe_allowed", writes=unsafe)
-    realtime = request_realtime() if opts.realtime else "not requested"
-    opened, errors = open_ports(schedule, urls)
-    transports.update(opened)
-    report = preflight(
-        schedule, opened, urls=urls, open_errors=errors, battery_floor=opts.battery_floor
-    )
-    report.realtime = realtime
-    print(report.table(), file=out, flush=True)
-    log.event(
-        "preflight",
-        ok=report.ok,
-        forced=opts.force,
-        realtime=realtime,
-        rows=[
-            {
-                "performer": r.performer,
-                "port": r.port,
-                "firmware": r.firmware,
-                "battery": r.battery,
-                "voltage": r.voltage,
-                "low_latency": r.low_latency,
-                "problems": r.problems,
-            }
-            for r in report.rows
-        ],
-    )
-    if not report.ports_ok:
-        raise PreflightError("pre-flight failed: a port did not open; nothing was moved")
-    if not report.ok:
-        if not opts.force:
-            raise PreflightError("pre-flight failed; nothing was moved (--force to start anyway)")
-        print("warning: pre-flight failed; starting anyway because of --force", file=out)
-    countdown(opts.countdown, out=out)
-    printer = ProgressPrinter(tempo=schedule.tempo(), out=out)
-    runner = ShowRunner(
+    # The launch refuses unsafe writes before anything opens (no log, no simulator, no port).
+    launch = Launch(
         schedule,
-        opened,
-        clock=MonotonicClock(),
-        fast=opts.fast,
-        telemetry=opts.telemetry,
+        opts.maps,
+        clock=FakeClock(time.monotonic()) if opts.fast else MonotonicClock(),
         battery_floor=opts.battery_floor,
         allow_unsafe=opts.allow_unsafe,
-        log=log,
-        progress=printer,
+        telemetry=opts.telemetry and not opts.fast,
     )
-    where = f" from {opts.offset:g} s" if opts.offset else ""
-    print(
-        f"running {schedule.name!r}{where}: {len(schedule.performers)} performer(s), "
-        f"{schedule.duration:.1f} s",
-        file=out,
-        flush=True,
-    )
-    result = runner.run(offset=opts.offset)
-    printer.finish()
-    print(format_report(result), file=out, flush=True)
-    if sims is not None:
-        # Let the pty servers take in the last bytes written before reading their state.
-        time.sleep(0.05)
-        summaries = sims.summaries()
-        for name, summary in summaries.items():
-            log.write("sim", flush=True, performer=name, **summary)
-        print(format_sim_summaries(summaries, fast=opts.fast), file=out, flush=True)
+    with contextlib.ExitStack() as stack:
+        log = stack.enter_context(RunLog(opts.log))
+        sims = stack.enter_context(SimBench(schedule, sim_names)) if sim_names else None
+        if sims is not None:
+            launch.map(sims.urls)
+        stack.enter_context(launch)
+        log.attach(launch.events)
+        if launch.unsafe:
+            print(f"warning: {len(launch.unsafe)} unsafe write(s) allowed by --allow-unsafe",
+                  file=out)
+            log.event("unsafe_allowed", writes=launch.unsafe)
+        realtime = request_realtime() if opts.realtime else "not requested"
+        launch.open()
+        report = launch.preflight(realtime=realtime)
+        print(report.table(), file=out, flush=True)
+        launch.arm(force=opts.force)
+        if not report.ok:
+            print("warning: pre-flight failed; starting anyway because of --force", file=out)
+        countdown(opts.countdown, out=out)
+        printer = ProgressPrinter(tempo=schedule.tempo(), out=out)
+        launch.events.subscribe(printer.on_event, ProgressTick)
+        where = f" from {opts.offset:g} s" if opts.offset else ""
+        print(
+            f"running {schedule.name!r}{where}: {len(schedule.performers)} performer(s), "
+            f"{schedule.duration:.1f} s",
+            file=out,
+            flush=True,
+        )
+        result = launch.run(offset=opts.offset)
+        printer.finish()
+        print(format_report(result), file=out, flush=True)
+        if sims is not None:
+            sims.settle()
+            summaries = sims.summaries()
+            for name, summary in summaries.items():
+                log.write("sim", flush=True, performer=name, **dataclasses.asdict(summary))
+            print(format_summaries(summaries, fast=opts.fast), file=out, flush=True)
     if result.completed:
         return 0
     if result.reason in SIGNAL_REASONS:

@@ -27,32 +27,35 @@ from __future__ import annotations
 
 import enum
 import threading
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
 from xgo_show.errors import TransportError, XgoShowError
 from xgo_show.profiles.model import Profile
 from xgo_show.runtime.clock import Clock, hand_off_cpu, tighten_timer_slack
-from xgo_show.runtime.runlog import RunLog
+from xgo_show.runtime.events import (
+    EventBus,
+    FaultRaised,
+    FrameSent,
+    SafeStopped,
+    StateChanged,
+    TelemetryRead,
+)
 from xgo_show.runtime.safety import rest_frames, stop_frames
-from xgo_show.runtime.telemetry import TelemetryItem, TelemetryPoller, TelemetrySample
+from xgo_show.runtime.telemetry import TelemetryItem, TelemetryPoller
 from xgo_show.transports.base import Transport
 
 __all__ = [
     "ExecutorState",
-    "FaultHandler",
     "PerformerExecutor",
     "Progress",
     "ReachFn",
     "SafeStopResult",
-    "SendRecord",
 ]
 
 # Frames (bytes, label) that bring a robot to the register state it has at show time t.
 ReachFn = Callable[[float], Sequence[tuple[bytes, str]]]
-# Called (from the executor's threads) when the performer faults: (executor, reason).
-FaultHandler = Callable[["PerformerExecutor", str], None]
 
 # Extra room a telemetry request must leave before the next scheduled frame is due, beyond its
 # own wire time and gap: covers the OS write call and scheduling noise.
@@ -67,23 +70,6 @@ class ExecutorState(enum.Enum):
     FINISHED = "finished"  # every frame sent, robot at rest
     STOPPED = "stopped"  # safe-stopped
     FAILED = "failed"  # port or telemetry fault
-
-
-@dataclass(frozen=True)
-class SendRecord:
-    """One frame written: kind (frame/reach/read/rest/stop), schedule index, times."""
-
-    kind: str
-    index: int | None
-    planned: float | None  # monotonic time the schedule wanted it (None: not in the schedule)
-    actual: float  # monotonic time the write was issued
-    nbytes: int
-    label: str = ""
-
-    @property
-    def error(self) -> float | None:
-        """Seconds late (negative = early) against the plan."""
-        return None if self.planned is None else self.actual - self.planned
 
 
 @dataclass(frozen=True)
@@ -113,9 +99,9 @@ class SafeStopResult:
 
 @dataclass
 class _Timeline:
-    start: float = 0.0  # monotonic time at which show time ``offset`` happens
+    start: float = 0.0  # clock time at which show time ``offset`` happens
     offset: float = 0.0
-    paused: float = 0.0  # total seconds spent paused so far
+    paused: float = 0.0  # total seconds spent paused since ``start``
 
     def at(self, t: float) -> float:
         return self.start + (t - self.offset) + self.paused
@@ -129,22 +115,28 @@ class _Flags:
     wake: threading.Event = field(default_factory=threading.Event)
     abort: threading.Event = field(default_factory=threading.Event)
     pause: bool = False
+    pause_at: float | None = None  # clock time the pause takes effect (None: at once)
     resume: bool = False
+    resume_at: float | None = None  # clock time the show goes on (None: at once)
+    seek: tuple[float, float | None] | None = None  # (show time, clock time or None)
 
 
 class PerformerExecutor:
     """Sends one performer's frames on time; stops safely on request or fault.
 
-    Parameters beyond the essential four are keyword-only:
+    Implements the :class:`~xgo_show.runtime.performer.Performer` protocol. Parameters beyond
+    the essential three are keyword-only:
 
+    - ``clock``: the :class:`Clock` every deadline is read on (a :class:`FakeClock` runs the
+      schedule without waiting);
     - ``profile``: the performer's profile (stop frames, telemetry layout); looked up from the
       schedule's model when omitted;
     - ``telemetry``: a :class:`TelemetryPoller` to poll in spare link time (None: no polling);
     - ``reach``: frames that bring the robot to its state at a show time (mid-show starts,
-      resume after pause); None: start from the first frame at or after the offset as is;
+      resume after pause, seek); None: start from the first frame at or after the offset as is;
     - ``linger_until``: show time to keep polling telemetry after the last frame (the whole
       show's end, so a performer that finished early is still watched);
-    - ``log``: a :class:`RunLog`; ``on_fault``: called once on a port or telemetry fault.
+    - ``events``: the :class:`EventBus` to publish on (default: a bus of its own, ``.events``).
     """
 
     def __init__(
@@ -157,8 +149,7 @@ class PerformerExecutor:
         telemetry: TelemetryPoller | None = None,
         reach: ReachFn | None = None,
         linger_until: float | None = None,
-        log: RunLog | None = None,
-        on_fault: FaultHandler | None = None,
+        events: EventBus | None = None,
         rest_at_end: bool = True,
     ) -> None:
         if profile is None:
@@ -172,13 +163,10 @@ class PerformerExecutor:
         self.telemetry = telemetry if telemetry is not None and telemetry.enabled else None
         self.reach = reach
         self.linger_until = max(schedule.end, linger_until or 0.0)
-        self.log = log
-        self.on_fault = on_fault
+        self.events = events if events is not None else EventBus()
         self.rest_at_end = rest_at_end
         # What a pause and the normal end send: the same frames every time.
         self._rest = [(f.data, f.label) for f in rest_frames(profile)]
-        self.records: list[SendRecord] = []
-        self.samples: list[TelemetrySample] = []
         self.fault: str | None = None
         self.stop_result: SafeStopResult | None = None
         self._state = ExecutorState.IDLE
@@ -201,6 +189,10 @@ class PerformerExecutor:
         return self.schedule.name
 
     @property
+    def model(self) -> str:
+        return self.schedule.model
+
+    @property
     def state(self) -> ExecutorState:
         return self._state
 
@@ -209,8 +201,21 @@ class PerformerExecutor:
         """Whether the writer has nothing more to do (finished, stopped or failed)."""
         return self._state in (ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED)
 
+    @property
+    def readings(self) -> Mapping[str, float]:
+        """The latest telemetry values (a copy); empty without telemetry."""
+        return dict(self.telemetry.last) if self.telemetry is not None else {}
+
+    def lead_time(self, offset: float) -> float:
+        """Seconds the catch-up frames of a start at ``offset`` need on the link (+50 ms)."""
+        if offset <= 0 or self.reach is None:
+            return 0.05
+        link = self.schedule.link
+        frames = self.reach(offset)
+        return sum(link.wire_time(len(d)) + link.gap for d, _ in frames) + 0.05
+
     def start(self, start_at: float, *, offset: float = 0.0) -> None:
-        """Run in background threads; show time ``offset`` happens at monotonic ``start_at``."""
+        """Run in background threads; show time ``offset`` happens at clock time ``start_at``."""
         self._start_reader()
         self._writer = threading.Thread(
             target=self._run_guarded, args=(start_at, offset), name=f"xgo-show writer {self.name}"
@@ -233,14 +238,24 @@ class PerformerExecutor:
         self._writer.join(timeout)
         return not self._writer.is_alive()
 
-    def pause(self) -> None:
-        """Hold at the next frame: speeds to neutral, timeline frozen until :meth:`resume`."""
+    def pause(self, *, at: float | None = None) -> None:
+        """Hold from clock time ``at`` (default: the next frame): speeds to neutral, timeline
+        frozen until :meth:`resume`. No frame planned at or after ``at`` goes out."""
+        self._flags.pause_at = at
         self._flags.pause = True
         self._flags.wake.set()
 
-    def resume(self) -> None:
-        """Bring the robot back to where the show was and continue, shifted by the pause."""
+    def resume(self, *, at: float | None = None) -> None:
+        """Bring the robot back to where the show was and go on; with ``at``, the show time
+        of the pause happens at clock time ``at`` (catch-up frames go before it)."""
+        self._flags.resume_at = at
         self._flags.resume = True
+        self._flags.wake.set()
+
+    def seek(self, show_time: float, *, at: float | None = None) -> None:
+        """Jump to ``show_time``: catch-up frames, then the show goes on from there at clock
+        time ``at`` (default: as soon as they are sent). While paused, takes effect on resume."""
+        self._flags.seek = (max(0.0, show_time), at)
         self._flags.wake.set()
 
     def abort(self) -> None:
@@ -308,23 +323,21 @@ class PerformerExecutor:
 
     def _set_state(self, state: ExecutorState) -> None:
         with self._state_lock:
-            if not self.done or state in (ExecutorState.STOPPED, ExecutorState.FAILED):
-                self._state = state
+            if self.done and state not in (ExecutorState.STOPPED, ExecutorState.FAILED):
+                return
+            if state is self._state:
+                return
+            self._state = state
+        now = self.clock.now()
+        at = self._paused_at if self._paused_at is not None else now
+        show_time = 0.0 if state is ExecutorState.IDLE else self._timeline.show_time(at)
+        self.events.publish(StateChanged(now, self.name, state, show_time))
 
     def _finish_stop(self, result: SafeStopResult) -> SafeStopResult:
         if self.stop_result is None:
             self.stop_result = result
             self._set_state(ExecutorState.STOPPED if self.fault is None else ExecutorState.FAILED)
-            if self.log is not None:
-                self.log.event(
-                    "safe_stop",
-                    performer=self.name,
-                    reason=result.reason,
-                    ok=result.ok,
-                    frames=list(result.frames),
-                    error=result.error,
-                    elapsed_ms=round(result.elapsed * 1000, 3),
-                )
+            self.events.publish(SafeStopped(self.clock.now(), self.name, result))
         return self.stop_result
 
     def _run_guarded(self, start_at: float, offset: float) -> None:
@@ -338,70 +351,119 @@ class PerformerExecutor:
         except Exception as exc:  # any writer crash must still stop the robot
             self._report_fault(f"internal error in the executor: {exc!r}")
 
+    def _first_index(self, show_time: float) -> int:
+        frames = self.schedule.frames
+        return next((i for i, f in enumerate(frames) if f.t >= show_time - 1e-9), len(frames))
+
     def _run(self, start_at: float, offset: float) -> None:
         self._timeline = _Timeline(start_at, offset)
         frames = self.schedule.frames
-        index = next((i for i, f in enumerate(frames) if f.t >= offset - 1e-9), len(frames))
+        flags = self._flags
+        index = self._first_index(offset)
         if offset > 0 and self.reach is not None:
             self._set_state(ExecutorState.REACHING)
             self._send_now("reach", self.reach(offset))
         self._set_state(ExecutorState.RUNNING)
-        while index < len(frames):
-            if self._flags.abort.is_set():
+        while True:
+            flags.wake.clear()  # before reading the flags: a request after this wakes the wait
+            if flags.abort.is_set():
                 return
-            if self._flags.pause:
-                self._hold()
+            if flags.seek is not None:
+                index = self._seek_now()
+                continue
+            if index >= len(frames):
+                # Keep watching (telemetry) until the whole show is over.
+                if flags.pause:
+                    index = self._hold(index)
+                    continue
+                if self._wait(self._timeline.at(self.linger_until)):
+                    break
                 continue
             frame = frames[index]
             planned = self._timeline.at(frame.t)
-            if not self._wait(max(planned, self._ready_at)):
-                continue  # woken by pause or abort: re-check the flags
+            deadline = max(planned, self._ready_at)
+            if flags.pause:
+                pause_at = flags.pause_at
+                if pause_at is None or planned >= pause_at:
+                    index = self._hold(index)
+                    continue
+                deadline = min(deadline, pause_at)  # wake up for a pause due before this frame
+            if not self._wait(deadline) or self.clock.now() < planned:
+                continue  # woken by a request, or for a pause: re-check the flags
             if not self._write(frame.data, "frame", index, planned, frame):
                 return
             index += 1
             self._sent_frames = index
             if frame.origin is not None and frame.origin.cue:
                 self._cue = frame.origin.cue
-        # Keep watching (telemetry) until the whole show is over.
-        while not self._flags.abort.is_set():
-            if self._flags.pause:
-                self._hold()
-                continue
-            if self._wait(self._timeline.at(self.linger_until)):
-                break
-        if self._flags.abort.is_set():
+        if flags.abort.is_set():
             return
         if self.rest_at_end and not self._send_now("rest", self._rest):
             return
         self._set_state(ExecutorState.FINISHED)
 
-    def _hold(self) -> None:
-        """Pause: rest the robot, wait for resume (polling telemetry), then reach back."""
-        self._flags.pause = False
-        self._flags.wake.clear()
-        self._paused_at = self.clock.now()
-        show_time = self._timeline.show_time(self._paused_at)
-        self._set_state(ExecutorState.PAUSED)
-        if self.log is not None:
-            self.log.event("pause", performer=self.name, show_time=round(show_time, 6))
-        if not self._send_now("rest", self._rest):
-            return
-        while not self._flags.resume and not self._flags.abort.is_set():
-            self._poll_once()
-            self._flags.wake.wait(0.02)
-        self._flags.resume = False
-        self._flags.wake.clear()
-        if self._flags.abort.is_set():
-            return
-        now = self.clock.now()
-        self._timeline.paused += now - self._paused_at
-        self._paused_at = None
-        if self.log is not None:
-            self.log.event("resume", performer=self.name, show_time=round(show_time, 6))
+    def _rebase(self, show_time: float, at: float) -> None:
+        """Show time ``show_time`` happens at clock time ``at`` from now on."""
+        self._timeline = _Timeline(at, show_time)
+
+    def _go_on(self, show_time: float, at: float | None, index: int) -> int:
+        """Catch up to ``show_time``, then play on from it (schedule ``index``) at clock time
+        ``at`` (None: once the catch-up frames are sent). Returns ``index``, or -1 if aborted
+        meanwhile."""
+        self._sent_frames = index
         if self.reach is not None:
             self._set_state(ExecutorState.REACHING)
             self._send_now("reach", self.reach(show_time))
+        now = self.clock.now()
+        go = at if at is not None and at > now else now
+        self._rebase(show_time, go)
+        self._paused_at = None
+        if go > now and not self.clock.sleep_until(go, self._flags.abort):
+            return -1
         self._set_state(ExecutorState.RUNNING)
+        return index
+
+    def _seek_now(self) -> int:
+        """Apply a pending seek while playing; returns the index to continue from."""
+        seek = self._flags.seek
+        assert seek is not None
+        self._flags.seek = None
+        show_time, at = seek
+        index = self._go_on(show_time, at, self._first_index(show_time))
+        return len(self.schedule.frames) if index < 0 else index
+
+    def _hold(self, index: int) -> int:
+        """Pause: rest the robot, wait for resume (polling telemetry), then reach back.
+
+        Returns the schedule index to go on from (a seek while paused moves it).
+        """
+        flags = self._flags
+        pause_at = flags.pause_at
+        flags.pause = False
+        flags.pause_at = None
+        if pause_at is not None and not self.clock.sleep_until(pause_at, flags.abort):
+            return index
+        # Every host given the same pause time holds at the same show time, even one that got
+        # the request late (the frames it already sent are not taken back).
+        self._paused_at = pause_at if pause_at is not None else self.clock.now()
+        show_time = self._timeline.show_time(self._paused_at)
+        self._set_state(ExecutorState.PAUSED)
+        if not self._send_now("rest", self._rest):
+            return index
+        while not flags.resume and not flags.abort.is_set():
+            self._poll_once()
+            flags.wake.wait(0.02)
+            flags.wake.clear()
+        flags.resume = False
+        resume_at, flags.resume_at = flags.resume_at, None
+        if flags.abort.is_set():
+            return index
+        if flags.seek is not None:
+            show_time = flags.seek[0]
+            flags.seek = None
+            index = self._first_index(show_time)
+        index = self._go_on(show_time, resume_at, index)
+        return len(self.schedule.frames) if index < 0 else index
 
     def _send_now(self, kind: str, frames: Iterable[tuple[bytes, str]]) -> bool:
         """Send frames outside the schedule (reach, rest) as soon as the link is free each
@@ -469,8 +531,8 @@ class PerformerExecutor:
     ) -> bool:
         """Write one frame unless aborted; return False if aborted.
 
-        ``label`` is the text, or the schedule frame whose label it is: a schedule frame's label
-        is made from its bytes on first read, which must come after the write, not before it.
+        ``label`` names a frame outside the schedule, or is the schedule frame written (whose
+        label listeners derive when they need it: not on the writer's time).
         """
         # Wait for the link outside the lock, so a safe stop never waits behind this frame.
         if self.clock.now() < self._ready_at:
@@ -503,20 +565,22 @@ class PerformerExecutor:
         # A real-time writer lets the kernel worker that moves the bytes (ptys) run now, not
         # after this thread's bookkeeping; the link is busy for the frame meanwhile anyway.
         hand_off_cpu()
-        text = label if isinstance(label, str) else label.label
-        record = SendRecord(kind, index, planned, actual, len(data), text)
-        self.records.append(record)
-        if self.log is not None:
-            tl = self._timeline
-            self.log.write(
-                "frame",
-                performer=self.name,
-                send=kind,
-                index=index,
-                planned=None if planned is None else round(tl.show_time(planned), 6),
-                actual=round(tl.show_time(actual), 6),
-                bytes=data.hex(),
+        tl = self._timeline
+        note, frame = (label, None) if isinstance(label, str) else ("", label)
+        self.events.publish(
+            FrameSent(
+                actual,
+                self.name,
+                kind,
+                index,
+                planned,
+                data,
+                note,
+                None if planned is None else tl.show_time(planned),
+                tl.show_time(actual),
+                frame,
             )
+        )
 
     # ------------------------------------------------------------------ reader and faults
 
@@ -539,13 +603,8 @@ class PerformerExecutor:
             if not chunk:
                 continue
             now = self.clock.now()
-            samples = self.telemetry.feed(chunk, now)
-            self.samples.extend(samples)
-            if self.log is not None:
-                for s in samples:
-                    self.log.write(
-                        "telemetry", performer=self.name, name=s.name, value=s.value, t=s.t
-                    )
+            for sample in self.telemetry.feed(chunk, now):
+                self.events.publish(TelemetryRead(sample.t, self.name, sample.name, sample.value))
             if self.telemetry.fault is not None and not self.done:
                 self._report_fault(self.telemetry.fault)
                 return
@@ -557,7 +616,4 @@ class PerformerExecutor:
             self.fault = reason
         self.abort()
         self._set_state(ExecutorState.FAILED)
-        if self.log is not None:
-            self.log.event("fault", performer=self.name, reason=reason)
-        if self.on_fault is not None:
-            self.on_fault(self, reason)
+        self.events.publish(FaultRaised(self.clock.now(), self.name, reason))

@@ -78,6 +78,25 @@ class PreflightReport:
     def ports_ok(self) -> bool:
         return all(r.opened for r in self.rows)
 
+    def as_record(self) -> dict[str, object]:
+        """The report as plain data (the run log's ``preflight`` event, a relay's reply)."""
+        return {
+            "ok": self.ok,
+            "realtime": self.realtime,
+            "rows": [
+                {
+                    "performer": r.performer,
+                    "port": r.port,
+                    "firmware": r.firmware,
+                    "battery": r.battery,
+                    "voltage": r.voltage,
+                    "low_latency": r.low_latency,
+                    "problems": r.problems,
+                }
+                for r in self.rows
+            ],
+        }
+
     def table(self) -> str:
         """A plain-text table of the results (one line per performer)."""
         head = ("performer", "model", "port", "firmware", "battery", "latency", "result")

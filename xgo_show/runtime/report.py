@@ -6,16 +6,16 @@ Send-time error is the actual send time minus the planned one, for scheduled fra
 
 from __future__ import annotations
 
-import math
 import re
 import sys
-from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TextIO
 
 from xgo_show.choreo.timebase import TempoMap
-from xgo_show.runtime.executor import PerformerExecutor, SafeStopResult, SendRecord
+from xgo_show.runtime.events import Event, ProgressTick
+from xgo_show.runtime.executor import SafeStopResult
 from xgo_show.runtime.show_runner import ShowProgress, ShowResult
+from xgo_show.runtime.stats import ErrorStats, SendStats, error_stats, percentile
 
 __all__ = [
     "ErrorStats",
@@ -26,48 +26,6 @@ __all__ = [
     "format_report",
     "percentile",
 ]
-
-
-def percentile(values: Sequence[float], q: float) -> float:
-    """The ``q`` quantile (0..1) of ``values`` by linear interpolation (nan when empty)."""
-    if not values:
-        return math.nan
-    ordered = sorted(values)
-    pos = (len(ordered) - 1) * q
-    lo = math.floor(pos)
-    hi = min(lo + 1, len(ordered) - 1)
-    return ordered[lo] + (ordered[hi] - ordered[lo]) * (pos - lo)
-
-
-@dataclass(frozen=True)
-class ErrorStats:
-    """Send-time error in milliseconds (late is positive)."""
-
-    count: int
-    p50: float
-    p95: float
-    p99: float
-    max: float
-
-    def format(self) -> str:
-        if not self.count:
-            return "no frames sent"
-        return (
-            f"p50 {self.p50:.3f} ms, p95 {self.p95:.3f} ms, p99 {self.p99:.3f} ms, "
-            f"max {self.max:.3f} ms"
-        )
-
-
-def error_stats(errors_s: Sequence[float]) -> ErrorStats:
-    """Statistics of send-time errors given in seconds."""
-    ms = [e * 1000.0 for e in errors_s]
-    return ErrorStats(
-        len(ms),
-        percentile(ms, 0.50),
-        percentile(ms, 0.95),
-        percentile(ms, 0.99),
-        max(ms) if ms else math.nan,
-    )
 
 
 @dataclass(frozen=True)
@@ -118,44 +76,40 @@ def _fmt(name: str, value: float) -> str:
     return f"{value:g}"
 
 
-def _ending(
-    ex: PerformerExecutor, records: Sequence[SendRecord], stop: SafeStopResult | None
-) -> str:
-    stop = stop if stop is not None else ex.stop_result
+def _ending(stats: SendStats | None, stop: SafeStopResult | None) -> str:
     if stop is not None:
         did = ", ".join(stop.frames) if stop.frames else "nothing sent"
         status = "ok" if stop.ok else f"FAILED ({stop.error})"
         return f"safe stop ({stop.reason}) {status} in {stop.elapsed * 1000:.1f} ms: {did}"
-    rest = [r.label for r in records if r.kind == "rest"]
-    if rest:
+    if stats is not None and stats.rests:
         # A pause rests the robot too: each distinct rest frame is named once, with how many
-        # times the robot was rested (the first frame of the sequence starts each rest).
-        distinct = list(dict.fromkeys(rest))
-        times = rest.count(rest[0])
+        # times the robot was rested.
+        times = stats.rests
         how = {1: "rested", 2: "rested twice"}.get(times, f"rested {times} times")
-        return f"show over; {how}: " + ", ".join(distinct)
+        return f"show over; {how}: " + ", ".join(stats.rest_labels)
     return "show over"
 
 
 def build_report(result: ShowResult) -> list[PerformerReport]:
     """One report per performer of a finished run."""
     out = []
-    for name, ex in result.executors.items():
-        records = list(ex.records)
-        frames = [r for r in records if r.kind == "frame"]
+    for name, perf in result.performers.items():
+        stats = result.stats.get(name)
+        progress = perf.progress
+        stop = result.stops.get(name) or perf.stop_result
         out.append(
             PerformerReport(
                 name=name,
-                model=ex.schedule.model,
-                state=ex.state.value,
-                frames_sent=len(frames),
-                frames_total=len(ex.schedule.frames),
-                bytes_sent=sum(r.nbytes for r in records),
-                reads=sum(1 for r in records if r.kind == "read"),
-                errors=error_stats([r.error for r in frames if r.error is not None]),
-                telemetry=dict(ex.telemetry.last) if ex.telemetry is not None else {},
-                ending=_ending(ex, records, result.stops.get(name)),
-                fault=ex.fault,
+                model=perf.model,
+                state=perf.state.value,
+                frames_sent=stats.frames if stats is not None else progress.sent,
+                frames_total=progress.total,
+                bytes_sent=stats.bytes if stats is not None else 0,
+                reads=stats.reads if stats is not None else 0,
+                errors=stats.errors.stats() if stats is not None else error_stats([]),
+                telemetry=dict(perf.readings),
+                ending=_ending(stats, stop),
+                fault=perf.fault,
             )
         )
     return out
@@ -218,6 +172,11 @@ class ProgressPrinter:
                 text += f" (battery {volts:.2f} V)"
             parts.append(text)
         return " | ".join(parts)
+
+    def on_event(self, event: Event) -> None:
+        """Subscribe this to the runtime's bus: draws every :class:`ProgressTick`."""
+        if isinstance(event, ProgressTick):
+            self(event.progress)
 
     def __call__(self, progress: ShowProgress) -> None:
         text = self.line(progress)

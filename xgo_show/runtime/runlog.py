@@ -1,9 +1,11 @@
 """The run log: one JSON object per line, everything a show run did and when.
 
-Record kinds (``"kind"``):
+A run log is a subscriber of the runtime's :class:`~xgo_show.runtime.events.EventBus`
+(:meth:`RunLog.attach`): it turns each typed event into one record. Record kinds (``"kind"``):
 
-- ``"event"``: ``event`` is one of ``preflight``, ``start``, ``pause``, ``resume``, ``fault``,
-  ``safe_stop``, ``end`` (plus free fields such as ``performer`` and ``reason``);
+- ``"event"``: ``event`` is one of ``preflight``, ``start``, ``pause``, ``resume``, ``seek``,
+  ``fault``, ``safe_stop``, ``end`` (plus free fields such as ``performer`` and ``reason``);
+- ``"state"``: a performer changed state: ``performer``, ``state``, ``show_time``;
 - ``"frame"``: one frame sent: ``performer``, ``send`` (``frame`` = scheduled, ``reach`` =
   catch-up for a mid-show start or resume, ``read`` = telemetry request, ``rest`` and
   ``stop`` = stop frames), ``index`` into the schedule, ``planned`` and ``actual`` send times in
@@ -26,19 +28,40 @@ from types import TracebackType
 from typing import IO, Any
 
 from xgo_show.errors import XgoShowError
+from xgo_show.runtime.events import (
+    Event,
+    EventBus,
+    FaultRaised,
+    FrameSent,
+    PreflightDone,
+    RunnerFailed,
+    SafeStopped,
+    ShowEnded,
+    ShowPaused,
+    ShowResumed,
+    ShowSought,
+    ShowStarted,
+    StateChanged,
+    Subscription,
+    TelemetryRead,
+)
 
 __all__ = ["RunLog", "read_log"]
 
 
 class RunLog:
-    """A thread-safe JSON-lines writer. ``RunLog(None)`` keeps records in memory only."""
+    """A thread-safe JSON-lines writer. ``RunLog(None)`` keeps records in memory only.
 
-    def __init__(self, path: str | Path | None = None, *, keep: bool = True) -> None:
+    ``keep`` (default: only when there is no file) also keeps every record in
+    :attr:`records`, which grows with the show: a log written to a file keeps nothing.
+    """
+
+    def __init__(self, path: str | Path | None = None, *, keep: bool | None = None) -> None:
         self.path = Path(path) if path is not None else None
         self._lock = threading.Lock()
         self._file: IO[str] | None = None
         self.records: list[dict[str, Any]] = []
-        self._keep = keep
+        self._keep = path is None if keep is None else keep
         if self.path is not None:
             try:
                 self._file = self.path.open("w", encoding="utf-8")
@@ -60,6 +83,76 @@ class RunLog:
     def event(self, event: str, **fields: Any) -> None:
         """Append an event record and flush it to disk."""
         self.write("event", flush=True, event=event, **fields)
+
+    def attach(self, bus: EventBus) -> Subscription:
+        """Write a record for every event published on ``bus`` from now on."""
+        return bus.subscribe(self.on_event)
+
+    def on_event(self, ev: Event) -> None:
+        """One runtime event -> one record (progress ticks are not logged)."""
+        if isinstance(ev, FrameSent):
+            self.write(
+                "frame",
+                performer=ev.performer,
+                send=ev.kind,
+                index=ev.index,
+                planned=None if ev.planned_show is None else round(ev.planned_show, 6),
+                actual=round(ev.actual_show, 6),
+                bytes=ev.data.hex(),
+            )
+        elif isinstance(ev, TelemetryRead):
+            self.write("telemetry", performer=ev.performer, name=ev.name, value=ev.value, t=ev.t)
+        elif isinstance(ev, StateChanged):
+            self.write(
+                "state",
+                performer=ev.performer,
+                state=ev.state.value,
+                show_time=round(ev.show_time, 6),
+            )
+        elif isinstance(ev, FaultRaised):
+            self.event("fault", performer=ev.performer, reason=ev.reason)
+        elif isinstance(ev, SafeStopped):
+            r = ev.result
+            self.event(
+                "safe_stop",
+                performer=ev.performer,
+                reason=r.reason,
+                ok=r.ok,
+                frames=list(r.frames),
+                error=r.error,
+                elapsed_ms=round(r.elapsed * 1000, 3),
+            )
+        elif isinstance(ev, PreflightDone):
+            self.event("preflight", forced=ev.forced, **ev.report.as_record())
+        elif isinstance(ev, ShowStarted):
+            self.event(
+                "start",
+                show=ev.show,
+                offset=ev.offset,
+                start_at=round(ev.start_at, 6),
+                performers=list(ev.performers),
+                on_failure=ev.on_failure,
+                battery_floor=ev.battery_floor,
+            )
+        elif isinstance(ev, ShowPaused):
+            self.event("pause", show_time=round(ev.show_time, 6))
+        elif isinstance(ev, ShowResumed):
+            self.event("resume", show_time=round(ev.show_time, 6))
+        elif isinstance(ev, ShowSought):
+            self.event("seek", show_time=round(ev.show_time, 6), at=round(ev.at, 6))
+        elif isinstance(ev, RunnerFailed):
+            self.event("exception", error=ev.error, type=ev.type)
+        elif isinstance(ev, ShowEnded):
+            self.event(
+                "end",
+                completed=ev.completed,
+                reason=ev.reason,
+                faults=dict(ev.faults),
+                states=dict(ev.states),
+                stop_latency_ms=(
+                    None if ev.stop_latency is None else round(ev.stop_latency * 1000, 3)
+                ),
+            )
 
     def events(self, name: str | None = None) -> list[dict[str, Any]]:
         """The event records kept in memory, optionally only those named ``name``."""

@@ -1,8 +1,11 @@
-"""Run a whole show: several performer executors from one shared start time, one safety policy.
+"""Run a whole show: several performers from one shared start time, one safety policy.
 
-:class:`ShowRunner` owns no ports: it is handed one open transport per performer (a serial port
-here; a relay's link later) and builds a :class:`PerformerExecutor` for each. It guarantees
-that every way a show can end badly ends in a safe stop on every performer:
+:class:`ShowRunner` owns no ports and builds nothing: it is handed one
+:class:`~xgo_show.runtime.performer.Performer` per performer of the schedule (a local
+:class:`PerformerExecutor`, a proxy of a robot behind a relay...) and the
+:class:`~xgo_show.runtime.events.EventBus` they publish on (:mod:`~xgo_show.runtime.launch`
+builds both). It guarantees that every way a show can end badly ends in a safe stop on every
+performer:
 
 - a performer fault (port error, fallen Rider, flat battery): with ``on_failure="halt_all"``
   (the default) every performer is safe-stopped; with ``"continue"`` only the failing one is;
@@ -21,27 +24,31 @@ import select
 import signal
 import sys
 import threading
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import FrameType
 from typing import Any
 
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.errors import XgoShowError
-from xgo_show.profiles import get_profile
 from xgo_show.profiles.model import Profile
-from xgo_show.runtime.clock import Clock, FakeClock, MonotonicClock
-from xgo_show.runtime.executor import (
-    ExecutorState,
-    PerformerExecutor,
-    Progress,
-    ReachFn,
-    SafeStopResult,
+from xgo_show.runtime.clock import Clock, MonotonicClock
+from xgo_show.runtime.events import (
+    Event,
+    EventBus,
+    FaultRaised,
+    FrameSent,
+    ProgressTick,
+    RunnerFailed,
+    ShowEnded,
+    ShowPaused,
+    ShowResumed,
+    ShowSought,
+    ShowStarted,
 )
-from xgo_show.runtime.runlog import RunLog
-from xgo_show.runtime.safety import check_unsafe
-from xgo_show.runtime.telemetry import TelemetryPoller
-from xgo_show.transports.base import Transport
+from xgo_show.runtime.executor import ExecutorState, Progress, ReachFn, SafeStopResult
+from xgo_show.runtime.performer import Performer
+from xgo_show.runtime.stats import SendStats
 
 __all__ = ["FAILURE_POLICIES", "ShowProgress", "ShowResult", "ShowRunner", "default_reach"]
 
@@ -65,12 +72,13 @@ class ShowResult:
 
     completed: bool  # every performer played its part to the end
     reason: str  # "completed", "SIGINT", "fault: ...", ...
-    executors: dict[str, PerformerExecutor] = field(default_factory=dict)
+    performers: dict[str, Performer] = field(default_factory=dict)
     stops: dict[str, SafeStopResult] = field(default_factory=dict)
     faults: dict[str, str] = field(default_factory=dict)
     start_at: float = 0.0
     offset: float = 0.0
     stop_latency: float | None = None  # seconds from the stop request to the last stop frame
+    stats: dict[str, SendStats] = field(default_factory=dict)  # what each one sent
 
 
 def default_reach(schedule: PerformerSchedule, profile: Profile) -> ReachFn:
@@ -85,35 +93,33 @@ def default_reach(schedule: PerformerSchedule, profile: Profile) -> ReachFn:
 
 
 class ShowRunner:
-    """Runs every performer of ``schedule`` over ``transports`` (performer name -> transport).
+    """Runs every performer of ``schedule`` (``performers``: name -> :class:`Performer`).
 
-    Keyword options: ``clock`` (default :class:`MonotonicClock`), ``fast`` (each executor gets
-    its own :class:`FakeClock`: no waiting, every frame still sent; telemetry off),
-    ``telemetry`` (poll battery/status/attitude), ``battery_floor`` (percent; default the
-    schedule's), ``on_failure`` (default the schedule's), ``allow_unsafe``, ``log``,
-    ``progress`` (called about ``progress_hz`` times a second with a :class:`ShowProgress`),
-    ``stop_timeout`` (seconds allowed for the safe stop of all performers), ``reach`` (per
-    performer catch-up function for mid-show starts and resume; default :func:`default_reach`).
+    The runner builds nothing and reaches into nothing: it starts, steers and stops performers
+    through the protocol and learns what they do from the ``events`` bus they publish on (the
+    same bus it publishes the show-level events on). Keyword options: ``clock`` (default
+    :class:`MonotonicClock`; the time base of ``start_at`` and every ``at``), ``on_failure``
+    (default the schedule's), ``battery_floor`` (for the start event; default the
+    schedule's), ``progress_hz`` (rate of :class:`ProgressTick` events), ``stop_timeout``
+    (seconds allowed for the safe stop of all performers), ``command_lead`` (seconds between a
+    pause/resume/seek request and the clock time every performer acts on: room for remote
+    performers to receive it).
     """
 
     def __init__(
         self,
         schedule: Schedule,
-        transports: Mapping[str, Transport],
+        performers: Mapping[str, Performer],
         *,
+        events: EventBus,
         clock: Clock | None = None,
-        fast: bool = False,
-        telemetry: bool = True,
-        battery_floor: float | None = None,
         on_failure: str | None = None,
-        allow_unsafe: bool = False,
-        log: RunLog | None = None,
-        progress: Callable[[ShowProgress], None] | None = None,
+        battery_floor: float | None = None,
         progress_hz: float = 4.0,
         stop_timeout: float = 0.1,
-        reach: Mapping[str, ReachFn | None] | None = None,
+        command_lead: float = 0.0,
     ) -> None:
-        missing = [p.name for p in schedule.performers if p.name not in transports]
+        missing = [p.name for p in schedule.performers if p.name not in performers]
         if missing:
             raise XgoShowError(f"no port for performer(s) {', '.join(missing)}")
         self.schedule = schedule
@@ -124,13 +130,13 @@ class ShowRunner:
             )
         self.battery_floor = schedule.battery_floor if battery_floor is None else battery_floor
         self.clock: Clock = clock if clock is not None else MonotonicClock()
-        self.fast = fast
-        self.log = log if log is not None else RunLog(None)
-        self.progress_cb = progress
+        self.events = events
+        self.performers: dict[str, Performer] = {
+            p.name: performers[p.name] for p in schedule.performers
+        }
         self.progress_interval = 1.0 / progress_hz
         self.stop_timeout = stop_timeout
-        self.profiles = {p.name: get_profile(p.model) for p in schedule.performers}
-        self.unsafe_found = check_unsafe(schedule, self.profiles, allow_unsafe=allow_unsafe)
+        self.command_lead = command_lead
         self._waker = _Waker()
         self._lock = threading.Lock()
         self._stop_reason: str | None = None
@@ -138,29 +144,11 @@ class ShowRunner:
         self._toggles = 0  # pause/resume requests from SIGTSTP (Ctrl-Z)
         self._paused = False
         self._faulted: list[tuple[str, str, float]] = []
-        self.executors: dict[str, PerformerExecutor] = {}
-        for perf in schedule.performers:
-            profile = self.profiles[perf.name]
-            poller = (
-                TelemetryPoller(profile, battery_floor=self.battery_floor)
-                if telemetry and not fast
-                else None
-            )
-            if reach is not None and perf.name in reach:
-                reach_fn = reach[perf.name]
-            else:
-                reach_fn = default_reach(perf, profile)
-            self.executors[perf.name] = PerformerExecutor(
-                perf,
-                transports[perf.name],
-                clock=FakeClock(self.clock.now()) if fast else self.clock,
-                profile=profile,
-                telemetry=poller,
-                reach=reach_fn,
-                linger_until=schedule.duration,
-                log=self.log,
-                on_fault=self._on_fault,
-            )
+        self.stats = {name: SendStats() for name in self.performers}
+        self._subs = [
+            events.subscribe(self._on_fault, FaultRaised),
+            events.subscribe(self._on_frame, FrameSent),
+        ]
         self.result: ShowResult | None = None
 
     # ------------------------------------------------------------------ control (any thread)
@@ -175,40 +163,71 @@ class ShowRunner:
             self._stop_reason = reason
         self._waker.wake()
 
-    def pause(self) -> None:
-        """Pause every performer (robots held at rest, timeline frozen)."""
-        self._paused = True
-        self.log.event("pause", show_time=round(self.snapshot().show_time, 6))
-        for ex in self.executors.values():
-            ex.pause()
+    def _when(self, at: float | None) -> float:
+        return self.clock.now() + self.command_lead if at is None else at
 
-    def resume(self) -> None:
-        """Resume every performer where the show was paused."""
+    def pause(self, *, at: float | None = None) -> None:
+        """Pause every performer at clock time ``at`` (default: now + ``command_lead``)."""
+        when = self._when(at)
+        self._paused = True
+        self.events.publish(ShowPaused(self.clock.now(), self.snapshot().show_time))
+        for p in self.performers.values():
+            p.pause(at=when)
+
+    def resume(self, *, at: float | None = None) -> None:
+        """Resume every performer where the show was paused, together at clock time ``at``."""
+        when = self._when(at)
         self._paused = False
-        self.log.event("resume")
-        for ex in self.executors.values():
-            ex.resume()
+        self.events.publish(ShowResumed(self.clock.now(), self.snapshot().show_time))
+        for p in self.performers.values():
+            p.resume(at=when)
+
+    def seek(self, show_time: float, *, at: float | None = None) -> None:
+        """Jump every performer to ``show_time``, together at clock time ``at``."""
+        if not 0.0 <= show_time < self.schedule.duration:
+            raise XgoShowError(
+                f"seek to {show_time:g} s: outside the show (0 to {self.schedule.duration:g} s)"
+            )
+        when = self._when(at)
+        lead = max((p.lead_time(show_time) for p in self.performers.values()), default=0.0)
+        when = max(when, self.clock.now() + lead)
+        self.events.publish(ShowSought(self.clock.now(), show_time, when))
+        for p in self.performers.values():
+            p.seek(show_time, at=when)
 
     @property
     def paused(self) -> bool:
         return self._paused
 
-    def _on_fault(self, executor: PerformerExecutor, reason: str) -> None:
+    def _on_frame(self, event: Event) -> None:
+        assert isinstance(event, FrameSent)
+        stats = self.stats.get(event.performer)
+        if stats is not None:
+            stats.on_event(event)
+
+    def _on_fault(self, event: Event) -> None:
+        assert isinstance(event, FaultRaised)
         with self._lock:
-            self._faulted.append((executor.name, reason, self.clock.now()))
+            self._faulted.append((event.performer, event.reason, event.t))
         self._waker.wake()
 
     # ------------------------------------------------------------------ run
 
     def run(
-        self, *, offset: float = 0.0, lead: float = 0.05, handle_signals: bool = True
+        self,
+        *,
+        offset: float = 0.0,
+        lead: float = 0.05,
+        start_at: float | None = None,
+        handle_signals: bool = True,
     ) -> ShowResult:
         """Play the show from show time ``offset``; returns when it is over or stopped.
 
-        ``lead`` seconds pass between the call and the start (room for catch-up frames of a
-        mid-show start). While this runs in the main thread with ``handle_signals``, SIGINT and
-        SIGTERM become a safe stop and SIGTSTP (Ctrl-Z) pauses/resumes instead of suspending
-        the process with robots in motion.
+        The start is ``start_at`` (a clock time) or ``lead`` seconds from the call, whichever
+        is later than what every performer needs (catch-up frames of a mid-show start, a
+        remote host's lead). While this runs in the main thread with ``handle_signals``,
+        SIGINT and SIGTERM become a safe stop and SIGTSTP (Ctrl-Z) pauses/resumes instead of
+        suspending the process with robots in motion.
         """
         self._waker.open()
         restore = self._install_signals() if handle_signals else {}
@@ -218,53 +237,55 @@ class ShowRunner:
         sys.setswitchinterval(min(switch, _SWITCH_INTERVAL))
         result = ShowResult(False, "")
         self.result = result
-        result.executors = dict(self.executors)
+        result.performers = dict(self.performers)
+        result.stats = self.stats
         result.offset = offset
         try:
             now = self.clock.now()
-            if offset > 0:
-                lead = max(lead, self._reach_time(offset))
-            start_at = now + lead
-            result.start_at = start_at
-            self.log.event(
-                "start",
-                show=self.schedule.name,
-                offset=offset,
-                start_at=round(start_at, 6),
-                performers=[p.name for p in self.schedule.performers],
-                on_failure=self.on_failure,
-                battery_floor=self.battery_floor,
-                fast=self.fast,
+            need = max((p.lead_time(offset) for p in self.performers.values()), default=0.0)
+            begin = max(now + max(lead, need), start_at if start_at is not None else now)
+            result.start_at = begin
+            self.events.publish(
+                ShowStarted(
+                    now,
+                    self.schedule.name,
+                    offset,
+                    begin,
+                    tuple(self.performers),
+                    self.on_failure,
+                    self.battery_floor,
+                )
             )
-            for ex in self.executors.values():
-                # In fast mode each executor runs on its own fake clock, from its own "now".
-                ex.start(ex.clock.now() + lead if self.fast else start_at, offset=offset)
+            for p in self.performers.values():
+                p.start(begin, offset=offset)
             self._supervise(result)
         except BaseException as exc:
-            # Whatever broke the coordinating thread (a progress callback, a bug, a
+            # Whatever broke the coordinating thread (a progress listener, a bug, a
             # KeyboardInterrupt without the handlers): stop every robot first, then say why.
             why = f"exception: {exc!r}"
             self._stop_all(why, result)
             result.reason = why
-            self.log.event("exception", error=repr(exc), type=type(exc).__name__)
+            self.events.publish(RunnerFailed(self.clock.now(), repr(exc), type(exc).__name__))
             raise
         finally:
-            for ex in self.executors.values():
-                ex.join(1.0)
-                ex.close()
+            for p in self.performers.values():
+                p.join(1.0)
+                p.close()
+            for sub in self._subs:
+                sub.close()
             self._restore_signals(restore)
             self._waker.close()
             sys.setswitchinterval(switch)
-            result.faults = {ex.name: ex.fault for ex in self.executors.values() if ex.fault}
-            self.log.event(
-                "end",
-                completed=result.completed,
-                reason=result.reason,
-                faults=result.faults,
-                states={n: ex.state.value for n, ex in self.executors.items()},
-                stop_latency_ms=(
-                    None if result.stop_latency is None else round(result.stop_latency * 1000, 3)
-                ),
+            result.faults = {n: p.fault for n, p in self.performers.items() if p.fault}
+            self.events.publish(
+                ShowEnded(
+                    self.clock.now(),
+                    result.completed,
+                    result.reason,
+                    dict(result.faults),
+                    {n: p.state.value for n, p in self.performers.items()},
+                    result.stop_latency,
+                )
             )
         return result
 
@@ -292,42 +313,27 @@ class ShowRunner:
                     result.reason = why
                     return
                 self._stop_some([name], why, result, requested=when)
-            if all(ex.done for ex in self.executors.values()):
+            if all(p.done for p in self.performers.values()):
                 result.completed = all(
-                    ex.state is ExecutorState.FINISHED for ex in self.executors.values()
+                    p.state is ExecutorState.FINISHED for p in self.performers.values()
                 )
                 if not result.reason:
                     result.reason = "completed" if result.completed else "performer(s) failed"
                 return
             now = self.clock.now()
-            if self.progress_cb is not None and now >= next_progress:
+            if now >= next_progress:
                 next_progress = now + self.progress_interval
-                self.progress_cb(self.snapshot())
+                self.events.publish(ProgressTick(now, self.snapshot()))
 
     def snapshot(self) -> ShowProgress:
         """Where the show is now."""
-        progs = tuple(ex.progress for ex in self.executors.values())
+        progs = tuple(p.progress for p in self.performers.values())
         show_time = max((p.show_time for p in progs), default=0.0)
-        telemetry = {
-            n: dict(ex.telemetry.last)
-            for n, ex in self.executors.items()
-            if ex.telemetry is not None
-        }
+        telemetry = {n: p.readings for n, p in self.performers.items() if p.readings}
         return ShowProgress(show_time, self.schedule.duration, progs, telemetry)
 
-    def _reach_time(self, offset: float) -> float:
-        """Seconds the catch-up frames of a mid-show start need on the slowest link (+margin)."""
-        worst = 0.0
-        for ex in self.executors.values():
-            if ex.reach is None:
-                continue
-            link = ex.schedule.link
-            frames = ex.reach(offset)
-            worst = max(worst, sum(link.wire_time(len(d)) + link.gap for d, _ in frames))
-        return worst + 0.05
-
     def _stop_all(self, reason: str, result: ShowResult, *, requested: float | None = None) -> None:
-        self._stop_some(list(self.executors), reason, result, requested=requested)
+        self._stop_some(list(self.performers), reason, result, requested=requested)
 
     def _stop_some(
         self,
@@ -346,11 +352,11 @@ class ShowRunner:
             requested = self.clock.now()
         pending = [n for n in names if n not in result.stops]
         for name in pending:
-            self.executors[name].abort()  # no schedule frame goes out after this line
+            self.performers[name].abort()  # no schedule frame goes out after this line
         out: dict[str, SafeStopResult] = {}
 
         def one(name: str) -> None:
-            out[name] = self.executors[name].safe_stop(reason, timeout=self.stop_timeout)
+            out[name] = self.performers[name].safe_stop(reason, timeout=self.stop_timeout)
 
         threads = [
             threading.Thread(target=one, args=(n,), name=f"xgo-show stop {n}", daemon=True)
@@ -425,8 +431,10 @@ class _Waker:
     def wait(self, timeout: float) -> None:
         if self._r < 0:
             return
-        ready, _, _ = select.select([self._r], [], [], timeout)
-        if ready:
+        # poll(), not select(): a show with hundreds of ports has descriptors above 1024.
+        poller = select.poll()
+        poller.register(self._r, select.POLLIN)
+        if poller.poll(max(0, int(timeout * 1000))):
             with contextlib.suppress(BlockingIOError):
                 os.read(self._r, 4096)
 

@@ -17,9 +17,11 @@ from __future__ import annotations
 
 import contextlib
 import errno
+import fcntl
 import json
 import os
 import select
+import struct
 import termios
 import threading
 import time
@@ -59,6 +61,7 @@ class PtyServer:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
+        self._loops = 0  # serving-loop iterations done (settle() waits for one more)
 
     @property
     def path(self) -> str:
@@ -89,7 +92,7 @@ class PtyServer:
             self._release()
             raise TransportError(f"cannot open a pseudo-terminal: {exc}") from exc
         self._stop.clear()
-        self._thread = threading.Thread(target=self._serve, name="xgo-show-pty", daemon=True)
+        self._thread = threading.Thread(target=self._serve, name="xgo-show pty", daemon=True)
         self._thread.start()
         return self
 
@@ -109,6 +112,32 @@ class PtyServer:
             snap = self.robot.snapshot()
         snap["dropped_bytes"] = self.dropped_bytes
         return snap
+
+    def settle(self, timeout: float = 1.0) -> bool:
+        """Wait until the robot has taken in every byte written to the pty so far.
+
+        Returns False if that did not happen within ``timeout`` seconds (a dead server).
+        """
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and self.running:
+            if self._unread() == 0:
+                # The loop may hold bytes it read but has not handed to the robot yet: once a
+                # whole further iteration has run, it has.
+                seen = self._loops
+                while self._loops < seen + 2 and time.monotonic() < deadline and self.running:
+                    time.sleep(0.001)
+                if self._unread() == 0:
+                    return True
+            time.sleep(0.001)
+        return False
+
+    def _unread(self) -> int:
+        """Bytes written by clients that the serving thread has not read yet."""
+        try:
+            buf = fcntl.ioctl(self._master, termios.FIONREAD, b"\0\0\0\0")
+        except OSError:
+            return 0
+        return int(struct.unpack("i", buf)[0])
 
     @property
     def error(self) -> BaseException | None:
@@ -148,6 +177,7 @@ class PtyServer:
                     out = self.robot.poll(now)
                 if out:
                     self._send(out)
+                self._loops += 1
         except BaseException as exc:  # keep the cause for close()/tests; never die silently
             self._error = exc
             raise
