@@ -6,8 +6,9 @@ vendor library that does not wait for its replies).
 Every test must clean up the threads it starts (pty servers, reader threads, runtimes): a
 non-daemon thread left running keeps the interpreter alive and leaks into later tests, and one
 of the runtime's own threads (named ``xgo-show ...``: writers, readers, pty servers, relays),
-daemon or not, left running means a runtime was not closed. The check is cheap: one ``threading.enumerate()`` before and after, plus a short grace period only
-when a new thread is still alive.
+daemon or not, left running means a runtime was not closed. The check is cheap: one
+``threading.enumerate()`` before and after, plus a short grace period only when a new thread
+is still alive.
 """
 
 from __future__ import annotations

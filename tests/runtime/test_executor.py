@@ -199,7 +199,6 @@ def test_start_mid_show_sends_state_reaching_frames_first(perf) -> None:
     ex = PerformerExecutor(
         schedule, link, clock=clock, profile=MINI, reach=lambda t: [(pose, f"state at {t}")]
     )
-    rec = EventRecorder(ex.events)
     start = clock.now() + 0.2
     ex.run(start, offset=0.5)
     got = schedule_frames(link)

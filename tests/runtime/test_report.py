@@ -13,7 +13,7 @@ from xgo_show.runtime.executor import ExecutorState, Progress
 from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.report import ProgressPrinter, error_stats, format_report, percentile
 from xgo_show.runtime.runlog import RunLog, read_log
-from xgo_show.runtime.show_runner import ShowProgress, ShowRunner
+from xgo_show.runtime.show_runner import ShowProgress
 from xgo_show.sim import create_robot
 from xgo_show.transports.sim import SimTransport
 
