@@ -236,7 +236,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
     launch = Launch(
         schedule,
         opts.maps,
-        clock=FakeClock(time.monotonic()) if opts.fast else MonotonicClock(),
+        clock=FakeClock(time.monotonic(), keep_waits=False) if opts.fast else MonotonicClock(),
         battery_floor=opts.battery_floor,
         allow_unsafe=opts.allow_unsafe,
         telemetry=opts.telemetry and not opts.fast,

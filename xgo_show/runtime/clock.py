@@ -135,13 +135,20 @@ class FakeClock:
     """A clock for tests: ``sleep_until`` jumps time forward instead of waiting.
 
     Thread-safe; time never goes backwards. ``advance`` moves it by hand (e.g. to make a frame
-    late), and every wait is recorded in ``waits`` so tests can check the deadlines asked for.
+    late). With ``keep_waits`` every wait is recorded in ``waits`` so tests can check the
+    deadlines asked for (off for ``dry-run --fast``: the list would grow with the show).
     """
 
-    def __init__(self, start: float = 1000.0) -> None:
+    def __init__(self, start: float = 1000.0, *, keep_waits: bool = True) -> None:
         self._now = start
         self._lock = threading.Lock()
+        self.keep_waits = keep_waits
         self.waits: list[float] = []
+
+    def fork(self) -> FakeClock:
+        """An independent fake clock at the same time (one per writer thread: one writer
+        jumping ahead must not make the others late)."""
+        return FakeClock(self.now(), keep_waits=self.keep_waits)
 
     def now(self) -> float:
         with self._lock:
@@ -156,6 +163,7 @@ class FakeClock:
         if interrupt is not None and interrupt.is_set():
             return False
         with self._lock:
-            self.waits.append(deadline)
+            if self.keep_waits:
+                self.waits.append(deadline)
             self._now = max(self._now, deadline)
         return True

@@ -130,7 +130,7 @@ def local_performers(
 ) -> dict[str, Performer]:
     """One :class:`PerformerExecutor` per open transport.
 
-    A :class:`FakeClock` is virtual time: each executor gets its own copy (starting at the
+    A :class:`FakeClock` is virtual time: each executor gets its own fork (starting at the
     same instant), so one writer jumping ahead never makes the others late.
     """
     out: dict[str, Performer] = {}
@@ -138,9 +138,7 @@ def local_performers(
         if perf.name not in transports:
             continue
         profile = get_profile(perf.model)
-        clock = ctx.clock
-        if isinstance(clock, FakeClock):
-            clock = FakeClock(clock.now())
+        clock = ctx.clock.fork() if isinstance(ctx.clock, FakeClock) else ctx.clock
         out[perf.name] = PerformerExecutor(
             perf,
             transports[perf.name],
