@@ -14,7 +14,7 @@ import pytest
 from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
-from xgo_show.runtime.events import EventRecorder
+from xgo_show.runtime.events import EventRecorder, StateChanged
 from xgo_show.runtime.executor import ExecutorState, PerformerExecutor
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryPoller
@@ -366,3 +366,101 @@ def test_xarm_poller_reads_volts_and_faults_below_the_mapped_floor() -> None:
     assert poller.fault is None
     poller.feed(battery_reply(6460), 4.0)
     assert poller.fault == "battery 6.46 V is below the floor of 6.48 V (20% of the xArm's range)"
+
+
+def _reaching(schedule_t: list[float]) -> Callable[[float], list[tuple[bytes, str]]]:
+    pose = write_frame(MINI.register("roll").address, b"\x90")
+
+    def reach(t: float) -> list[tuple[bytes, str]]:
+        schedule_t.append(t)
+        return [(pose, f"state at {t:g}")]
+
+    return reach
+
+
+def _wait_state(ex: PerformerExecutor, state: ExecutorState) -> None:
+    deadline = time.monotonic() + 5
+    while ex.state is not state and time.monotonic() < deadline:
+        time.sleep(0.001)
+    assert ex.state is state
+
+
+def test_pause_at_a_time_holds_there_and_resume_at_a_time_goes_on_exactly_then(perf) -> None:
+    """What a relay needs: every host given the same times acts on the same frame."""
+    clock = FakeClock()
+    link = sim_link(clock)
+    schedule = perf("rex", count=10, spacing=0.1)
+    reached: list[float] = []
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI, reach=_reaching(reached))
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    ex.pause(at=start + 0.35)  # asked ahead: frames 0-3 go, frame 4 (t=0.4) does not
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    assert ex.progress.sent == 4
+    assert ex.progress.show_time == pytest.approx(0.35)
+    go = clock.now() + 2.0
+    ex.resume(at=go)
+    assert ex.join(5)
+    assert reached == [pytest.approx(0.35)]
+    frames = [r for r in rec.sent() if r.kind == "frame"]
+    assert [r.index for r in frames] == list(range(10))
+    # Show time 0.35 happens at ``go``: frame 4 (t=0.4) 50 ms later, and so on.
+    assert frames[4].actual == pytest.approx(go + 0.05)
+    assert frames[9].actual == pytest.approx(go + 0.55)
+    kinds = [r.kind for r in rec.sent()]
+    assert kinds.index("reach") < kinds.index("frame", 5)
+    states = [e.state for e in rec.events if isinstance(e, StateChanged)]
+    assert states == [
+        ExecutorState.RUNNING,
+        ExecutorState.PAUSED,
+        ExecutorState.REACHING,
+        ExecutorState.RUNNING,
+        ExecutorState.FINISHED,
+    ]
+
+
+def test_seek_while_playing_jumps_with_catch_up_frames(perf) -> None:
+    clock = HookClock()
+    link = sim_link(clock)
+    schedule = perf("rex", count=10, spacing=0.1)
+    reached: list[float] = []
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI, reach=_reaching(reached))
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+
+    def seek_hook(deadline: float) -> None:
+        if abs(deadline - (start + 0.2)) < 1e-12:
+            ex.seek(0.7)
+
+    clock.hook = seek_hook
+    ex.run(start)
+    assert reached == [pytest.approx(0.7)]
+    sent = rec.sent()
+    assert [r.index for r in sent if r.kind == "frame"] == [0, 1, 2, 7, 8, 9]
+    jump = next(i for i, r in enumerate(sent) if r.kind == "reach")
+    after = [r for r in sent[jump:] if r.kind == "frame"]
+    # Show time 0.7 happens right after the catch-up frame; then 100 ms apart as planned.
+    assert after[0].actual_show == pytest.approx(0.7)
+    assert after[1].actual - after[0].actual == pytest.approx(0.1)
+    assert ex.state is ExecutorState.FINISHED
+
+
+def test_seek_while_paused_takes_effect_on_resume(perf) -> None:
+    clock = FakeClock()
+    link = sim_link(clock)
+    schedule = perf("rex", count=10, spacing=0.1)
+    reached: list[float] = []
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI, reach=_reaching(reached))
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    ex.pause(at=start + 0.65)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    ex.seek(0.2)
+    time.sleep(0.05)
+    assert ex.state is ExecutorState.PAUSED  # a seek alone does not resume
+    ex.resume()
+    assert ex.join(5)
+    assert reached == [pytest.approx(0.2)]
+    assert [r.index for r in rec.sent() if r.kind == "frame"] == [*range(7), *range(2, 10)]

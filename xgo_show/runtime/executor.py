@@ -415,7 +415,9 @@ class PerformerExecutor:
             self._set_state(ExecutorState.REACHING)
             self._send_now("reach", self.reach(show_time))
         now = self.clock.now()
-        go = at if at is not None and at > now else now
+        # As soon as possible means when the link is free after the catch-up frames: the
+        # first frame then goes out on its planned time, not late by their wire time.
+        go = at if at is not None and at > now else max(now, self._ready_at)
         self._rebase(show_time, go)
         self._paused_at = None
         if go > now and not self.clock.sleep_until(go, self._flags.abort):
