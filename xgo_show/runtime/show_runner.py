@@ -19,6 +19,7 @@ delay the others; the whole stop is bounded by ``stop_timeout`` (100 ms by defau
 from __future__ import annotations
 
 import contextlib
+import gc
 import os
 import select
 import signal
@@ -103,7 +104,8 @@ class ShowRunner:
     schedule's), ``progress_hz`` (rate of :class:`ProgressTick` events), ``stop_timeout``
     (seconds allowed for the safe stop of all performers), ``command_lead`` (seconds between a
     pause/resume/seek request and the clock time every performer acts on: room for remote
-    performers to receive it).
+    performers to receive it), ``hold_gc`` (no cyclic garbage collection while the show plays,
+    see :meth:`run`).
     """
 
     def __init__(
@@ -118,6 +120,7 @@ class ShowRunner:
         progress_hz: float = 4.0,
         stop_timeout: float = 0.1,
         command_lead: float = 0.0,
+        hold_gc: bool = True,
     ) -> None:
         missing = [p.name for p in schedule.performers if p.name not in performers]
         if missing:
@@ -137,6 +140,7 @@ class ShowRunner:
         self.progress_interval = 1.0 / progress_hz
         self.stop_timeout = stop_timeout
         self.command_lead = command_lead
+        self.hold_gc = hold_gc
         self._waker = _Waker()
         self._lock = threading.Lock()
         self._stop_reason: str | None = None
@@ -235,6 +239,15 @@ class ShowRunner:
         # reader parsing, a progress callback) must not hold it for the default 5 ms.
         switch = sys.getswitchinterval()
         sys.setswitchinterval(min(switch, _SWITCH_INTERVAL))
+        # A cyclic garbage collection stops every thread while it walks the heap: with
+        # ``hold_gc`` none runs during the show (what exists now is frozen out of its reach, and
+        # the runtime's per-frame objects are freed by reference counting alone), and one runs
+        # after it.
+        collecting = gc.isenabled()
+        if self.hold_gc:
+            gc.collect()
+            gc.freeze()
+            gc.disable()
         result = ShowResult(False, "")
         self.result = result
         result.performers = dict(self.performers)
@@ -276,6 +289,10 @@ class ShowRunner:
             self._restore_signals(restore)
             self._waker.close()
             sys.setswitchinterval(switch)
+            if self.hold_gc:
+                gc.unfreeze()
+                if collecting:
+                    gc.enable()
             result.faults = {n: p.fault for n, p in self.performers.items() if p.fault}
             self.events.publish(
                 ShowEnded(
