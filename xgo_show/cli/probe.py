@@ -10,10 +10,10 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from xgo_show.client import DEFAULT_TIMEOUT, XarmClient, XgoClient, open_client
+from xgo_show.client import DEFAULT_TIMEOUT, open_client
 from xgo_show.errors import XgoShowError
-from xgo_show.profiles import MODELS, get_profile, model_from_firmware
-from xgo_show.profiles.xarm import position_to_degrees
+from xgo_show.families import get_family
+from xgo_show.profiles import MODELS
 
 __all__ = ["add_parser", "format_table", "probe", "run"]
 
@@ -59,55 +59,13 @@ def run(args: argparse.Namespace) -> int:
 def probe(
     url: str, *, model: str | None = None, timeout: float = DEFAULT_TIMEOUT
 ) -> list[tuple[str, str]]:
-    """Read the robot on ``url``; return ``(label, value)`` rows for :func:`format_table`."""
+    """Read the robot on ``url``; return ``(label, value)`` rows for :func:`format_table`.
+
+    What is read is the robot family's (:meth:`RobotFamily.probe
+    <xgo_show.families.RobotFamily.probe>`).
+    """
     with open_client(url, model, timeout=timeout) as client:
-        if isinstance(client, XarmClient):
-            return _probe_xarm(client, given=model)
-        if isinstance(client, XgoClient):
-            return _probe_xgo(client, given=model)
-        raise XgoShowError(f"probe cannot read a {client.model} yet (no probe for its family)")
-
-
-def _probe_xgo(client: XgoClient, *, given: str | None) -> list[tuple[str, str]]:
-    firmware = client.firmware()
-    named = model_from_firmware(firmware)
-    if given is None:
-        how = "from the URL" if named is None or named != client.model else "from firmware"
-        model = f"{client.model} ({how})"
-    elif named is not None and named != given:
-        model = f"{given} (given; the firmware names a {named})"
-        # Read the rest with the robot's own table: the given model's may not match its
-        # registers (a Rider has no Mini status register), and a probe should still report.
-        client = XgoClient(client.transport, get_profile(named), timeout=client.timeout)
-    else:
-        model = given
-    status_reg = client.profile.register("status")
-    status_raw = client.read("status")
-    status = status_reg.decode_value(status_raw)
-    status_text = f"0x{status_raw[0]:02X}"
-    if isinstance(status, str):
-        status_text = f"{status} ({status_text})"
-    return [
-        ("port", client.transport.url),
-        ("model", model),
-        ("firmware", firmware),
-        ("battery", f"{client.battery()} %"),
-        ("status", status_text),
-    ]
-
-
-def _probe_xarm(client: XarmClient, *, given: str | None) -> list[tuple[str, str]]:
-    millivolts = client.battery_mv()
-    rows = [
-        ("port", client.transport.url),
-        ("model", "xarm" if given else "xarm (from the URL)"),
-        ("battery", f"{millivolts / 1000:.2f} V"),
-    ]
-    for servo, position in client.positions().items():
-        rows.append(
-            (f"servo {servo}", f"{position:4d}  ({position_to_degrees(position):+.1f} deg)")
-        )
-    return rows
+        return get_family(client.profile).probe(client, given=model)
 
 
 def format_table(rows: list[tuple[str, str]]) -> str:

@@ -195,6 +195,12 @@ class RobotFamily(abc.ABC):
         detected, battery, problems. ``floor`` is the show's battery floor in percent."""
 
     @abc.abstractmethod
+    def probe(self, client: Any, *, given: str | None) -> list[tuple[str, str]]:
+        """What ``xgo-show probe`` prints about the robot ``client`` (from :meth:`client`) talks
+        to: (label, value) rows. ``given``: the model the user named (None: found from the URL
+        or the robot)."""
+
+    @abc.abstractmethod
     def battery_floor_note(self, floor: float) -> str | None:
         """How this family reads a battery floor of ``floor`` percent, where it is not plain
         percent (the pre-flight table's footer); None otherwise."""

@@ -7,7 +7,13 @@ model from the firmware string read at register 0x07.
 from __future__ import annotations
 
 from xgo_show.profiles.model import Access, Action, Encoding, Limits, Link, Profile, Register
-from xgo_show.profiles.registry import MODELS, get_profile, model_from_firmware
+from xgo_show.profiles.registry import (
+    MODELS,
+    get_profile,
+    model_from_firmware,
+    register_profile,
+    unregister_profile,
+)
 
 __all__ = [
     "MODELS",
@@ -20,4 +26,6 @@ __all__ = [
     "Register",
     "get_profile",
     "model_from_firmware",
+    "register_profile",
+    "unregister_profile",
 ]

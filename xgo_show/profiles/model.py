@@ -314,7 +314,7 @@ class Profile:
     """Everything the rest of the package needs to know about one robot model."""
 
     model: str
-    family: str  # "xgo" or "xarm"
+    family: str  # its robot family (xgo_show.families): "xgo", "xarm", or one registered
     title: str
     link: Link
     registers: tuple[Register, ...] = ()

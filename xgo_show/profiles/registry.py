@@ -1,8 +1,13 @@
-"""Look profiles up by model name (with aliases) or by the firmware string a robot reports."""
+"""Look profiles up by model name (with aliases) or by the firmware string a robot reports.
+
+The built-in models are :data:`MODELS`; :func:`register_profile` adds another (its family, named
+by ``Profile.family``, is registered with :func:`xgo_show.families.register_family`).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from types import MappingProxyType
 
 from xgo_show.errors import ProfileError
 from xgo_show.profiles.model import Profile
@@ -10,14 +15,24 @@ from xgo_show.profiles.xarm import XARM
 from xgo_show.profiles.xgo_dog import LITE, MINI
 from xgo_show.profiles.xgo_rider import RIDER
 
-__all__ = ["MODELS", "PROFILES", "get_profile", "model_from_firmware"]
+__all__ = [
+    "MODELS",
+    "PROFILES",
+    "get_profile",
+    "model_from_firmware",
+    "register_profile",
+    "unregister_profile",
+]
 
+#: The built-in models (the command line offers these).
 MODELS: tuple[str, ...] = ("mini", "lite", "rider", "xarm")
 
-PROFILES: Mapping[str, Profile] = {p.model: p for p in (MINI, LITE, RIDER, XARM)}
+_PROFILES: dict[str, Profile] = {p.model: p for p in (MINI, LITE, RIDER, XARM)}
+#: Every known profile by model name, built-in and registered (read-only view).
+PROFILES: Mapping[str, Profile] = MappingProxyType(_PROFILES)
 
 # Other spellings users write (the vendor library's names included).
-_ALIASES: Mapping[str, str] = {
+_ALIASES: dict[str, str] = {
     "xgomini": "mini",
     "xgo-mini": "mini",
     "xgo_mini": "mini",
@@ -41,9 +56,32 @@ def get_profile(model: str) -> Profile:
     key = model.strip().lower()
     key = _ALIASES.get(key, key)
     try:
-        return PROFILES[key]
+        return _PROFILES[key]
     except KeyError:
-        raise ProfileError(f"unknown robot model {model!r}; valid: {', '.join(MODELS)}") from None
+        valid = ", ".join(_PROFILES)
+        raise ProfileError(f"unknown robot model {model!r}; valid: {valid}") from None
+
+
+def register_profile(profile: Profile, *, aliases: Iterable[str] = ()) -> None:
+    """Make :func:`get_profile` know ``profile`` (by its model name and ``aliases``).
+
+    Raises :class:`ProfileError` when the name or an alias is taken.
+    """
+    names = [profile.model, *(a.strip().lower() for a in aliases)]
+    for name in names:
+        if name in _PROFILES or name in _ALIASES:
+            raise ProfileError(f"robot model {name!r} is already known")
+    _PROFILES[profile.model] = profile
+    _ALIASES.update((alias, profile.model) for alias in names[1:])
+
+
+def unregister_profile(model: str) -> None:
+    """Forget a registered model and its aliases (built-in models stay)."""
+    if model in MODELS:
+        raise ProfileError(f"{model!r} is a built-in model")
+    _PROFILES.pop(model, None)
+    for alias in [a for a, m in _ALIASES.items() if m == model]:
+        del _ALIASES[alias]
 
 
 def model_from_firmware(firmware: str) -> str | None:

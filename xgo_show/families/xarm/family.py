@@ -136,6 +136,9 @@ class XarmFamily(RobotFamily):
     ) -> None:
         runtime.check_robot(row, transport, profile, floor, timeout)
 
+    def probe(self, client: Any, *, given: str | None) -> list[tuple[str, str]]:
+        return runtime.probe_rows(client, given=given)
+
     def battery_floor_note(self, floor: float) -> str | None:
         return f"xArm: {runtime.floor_text(floor)}"
 

@@ -1,4 +1,4 @@
-"""xArm at run time: GroupStop, unsafe commands, battery telemetry and the pre-flight check.
+"""xArm at run time: GroupStop, unsafe commands, battery telemetry, pre-flight and probe.
 
 The xArm has one telemetry item, GetBatteryVoltage (a 4-byte request, a 6-byte reply: 4.2 + 6.3
 ms at 9600 baud). How the controller treats a command that arrives while it is answering is not
@@ -23,16 +23,19 @@ from xgo_show.profiles.xarm import (
     UNSAFE_COMMANDS,
     battery_floor_mv,
     battery_percent,
+    position_to_degrees,
 )
 from xgo_show.wire import xarm as xarm_wire
 
 if TYPE_CHECKING:
+    from xgo_show.client.xarm import XarmClient
     from xgo_show.runtime.preflight import PreflightRow
     from xgo_show.transports.base import Transport
 
 __all__ = [
     "check_robot",
     "floor_text",
+    "probe_rows",
     "stop_frames",
     "telemetry_items",
     "telemetry_values",
@@ -111,3 +114,18 @@ def check_robot(
         row.problems.append(
             f"battery {row.voltage:.2f} V is below the floor of {floor_text(floor)}"
         )
+
+
+def probe_rows(client: XarmClient, *, given: str | None) -> list[tuple[str, str]]:
+    """``xgo-show probe``: port, model, battery voltage and every servo's position."""
+    millivolts = client.battery_mv()
+    rows = [
+        ("port", client.transport.url),
+        ("model", "xarm" if given else "xarm (from the URL)"),
+        ("battery", f"{millivolts / 1000:.2f} V"),
+    ]
+    for servo, position in client.positions().items():
+        rows.append(
+            (f"servo {servo}", f"{position:4d}  ({position_to_degrees(position):+.1f} deg)")
+        )
+    return rows

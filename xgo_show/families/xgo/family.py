@@ -151,6 +151,11 @@ class XgoFamily(RobotFamily):
 
         check_robot(row, transport, profile, floor, timeout)
 
+    def probe(self, client: Any, *, given: str | None) -> list[tuple[str, str]]:
+        from xgo_show.families.xgo.preflight import probe_rows
+
+        return probe_rows(client, given=given)
+
     def battery_floor_note(self, floor: float) -> str | None:
         return None
 
