@@ -245,6 +245,12 @@ class TurretFamily(RobotFamily):
     ) -> list[tuple[str, float]] | None:
         return [("battery", float(f.value))] if f.cmd == BATTERY | REPLY else None
 
+    def telemetry_fault(self, profile: Profile, name: str, value: float) -> str | None:
+        return None
+
+    def battery_low(self, name: str, value: float, floor: float) -> tuple[bool, str] | None:
+        return (value < floor, f"turret battery at {value:g}%") if name == "battery" else None
+
     def preflight(self, row: PreflightRow, transport: Transport, profile: Profile,
                   floor: float, timeout: float) -> None:
         try:
@@ -318,7 +324,7 @@ def test_a_registered_robot_is_checked_stopped_and_polled(turret: Profile) -> No
     item = poller.due(0.0)
     assert item is not None and item.request == frame(BATTERY)
     assert [s.value for s in poller.feed(frame(0x99) + frame(BATTERY | REPLY, 40), 1.0)] == [40]
-    assert poller.unsolicited == 1 and poller.fault == "battery 40% is below the floor of 50%"
+    assert poller.unsolicited == 1 and poller.fault == "turret battery at 40%"
 
 
 def test_a_registered_robot_is_simulated_probed_and_run(turret: Profile, tmp_path: Path,

@@ -187,6 +187,15 @@ class RobotFamily(abc.ABC):
         address), or None for a frame nobody asked for."""
 
     @abc.abstractmethod
+    def telemetry_fault(self, profile: Profile, name: str, value: float) -> str | None:
+        """The fault one reading shows by itself (a robot reporting it has fallen); None: none."""
+
+    @abc.abstractmethod
+    def battery_low(self, name: str, value: float, floor: float) -> tuple[bool, str] | None:
+        """Judge a battery reading against the show's floor (percent): (below it?, the fault's
+        text); None when ``name`` is not this family's battery reading."""
+
+    @abc.abstractmethod
     def preflight(
         self, row: PreflightRow, transport: Transport, profile: Profile, floor: float,
         timeout: float,

@@ -9,24 +9,20 @@ and ``telemetry_values``): an XGO robot's registers through the one XGO codec, l
 room for its reply (:attr:`TelemetryItem.reply_bytes`). Frames nobody asked for (a Rider's
 auto-feedback, line noise) are counted and ignored.
 
-Faults: a Rider reporting status 0x00 (fallen), or a battery below the floor on two readings in
+Faults: what a reading shows by itself (:meth:`RobotFamily.telemetry_fault
+<xgo_show.families.RobotFamily.telemetry_fault>`: a Rider reporting status 0x00, fallen), or a
+battery below the floor (:meth:`~xgo_show.families.RobotFamily.battery_low`) on two readings in
 a row (one low reading under a load spike is not a flat battery).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 from xgo_show.families import TelemetryItem, get_family
 from xgo_show.profiles.model import Profile
-from xgo_show.profiles.xarm import battery_floor_mv
 
-__all__ = ["FALLEN_STATUS", "TelemetryItem", "TelemetryPoller", "TelemetrySample"]
-
-# Status register values that mean the robot has fallen over, by model (from the seed docs:
-# the Rider's 0x02 "working status" reads 0x00 in the falling state).
-FALLEN_STATUS: Mapping[str, int] = {"rider": 0x00}
+__all__ = ["TelemetryItem", "TelemetryPoller", "TelemetrySample"]
 
 
 @dataclass(frozen=True)
@@ -104,18 +100,16 @@ class TelemetryPoller:
     def _check(self, name: str, value: float) -> None:
         if self.fault is not None:
             return
-        fallen = FALLEN_STATUS.get(self.profile.model)
-        if name == "status" and fallen is not None and int(value) == fallen:
-            self.fault = f"{self.profile.model} reports status 0x{fallen:02X} (fallen)"
-        if name == "battery" and self.battery_floor is not None:
-            self._low = self._low + 1 if value < self.battery_floor else 0
-            if self._low >= self.low_readings:
-                self.fault = f"battery {value:.0f}% is below the floor of {self.battery_floor:g}%"
-        if name == "battery_v" and self.battery_floor is not None:
-            floor_v = battery_floor_mv(self.battery_floor) / 1000.0
-            self._low = self._low + 1 if value < floor_v else 0
-            if self._low >= self.low_readings:
-                self.fault = (
-                    f"battery {value:.2f} V is below the floor of {floor_v:.2f} V "
-                    f"({self.battery_floor:g}% of the xArm's range)"
-                )
+        fault = self._family.telemetry_fault(self.profile, name, value)
+        if fault is not None:
+            self.fault = fault
+            return
+        if self.battery_floor is None:
+            return
+        low = self._family.battery_low(name, value, self.battery_floor)
+        if low is None:
+            return
+        below, text = low
+        self._low = self._low + 1 if below else 0
+        if self._low >= self.low_readings:
+            self.fault = text

@@ -130,6 +130,12 @@ class XarmFamily(RobotFamily):
     ) -> list[tuple[str, float]] | None:
         return runtime.telemetry_values(items, frame)
 
+    def telemetry_fault(self, profile: Profile, name: str, value: float) -> str | None:
+        return None
+
+    def battery_low(self, name: str, value: float, floor: float) -> tuple[bool, str] | None:
+        return runtime.battery_low(name, value, floor)
+
     def preflight(
         self, row: PreflightRow, transport: Transport, profile: Profile, floor: float,
         timeout: float,

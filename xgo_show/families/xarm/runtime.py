@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from xgo_show.transports.base import Transport
 
 __all__ = [
+    "battery_low",
     "check_robot",
     "floor_text",
     "probe_rows",
@@ -85,6 +86,17 @@ def telemetry_values(
     if packet.command is not xarm_wire.XarmCommand.GET_BATTERY_VOLTAGE or not packet.is_reply:
         return None
     return [("battery_v", xarm_wire.battery_mv(packet) / 1000.0)]
+
+
+def battery_low(name: str, value: float, floor: float) -> tuple[bool, str] | None:
+    """``battery_v`` (volts) against the floor mapped onto the servos' 6.0..8.4 V range."""
+    if name != "battery_v":
+        return None
+    floor_v = battery_floor_mv(floor) / 1000.0
+    return value < floor_v, (
+        f"battery {value:.2f} V is below the floor of {floor_v:.2f} V "
+        f"({floor:g}% of the xArm's range)"
+    )
 
 
 def floor_text(floor: float) -> str:

@@ -143,6 +143,12 @@ class XgoFamily(RobotFamily):
     ) -> list[tuple[str, float]] | None:
         return telemetry.telemetry_values(items, frame)
 
+    def telemetry_fault(self, profile: Profile, name: str, value: float) -> str | None:
+        return telemetry.telemetry_fault(profile, name, value)
+
+    def battery_low(self, name: str, value: float, floor: float) -> tuple[bool, str] | None:
+        return telemetry.battery_low(name, value, floor)
+
     def preflight(
         self, row: PreflightRow, transport: Transport, profile: Profile, floor: float,
         timeout: float,

@@ -13,7 +13,11 @@ from xgo_show.families.base import TelemetryItem
 from xgo_show.profiles.model import Profile, Register
 from xgo_show.wire.xgo import XgoFrame, read_frame
 
-__all__ = ["telemetry_items", "telemetry_values"]
+__all__ = ["FALLEN_STATUS", "battery_low", "telemetry_fault", "telemetry_items", "telemetry_values"]
+
+# Status register values that mean the robot has fallen over, by model (from the seed docs:
+# the Rider's 0x02 "working status" reads 0x00 in the falling state).
+FALLEN_STATUS: Mapping[str, int] = {"rider": 0x00}
 
 # What is polled, as (item name, registers read in one request): read only where the model
 # has the registers.
@@ -61,3 +65,18 @@ def telemetry_values(
         out.append((reg.name, _number(reg, frame.data[pos : pos + reg.size])))
         pos += reg.size
     return out
+
+
+def telemetry_fault(profile: Profile, name: str, value: float) -> str | None:
+    """A status reading that means the robot has fallen (:data:`FALLEN_STATUS`)."""
+    fallen = FALLEN_STATUS.get(profile.model)
+    if name == "status" and fallen is not None and int(value) == fallen:
+        return f"{profile.model} reports status 0x{fallen:02X} (fallen)"
+    return None
+
+
+def battery_low(name: str, value: float, floor: float) -> tuple[bool, str] | None:
+    """The ``battery`` register (percent) against the floor (percent)."""
+    if name != "battery":
+        return None
+    return value < floor, f"battery {value:.0f}% is below the floor of {floor:g}%"
