@@ -1,8 +1,9 @@
 """Pre-flight: check every robot before anything moves.
 
-For each performer: its port opens; the robot answers; its firmware names the performer's model
-(:func:`~xgo_show.profiles.model_from_firmware`); its battery is above the show's floor (the
-xArm, which reports volts, against the floor mapped onto its servos' 6.0..8.4 V range). The
+For each performer: its port opens; then its robot family checks the robot (reads only,
+:meth:`RobotFamily.preflight <xgo_show.families.RobotFamily.preflight>`): it answers, it is the
+performer's model (an XGO robot's firmware string names it), its battery is above the show's
+floor (the xArm, which reports volts, against the floor mapped onto its 6.0..8.4 V range). The
 result is a table; a show starts only when every row passes (``force`` overrides the robot
 checks with a warning, never a port that does not open). Low-latency mode is asked for on every
 port (USB serial adapters otherwise hold bytes for up to 16 ms), and :func:`request_realtime`
