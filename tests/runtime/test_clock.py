@@ -65,3 +65,57 @@ def test_realtime_thread_wakes_on_time_never_early() -> None:
     errors: list[float] = _in_fifo_thread(work)["result"]  # type: ignore[assignment]
     assert min(errors) >= 0.0
     assert sorted(errors)[len(errors) // 2] < 0.001
+
+
+def test_monotonic_wait_returns_true_at_the_deadline_never_before() -> None:
+    from xgo_show.runtime.clock import MonotonicClock
+
+    clock = MonotonicClock()
+    for delay in (0.0, 0.0001, 0.003, 0.02):
+        deadline = clock.now() + delay
+        assert clock.sleep_until(deadline, threading.Event()) is True
+        assert clock.now() >= deadline
+
+
+def test_monotonic_wait_interrupted_mid_sleep_returns_false_early() -> None:
+    """A pause or stop request cuts a long wait short and says so (not 'deadline reached')."""
+    from xgo_show.runtime.clock import MonotonicClock
+
+    clock = MonotonicClock()
+    interrupt = threading.Event()
+    deadline = clock.now() + 2.0
+    timer = threading.Timer(0.05, interrupt.set)
+    timer.start()
+    try:
+        assert clock.sleep_until(deadline, interrupt) is False
+        woke = clock.now()
+    finally:
+        timer.cancel()
+    assert woke < deadline - 1.0  # well before the deadline, not after a full sleep
+
+
+def test_monotonic_wait_interrupted_in_its_final_spin_returns_false() -> None:
+    from xgo_show.runtime.clock import MonotonicClock
+
+    # No sleep phase at all: the whole wait is the spin, which must still see the interrupt.
+    clock = MonotonicClock(margin=0.0, aim=0.0, spin=1.0)
+    interrupt = threading.Event()
+    deadline = clock.now() + 0.5
+    timer = threading.Timer(0.02, interrupt.set)
+    timer.start()
+    try:
+        assert clock.sleep_until(deadline, interrupt) is False
+    finally:
+        timer.cancel()
+    assert clock.now() < deadline
+
+
+def test_monotonic_wait_with_the_interrupt_already_set_returns_false_at_once() -> None:
+    from xgo_show.runtime.clock import MonotonicClock
+
+    clock = MonotonicClock()
+    interrupt = threading.Event()
+    interrupt.set()
+    start = clock.now()
+    assert clock.sleep_until(start + 1.0, interrupt) is False
+    assert clock.now() - start < 0.5
