@@ -9,10 +9,10 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from types import TracebackType
 from typing import Any, Generic, TypeVar
 
 from xgo_show.client.exchange import Decoder, Exchange, F
+from xgo_show.closing import Closing
 from xgo_show.errors import ProfileError
 from xgo_show.profiles import Profile
 from xgo_show.transports.base import Transport
@@ -25,7 +25,7 @@ DEFAULT_TIMEOUT = 0.5
 _C = TypeVar("_C", bound="ClientBase[Any]")
 
 
-class ClientBase(Generic[F]):
+class ClientBase(Closing, Generic[F]):
     """A client of one robot family over ``transport``; a context manager that closes it."""
 
     #: the profile family this client speaks to, its protocol's name and its robots, for messages
@@ -76,10 +76,3 @@ class ClientBase(Generic[F]):
             self.transport.open()
         return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()

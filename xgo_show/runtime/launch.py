@@ -23,9 +23,9 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from types import TracebackType
 from typing import Any, Protocol
 
+from xgo_show.closing import Closing
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import XgoShowError
 from xgo_show.profiles import get_profile
@@ -230,7 +230,7 @@ class LocalPorts:
         self.transports = {}
 
 
-class Launch:
+class Launch(Closing):
     """The stages of one show launch over the performers' endpoints.
 
     ``urls`` maps each performer to its port or URL (performers missing from it use the show
@@ -360,13 +360,4 @@ class Launch:
             endpoint.close()
         self.endpoints = []
 
-    def __enter__(self) -> Launch:
-        return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()

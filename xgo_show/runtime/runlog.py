@@ -24,9 +24,9 @@ import json
 import threading
 import time
 from pathlib import Path
-from types import TracebackType
 from typing import IO, Any
 
+from xgo_show.closing import Closing
 from xgo_show.errors import XgoShowError
 from xgo_show.runtime.events import (
     Event,
@@ -49,7 +49,7 @@ from xgo_show.runtime.events import (
 __all__ = ["RunLog", "read_log"]
 
 
-class RunLog:
+class RunLog(Closing):
     """A thread-safe JSON-lines writer. ``RunLog(None)`` keeps records in memory only.
 
     ``keep`` (default: only when there is no file) also keeps every record in
@@ -169,16 +169,7 @@ class RunLog:
                 self._file.close()
                 self._file = None
 
-    def __enter__(self) -> RunLog:
-        return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 def read_log(path: str | Path) -> list[dict[str, Any]]:

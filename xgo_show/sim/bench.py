@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from types import TracebackType
 from typing import Any
 
+from xgo_show.closing import Closing
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.profiles import get_profile
 from xgo_show.sim import create_robot
@@ -47,7 +47,7 @@ class SimSummary:
     fallen: bool | None = None
 
 
-class SimBench:
+class SimBench(Closing):
     """One simulated robot per named performer, each served on its own real pseudo-terminal.
 
     ``robot_options`` go to every robot (:func:`~xgo_show.sim.create_robot`). A context
@@ -94,16 +94,7 @@ class SimBench:
         for server in self.servers.values():
             server.close()
 
-    def __enter__(self) -> SimBench:
-        return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
 
 def summarize(

@@ -27,9 +27,9 @@ import threading
 import time
 import tty
 from pathlib import Path
-from types import TracebackType
 from typing import IO, Any
 
+from xgo_show.closing import Closing
 from xgo_show.errors import TransportError
 from xgo_show.sim.base import SimulatedRobot
 
@@ -39,7 +39,7 @@ _POLL_INTERVAL = 0.002  # seconds between robot polls when the line is quiet
 _CHUNK = 4096
 
 
-class PtyServer:
+class PtyServer(Closing):
     """Serve ``robot`` on a new pseudo-terminal (context manager, or :meth:`start`/:meth:`close`).
 
     ``record``: optional path of a JSON-lines file that gets one line per frame the robot
@@ -146,14 +146,6 @@ class PtyServer:
 
     def __enter__(self) -> PtyServer:
         return self.start()
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     # ------------------------------------------------------------------ thread
     def _serve(self) -> None:

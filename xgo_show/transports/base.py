@@ -8,12 +8,13 @@ Transports are opened from URL strings by :func:`xgo_show.transports.open_transp
 from __future__ import annotations
 
 import abc
-from types import TracebackType
+
+from xgo_show.closing import Closing
 
 __all__ = ["Transport", "WrappingTransport"]
 
 
-class Transport(abc.ABC):
+class Transport(Closing, abc.ABC):
     """A byte link to one robot.
 
     ``write`` returns once the bytes are queued to the OS/device, not when they are on the wire.
@@ -57,13 +58,6 @@ class Transport(abc.ABC):
             self.open()
         return self
 
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.url}>"
