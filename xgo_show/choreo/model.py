@@ -536,17 +536,32 @@ class TempoEntry(_Model):
     beats_per_bar: Annotated[int, Field(ge=1, le=64)] | None = None
 
 
-def _tempo_kind(value: object) -> str:
-    return "map" if isinstance(value, list) else "constant"
+class TempoFile(_Model):
+    """The tempo map is in another file (``xgo-show beats song.ogg -o song.tempo.yaml``),
+    named relative to this one."""
 
+    file: Annotated[str, Field(min_length=1)]
+
+
+def _tempo_kind(value: object) -> str:
+    if isinstance(value, list):
+        return "map"
+    return "file" if isinstance(value, dict) and "file" in value else "constant"
+
+
+_Constant = Annotated[TempoConstant, Tag("constant")]
+_Map = Annotated[Annotated[list[TempoEntry], Field(min_length=1)], Tag("map")]
 
 Tempo = Annotated[
-    Union[  # noqa: UP007
-        Annotated[TempoConstant, Tag("constant")],
-        Annotated[Annotated[list[TempoEntry], Field(min_length=1)], Tag("map")],
-    ],
+    Union[_Constant, _Map, Annotated[TempoFile, Tag("file")]],  # noqa: UP007
     Discriminator(_tempo_kind),
 ]
+
+
+class TempoMapFile(_Model):
+    """A tempo-map file (``tempo: {file: ...}``): ``tempo:`` as a routine writes it inline."""
+
+    tempo: Annotated[Union[_Constant, _Map], Discriminator(_tempo_kind)]  # noqa: UP007
 
 
 class SettingsModel(_Model):

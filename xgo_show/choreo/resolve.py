@@ -36,6 +36,10 @@ from xgo_show.choreo.model import (
     RestCueModel,
     SetCueModel,
     ShowFile,
+    TempoConstant,
+    TempoEntry,
+    TempoFile,
+    TempoMapFile,
     WalkCueModel,
     cue_kind,
 )
@@ -295,8 +299,14 @@ class _Resolver:
 
     def build_tempo(self) -> TempoMap | None:
         tempo = self.show.tempo
+        doc, loc = self.doc, ("tempo",)
         if tempo is None:
             return None
+        if isinstance(tempo, TempoFile):
+            loaded = self.load_tempo_file(tempo.file)
+            if loaded is None:
+                return None
+            tempo, doc = loaded
         if isinstance(tempo, list):
             segments: list[Segment] = []
             per_bar = 4
@@ -308,8 +318,32 @@ class _Resolver:
         try:
             return TempoMap(segments)
         except ValueError as exc:
-            self.error(self.doc, ("tempo",), str(exc))
+            self.error(doc, loc, str(exc))
             return None
+
+    def load_tempo_file(
+        self, name: str
+    ) -> tuple[TempoConstant | list[TempoEntry], Document] | None:
+        """``tempo: {file: NAME}``: the file's own ``tempo:``, errors at its lines."""
+        loc: Loc = ("tempo", "file")
+        try:
+            path = Path(self.doc.file).parent / name
+            text = read_text(path)
+        except (OSError, ValueError) as exc:
+            text = (str(exc),)
+        if isinstance(text, tuple):
+            self.error(self.doc, loc, f"cannot read the tempo map {name!r}: {text[0]}")
+            return None
+        tdoc, errors = parse_yaml(text, str(path))
+        model = None
+        if not errors:
+            model, errors = validate(TempoMapFile, tdoc, tdoc.data)
+        self.diags.extend(errors)
+        if model is None:
+            if not errors:
+                self.error(self.doc, loc, f"{name}: not a tempo map")
+            return None
+        return model.tempo, tdoc
 
     def collect_phrases(self) -> dict[str, _Phrase]:
         phrases: dict[str, _Phrase] = {}

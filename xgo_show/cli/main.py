@@ -29,6 +29,7 @@ COMMANDS: tuple[str, ...] = (
     "inspect",
     "run",
     "dry_run",
+    "beats",
 )
 
 
