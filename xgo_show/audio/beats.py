@@ -211,7 +211,7 @@ def _snap(mono: Floats, rate: int, times: list[float]) -> list[float]:
 
 
 def analyse(
-    samples: Floats, rate: int, beats_per_bar: int = 4, first_bar_at: float | None = None
+    samples: npt.ArrayLike, rate: int, beats_per_bar: int = 4, first_bar_at: float | None = None
 ) -> Analysis:
     """Beats, downbeats and local tempo of mono ``samples`` at ``rate`` Hz.
 
