@@ -564,6 +564,19 @@ class TempoMapFile(_Model):
     tempo: Annotated[Union[_Constant, _Map], Discriminator(_tempo_kind)]  # noqa: UP007
 
 
+class MusicModel(_Model):
+    """The show's soundtrack: played with it by run and dry-run, on the show clock."""
+
+    file: Annotated[str, Field(min_length=1)] = Field(
+        description="WAV, FLAC, MP3 or OGG file, relative to this routine."
+    )
+    offset: Annotated[float, Field(ge=-3600, le=86400)] = Field(
+        0.0,
+        description="Seconds into the recording at bar 1 beat 1 (negative: the music starts "
+        "that long after the show).",
+    )
+
+
 class SettingsModel(_Model):
     """Show-wide settings for the compiler and the runtime."""
 
@@ -646,6 +659,7 @@ class ShowFile(_Model):
 
     show: Annotated[str, Field(min_length=1)] = Field(description="The show's name.")
     tempo: Tempo | None = None
+    music: MusicModel | None = None
     settings: SettingsModel = SettingsModel.model_validate({})
     performers: Annotated[dict[Name, PerformerModel], Field(min_length=1)]
     include: list[Annotated[str, Field(min_length=1)]] = Field(

@@ -43,6 +43,7 @@ from xgo_show.choreo.model import (
     WalkCueModel,
     cue_kind,
 )
+from xgo_show.choreo.music import Music
 from xgo_show.choreo.params import Argument, substitute
 from xgo_show.choreo.resolved import (
     ActionCue,
@@ -293,9 +294,25 @@ class _Resolver:
                 for seg in (self.tempo.segments if self.tempo else ())
             ),
             sections=sections,
+            music=self.build_music(),
         )
         return Resolution(resolved, self.diags, self.sources,
                           {n: p.model for n, p in performers.items()}, untimed)
+
+    def build_music(self) -> Music | None:
+        """``music:``: the recording must exist (it is decoded only when played)."""
+        music = self.show.music
+        if music is None:
+            return None
+        try:
+            path = (Path(self.doc.file).parent / music.file).resolve()
+            found = path.is_file()
+        except (OSError, ValueError):
+            found = False
+        if not found:
+            self.error(self.doc, ("music", "file"), f"no such sound file: {music.file}")
+            return None
+        return Music(music.file, str(path), music.offset)
 
     def build_tempo(self) -> TempoMap | None:
         tempo = self.show.tempo

@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
+from xgo_show.choreo.music import Music
 from xgo_show.choreo.sections import Section
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.profiles.model import Limits
@@ -129,3 +130,4 @@ class ResolvedShow:
     tempo_map: tuple[tuple[int, float, int], ...] = ()
     # Named parts of the show in time order; a section may wait for a trigger (see sections).
     sections: tuple[Section, ...] = ()
+    music: Music | None = None  # the soundtrack, played on the show clock

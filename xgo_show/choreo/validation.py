@@ -56,11 +56,19 @@ def _is_tag(part: str | int) -> bool:
 
 
 def _unwrap(tp: Any) -> tuple[Any, list[Any]]:
+    """``Annotated[X, ...]`` and ``X | None`` -> X (and the annotations)."""
     meta: list[Any] = []
-    while typing.get_origin(tp) is typing.Annotated:
-        args = typing.get_args(tp)
-        tp, meta = args[0], meta + list(args[1:])
-    return tp, meta
+    while True:
+        if typing.get_origin(tp) is typing.Annotated:
+            args = typing.get_args(tp)
+            tp, meta = args[0], meta + list(args[1:])
+            continue
+        if typing.get_origin(tp) in (typing.Union, types.UnionType):
+            members = [m for m in typing.get_args(tp) if m is not type(None)]
+            if len(members) == 1:  # Optional: pydantic's loc has no step for it
+                tp = members[0]
+                continue
+        return tp, meta
 
 
 def _model_fields_at(root: type[BaseModel], loc: Sequence[str | int]) -> list[str] | None:

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from xgo_show.audio.soundtrack import parse_latency
+from xgo_show.audio.soundtrack import prepare as prepare_music
 from xgo_show.compiler.artifact import is_schedule_file
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import RuntimeFault, XgoShowError
@@ -129,6 +131,23 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="do not poll battery, status and attitude during the show",
     )
+    parser.add_argument(
+        "--no-music", action="store_true", help="do not play the show's music (music: in SHOW)"
+    )
+    parser.add_argument(
+        "--audio-device",
+        choices=("default", "null"),
+        default="default",
+        help="where the music plays: the default output, or the null device (on time, no sound)",
+    )
+    parser.add_argument(
+        "--latency",
+        action="append",
+        default=[],
+        metavar="NAME=MS",
+        help="an output's own delay in ms (repeatable): that performer, or the music (music=40), "
+        "acts so much earlier",
+    )
 
 
 def check_options(args: argparse.Namespace) -> None:
@@ -213,6 +232,9 @@ class PlayOptions:
     realtime: bool = False
     allow_unsafe: bool = False
     telemetry: bool = True
+    music: bool = True
+    audio_device: str = "default"
+    latency: list[str] = field(default_factory=list)  # NAME=MS, checked by play()
 
 
 def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> PlayOptions:
@@ -223,6 +245,9 @@ def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> Pl
         log=args.log,
         allow_unsafe=args.allow_unsafe,
         telemetry=not args.no_telemetry,
+        music=not args.no_music,
+        audio_device=args.audio_device,
+        latency=args.latency,
         **own,
     )
 
@@ -232,6 +257,9 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
     the report (and, on simulators, what each robot did)."""
     out = sys.stdout
     sim_names = [p.name for p in schedule.performers if p.name not in opts.maps] if opts.sim else []
+    music = prepare_music(schedule, enabled=opts.music, fast=opts.fast, device=opts.audio_device)
+    outputs = [p.name for p in schedule.performers] + ([music.name] if music.build else [])
+    latency = parse_latency(opts.latency, outputs)
     # The launch refuses unsafe writes before anything opens (no log, no simulator, no port).
     launch = Launch(
         schedule,
@@ -240,6 +268,8 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
         battery_floor=opts.battery_floor,
         allow_unsafe=opts.allow_unsafe,
         telemetry=opts.telemetry and not opts.fast,
+        extra_performers=[music.build] if music.build else [],
+        latency=latency,
     )
     with contextlib.ExitStack() as stack:
         log = stack.enter_context(RunLog(opts.log))
@@ -247,11 +277,14 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
         if sims is not None:
             launch.map(sims.urls)
         stack.enter_context(launch)
+        stack.callback(music.close)
         log.attach(launch.events)
         if launch.unsafe:
             print(f"warning: {len(launch.unsafe)} unsafe write(s) allowed by --allow-unsafe",
                   file=out)
             log.event("unsafe_allowed", writes=launch.unsafe)
+        if music.note:
+            print(music.note, file=out)
         realtime = request_realtime() if opts.realtime else "not requested"
         launch.open()
         report = launch.preflight(realtime=realtime)

@@ -11,7 +11,8 @@ Format (version 1)::
               "tempo_map": [[first bar, bpm, beats_per_bar], ...],
               "sections": [{"name": str, "start_us": int, "origin": int | null,
                             "wait": null | {"trigger": str, "timeout_us": int | null,
-                                            "else": str}}, ...]},
+                                            "else": str}}, ...],
+              "music": {"file": str, "path": str, "offset": float}  (optional)},
      "origins": [{"file": str, "line": int, "column": int, "cue": str}, ...],
      "warnings": [{"severity": "warning", "message": str, "origin": int | null,
                    "path": str}, ...],
@@ -53,6 +54,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from xgo_show.choreo.music import Music
 from xgo_show.choreo.sections import ELSE_KEYWORDS, Section, Wait
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.compiler.schedule import (
@@ -140,6 +142,9 @@ def dumps_schedule(schedule: Schedule) -> str:
         "source": schedule.source,
         "tempo_map": [list(row) for row in schedule.tempo_map],
     }
+    if schedule.music is not None:
+        show["music"] = {"file": schedule.music.file, "path": schedule.music.path,
+                         "offset": schedule.music.offset}
     if schedule.sections:
         show["sections"] = [
             {
@@ -420,6 +425,11 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
     bpm = r.get(show, "bpm", (int, float), "show", optional=True)
     tempo_map = _tempo_map(r, show)
     sections = _sections(r, show, origin)
+    music = None
+    if show.get("music") is not None:
+        m = r.obj(show["music"], "show.music")
+        music = Music(r.get(m, "file", str, "show.music"), r.get(m, "path", str, "show.music"),
+                      float(r.get(m, "offset", (int, float), "show.music")))
     return Schedule(
         name=r.get(show, "name", str, "show"),
         source=r.get(show, "source", str, "show"),
@@ -433,4 +443,5 @@ def loads_schedule(text: str, *, name: str = "<schedule>") -> Schedule:
         beats_per_bar=r.get(show, "beats_per_bar", int, "show"),
         tempo_map=tempo_map,
         sections=sections,
+        music=music,
     )

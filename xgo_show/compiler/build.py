@@ -75,6 +75,7 @@ def _compile(show: ResolvedShow) -> Schedule:
         beats_per_bar=show.beats_per_bar,
         tempo_map=show.tempo_map,
         sections=show.sections,
+        music=show.music,
     )
 
 

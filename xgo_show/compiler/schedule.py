@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from xgo_show.choreo.music import Music
 from xgo_show.choreo.sections import Section
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.diagnostics import Diagnostic, Origin
@@ -100,6 +101,7 @@ class Schedule:
     # Named parts of the show in time order; a section with a wait holds the show at its
     # start until a trigger releases it (xgo_show.choreo.sections). Empty: one straight run.
     sections: tuple[Section, ...] = ()
+    music: Music | None = None  # the soundtrack (file found relative to the routine)
 
     def tempo(self) -> TempoMap | None:
         """The tempo map (bar/beat <-> seconds, tempo changes included), or None without one."""

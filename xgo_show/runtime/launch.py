@@ -32,6 +32,7 @@ from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, FakeClock, MonotonicClock
 from xgo_show.runtime.events import EventBus, PreflightDone
 from xgo_show.runtime.executor import PerformerExecutor
+from xgo_show.runtime.latency import Early
 from xgo_show.runtime.performer import Performer
 from xgo_show.runtime.preflight import (
     PreflightError,
@@ -240,7 +241,10 @@ class Launch(Closing):
     show's), ``on_failure`` (default the show's), ``allow_unsafe`` (refused otherwise, before
     anything opens: :class:`~xgo_show.runtime.safety.UnsafeScheduleError`), ``telemetry``
     (poll battery, status and attitude during the show), ``stop_timeout``, ``progress_hz``,
-    ``command_lead`` (see :class:`ShowRunner`).
+    ``command_lead`` (see :class:`ShowRunner`), ``extra_performers`` (builders of performers
+    that play no robot, such as the soundtrack: :func:`xgo_show.audio.player.music_performer`),
+    ``latency`` (seconds by performer name: that performer acts so much earlier, to make up
+    for its output's own delay).
     """
 
     def __init__(
@@ -257,8 +261,14 @@ class Launch(Closing):
         stop_timeout: float = 0.1,
         progress_hz: float = 4.0,
         command_lead: float = 0.0,
+        extra_performers: Sequence[Callable[[PerformerContext], Mapping[str, Performer]]] = (),
+        latency: Mapping[str, float] | None = None,
     ) -> None:
         self.schedule = schedule
+        #: builders of performers that are no robot (the soundtrack), called at :meth:`arm`
+        self.extra_performers = tuple(extra_performers)
+        #: seconds each performer's output lags (an adapter, a radio link): it acts that early
+        self.latency = dict(latency or {})
         self.clock: Clock = clock if clock is not None else MonotonicClock()
         self.events = events if events is not None else EventBus()
         self.battery_floor = schedule.battery_floor if battery_floor is None else battery_floor
@@ -329,6 +339,12 @@ class Launch(Closing):
         performers: dict[str, Performer] = {}
         for endpoint in self.endpoints:
             performers.update(endpoint.performers(ctx))
+        for build in self.extra_performers:
+            performers.update(build(ctx))
+        performers = {
+            name: Early(p, self.latency[name]) if self.latency.get(name) else p
+            for name, p in performers.items()
+        }
         self.runner = ShowRunner(
             self.schedule,
             performers,

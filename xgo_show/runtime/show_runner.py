@@ -137,6 +137,8 @@ class ShowRunner:
         self.performers: dict[str, Performer] = {
             p.name: performers[p.name] for p in schedule.performers
         }
+        # Performers that play no robot (the soundtrack) keep time with the others too.
+        self.performers.update({n: p for n, p in performers.items() if n not in self.performers})
         self.progress_interval = 1.0 / progress_hz
         self.stop_timeout = stop_timeout
         self.command_lead = command_lead
