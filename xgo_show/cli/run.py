@@ -30,6 +30,7 @@ from xgo_show.runtime.preflight import countdown, request_realtime
 from xgo_show.runtime.report import ProgressPrinter, format_report
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.sim.bench import SimBench, format_summaries
+from xgo_show.timecode.follow import Follow, parse_timecode
 
 __all__ = [
     "PlayOptions",
@@ -148,6 +149,24 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
         help="an output's own delay in ms (repeatable): that performer, or the music (music=40), "
         "acts so much earlier",
     )
+    parser.add_argument(
+        "--follow",
+        metavar="SOURCE",
+        help="let the sound desk drive the show: osc:[HOST:]PORT (OSC cues /go /pause /resume "
+        "/seek /bar /stop) or mtc:MIDI-PORT (chase MIDI timecode; needs python-rtmidi)",
+    )
+    parser.add_argument(
+        "--chase-policy",
+        choices=("hold", "stop"),
+        default="hold",
+        help="on a timecode jump or dropout: hold the robots and follow again, or stop the show",
+    )
+    parser.add_argument(
+        "--timecode-origin",
+        default="0",
+        metavar="TC",
+        help="the timecode of show time 0, HH:MM:SS:FF or seconds (default 0)",
+    )
 
 
 def check_options(args: argparse.Namespace) -> None:
@@ -234,6 +253,9 @@ class PlayOptions:
     telemetry: bool = True
     music: bool = True
     audio_device: str = "default"
+    follow: str | None = None  # --follow SOURCE
+    chase_policy: str = "hold"
+    timecode_origin: float = 0.0
     latency: list[str] = field(default_factory=list)  # NAME=MS, checked by play()
 
 
@@ -247,6 +269,9 @@ def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> Pl
         telemetry=not args.no_telemetry,
         music=not args.no_music,
         audio_device=args.audio_device,
+        follow=args.follow,
+        chase_policy=args.chase_policy,
+        timecode_origin=parse_timecode(args.timecode_origin),
         latency=args.latency,
         **own,
     )
@@ -278,6 +303,15 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
             launch.map(sims.urls)
         stack.enter_context(launch)
         stack.callback(music.close)
+        follow = None
+        if opts.follow:
+            if opts.fast:
+                raise XgoShowError("--follow needs real time: leave out --fast")
+            follow = Follow(opts.follow, schedule, clock=launch.clock, out=out,
+                            offset=opts.offset,
+                            policy="stop" if opts.chase_policy == "stop" else "hold",
+                            origin=opts.timecode_origin)
+            stack.callback(follow.close)
         log.attach(launch.events)
         if launch.unsafe:
             print(f"warning: {len(launch.unsafe)} unsafe write(s) allowed by --allow-unsafe",
@@ -292,17 +326,23 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
         launch.arm(force=opts.force)
         if not report.ok:
             print("warning: pre-flight failed; starting anyway because of --force", file=out)
-        countdown(opts.countdown, out=out)
+        offset, start_at = opts.offset, None
+        if follow is not None:
+            print(follow.note, file=out, flush=True)
+            follow.runner = launch.runner
+            offset, start_at = follow.wait_for_start()
+        else:
+            countdown(opts.countdown, out=out)
         printer = ProgressPrinter(tempo=schedule.tempo(), out=out)
         launch.events.subscribe(printer.on_event, ProgressTick)
-        where = f" from {opts.offset:g} s" if opts.offset else ""
+        where = f" from {offset:g} s" if offset else ""
         print(
             f"running {schedule.name!r}{where}: {len(schedule.performers)} performer(s), "
             f"{schedule.duration:.1f} s",
             file=out,
             flush=True,
         )
-        result = launch.run(offset=opts.offset)
+        result = launch.run(offset=offset, start_at=start_at)
         printer.finish()
         print(format_report(result), file=out, flush=True)
         if sims is not None:

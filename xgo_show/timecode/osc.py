@@ -104,7 +104,9 @@ class OscServer:
             from xgo_show.errors import XgoShowError
 
             raise XgoShowError(f"cannot listen for OSC on {host}:{port}: {exc.strerror}") from exc
-        self.host, self.port = self._server.server_address[:2]
+        address = self._server.server_address
+        self.host: str = str(address[0])
+        self.port: int = int(address[1])
         self._thread = threading.Thread(target=self._server.serve_forever, kwargs={
             "poll_interval": 0.05}, name="osc-server", daemon=True)
         self._thread.start()
