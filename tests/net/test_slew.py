@@ -5,7 +5,7 @@ from __future__ import annotations
 import threading
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from xgo_show.net.offset import Timebase
@@ -63,7 +63,7 @@ timebases = st.builds(
 @given(
     st.lists(st.tuples(timebases, st.floats(min_value=0.0, max_value=1.0)), min_size=1, max_size=8)
 )
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 def test_frames_are_never_skipped_or_bunched_whatever_the_estimates(
     updates: list[tuple[Timebase, float]],
 ) -> None:

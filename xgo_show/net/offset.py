@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 __all__ = [
     "MAX_RATE",
+    "RESOLUTION",
     "DriftFit",
     "Exchange",
     "OffsetEstimate",
@@ -39,6 +40,10 @@ __all__ = [
 #: The largest rate difference between two host clocks the bounds allow for (500 ppm). Quartz
 #: oscillators are specified to tens of ppm; a larger difference means a clock is being stepped.
 MAX_RATE = 500e-6
+
+#: What one clock reading can be off by on its own: Linux's monotonic clock counts nanoseconds,
+#: and a float holding some days of seconds rounds to a tenth of one.
+RESOLUTION = 1e-9
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,7 +85,7 @@ class Exchange:
         return (
             self.t3 >= self.t0
             and self.t2 >= self.t1
-            and self.rtt >= -MAX_RATE * (self.t2 - self.t1) - 1e-9
+            and self.rtt >= -MAX_RATE * (self.t2 - self.t1) - 4 * RESOLUTION
         )
 
 
@@ -123,12 +128,12 @@ def estimate_offset(exchanges: Iterable[Exchange], *, max_rate: float = MAX_RATE
     ref = best.at
     low, high = -math.inf, math.inf
     for x in valid:
-        slack = max_rate * (abs(x.at - ref) + (x.t3 - x.t0))
+        slack = max_rate * (abs(x.at - ref) + (x.t3 - x.t0)) + 2 * RESOLUTION
         low = max(low, x.low - slack)
         high = min(high, x.high + slack)
     if low <= high:
         return OffsetEstimate((low + high) / 2, (high - low) / 2, best.rtt, ref, len(valid))
-    bound = max(best.rtt, 0.0) / 2 + max_rate * (best.t3 - best.t0)
+    bound = max(best.rtt, 0.0) / 2 + max_rate * (best.t3 - best.t0) + 2 * RESOLUTION
     return OffsetEstimate((best.low + best.high) / 2, bound, best.rtt, ref, len(valid), False)
 
 

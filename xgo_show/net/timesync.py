@@ -141,7 +141,9 @@ class TimeServer:
         self._delayed: queue.Queue[tuple[zenoh.Query, bytes, float] | None] = queue.Queue()
         self._thread: threading.Thread | None = None
         if delay is not None:
-            self._thread = threading.Thread(target=self._late, name="xgo-show time-sync delay", daemon=True)
+            self._thread = threading.Thread(
+                target=self._late, name="xgo-show time-sync delay", daemon=True
+            )
             self._thread.start()
         self._queryable = session.declare_queryable(key, self._on_query)
 
@@ -354,7 +356,9 @@ class ClockTracker:
         if update.error:
             self.close()
             raise TimeSyncError(f"{self.key}: {update.error}")
-        self._thread = threading.Thread(target=self._run, name="xgo-show clock tracker", daemon=True)
+        self._thread = threading.Thread(
+            target=self._run, name="xgo-show clock tracker", daemon=True
+        )
         self._thread.start()
         return update.timebase
 

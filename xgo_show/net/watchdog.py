@@ -1,0 +1,143 @@
+"""A watchdog: notices when a peer has not been heard for ``timeout`` seconds, on time.
+
+Zenoh's liveliness notices a killed process at once but a frozen one (SIGSTOP, a hung host, a
+pulled cable: the TCP socket stays open) only when its lease ends, 10 s by default. So both
+ends of a relay link send heartbeats and each runs a :class:`Watchdog` fed by what it hears:
+the relay hears the conductor's heartbeat queries, the conductor hears their replies.
+
+The watchdog's thread sleeps until exactly ``last heard + timeout`` (no polling interval is
+added to the detection time) and, if nothing was heard meanwhile, calls ``on_silence(silence)``
+once. If the peer is heard again afterwards, ``on_back(gap)`` says so (a frozen peer that is
+thawed) and the watchdog arms again; what to do about a peer that comes back is the caller's
+business (a relay does not restart a show it stopped). The clock is injected, so tests run it
+on a :class:`~xgo_show.runtime.clock.FakeClock`; the decision itself, :meth:`Watchdog.check`,
+is a pure function of the times given.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+
+from xgo_show.runtime.clock import Clock, MonotonicClock
+
+__all__ = ["DEFAULT_TIMEOUT", "Watchdog"]
+
+#: Seconds of silence after which a peer is lost (the issue's 500 ms default).
+DEFAULT_TIMEOUT = 0.5
+
+
+class Watchdog:
+    """Calls ``on_silence(seconds)`` once when :meth:`heard` was not called for ``timeout``.
+
+    ``on_back(gap)`` is called when a peer declared lost is heard again (``gap``: seconds since
+    it was last heard before). Callbacks run on the watchdog's thread (or the caller's, for
+    :meth:`heard`'s ``on_back``); they must not block for long.
+    """
+
+    def __init__(
+        self,
+        timeout: float = DEFAULT_TIMEOUT,
+        on_silence: Callable[[float], None] | None = None,
+        *,
+        on_back: Callable[[float], None] | None = None,
+        clock: Clock | None = None,
+        name: str = "peer",
+    ) -> None:
+        if not timeout > 0:
+            raise ValueError("a watchdog timeout must be positive")
+        self.timeout = timeout
+        self.on_silence = on_silence
+        self.on_back = on_back
+        self.clock: Clock = MonotonicClock() if clock is None else clock
+        self.name = name
+        self._lock = threading.Lock()
+        self._last = self.clock.now()
+        self._lost = False
+        self._wake = threading.Event()  # set by heard() while lost, and by stop()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    # ------------------------------------------------------------------ the decision
+
+    @property
+    def last_heard(self) -> float:
+        with self._lock:
+            return self._last
+
+    @property
+    def lost(self) -> bool:
+        """Whether the peer is silent past the timeout (until heard again)."""
+        with self._lock:
+            return self._lost
+
+    @property
+    def deadline(self) -> float:
+        """When the peer is lost unless heard before."""
+        with self._lock:
+            return self._last + self.timeout
+
+    def heard(self, at: float | None = None) -> None:
+        """The peer said something (at clock time ``at``, default now)."""
+        now = self.clock.now() if at is None else at
+        with self._lock:
+            gap = now - self._last
+            self._last = max(self._last, now)
+            back = self._lost
+            self._lost = False
+        if back:
+            self._wake.set()
+            if self.on_back is not None:
+                self.on_back(gap)
+
+    def check(self, now: float) -> float | None:
+        """At clock time ``now``: the silence if the peer just became lost, else None.
+
+        Returns a value once per loss; the thread calls it, and tests may call it directly.
+        """
+        with self._lock:
+            silence = now - self._last
+            if self._lost or silence < self.timeout:
+                return None
+            self._lost = True
+            return silence
+
+    # ------------------------------------------------------------------ the thread
+
+    def start(self, *, grace: float = 0.0) -> Watchdog:
+        """Start counting from now (plus ``grace`` for a peer still setting up) on a thread."""
+        with self._lock:
+            self._last = self.clock.now() + grace
+            self._lost = False
+        self._thread = threading.Thread(
+            target=self._run, name=f"xgo-show watchdog {self.name}", daemon=True
+        )
+        self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            if self.lost:
+                self._wake.wait()
+                self._wake.clear()
+                continue
+            if not self.clock.sleep_until(self.deadline, self._stop):
+                return
+            silence = self.check(self.clock.now())
+            if silence is not None and self.on_silence is not None:
+                self.on_silence(silence)
+
+    def stop(self) -> None:
+        """Stop watching (no callback after this returns, unless one is running)."""
+        self._stop.set()
+        self._wake.set()
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(2.0)
+        self._thread = None
+
+    def __enter__(self) -> Watchdog:
+        return self.start() if self._thread is None else self
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
