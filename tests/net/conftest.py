@@ -2,6 +2,7 @@
 
 ``zenoh_pair`` gives two sessions in this process, the first listening on a free loopback port
 and the second connected to it, the way a relay and its conductor meet on one machine.
+``two_hosts`` (from :mod:`tests.net.netns`) gives two network namespaces joined by a cable.
 """
 
 from __future__ import annotations
@@ -12,6 +13,10 @@ from collections.abc import Iterator, Sequence
 
 import pytest
 import zenoh
+
+from tests.net.netns import two_hosts  # the fixture, for every net test
+
+__all__ = ["free_port", "peer_config", "two_hosts", "zenoh_pair"]
 
 
 def free_port() -> int:
