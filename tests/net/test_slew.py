@@ -132,10 +132,13 @@ def test_on_a_skewed_real_clock_waits_land_on_the_conductors_time() -> None:
     clock = SlewingClock(skewed)
     start = real.now()
     clock.follow(Timebase(12.5, 100e-6, start))
-    assert clock.now() == pytest.approx(real.now(), abs=1e-4)
+    assert skewed.to_base(clock.to_base(start + 5.0)) == pytest.approx(start + 5.0, abs=1e-6)
     deadline = clock.now() + 0.03
+    # The wait lands on this machine's clock at the deadline (to float rounding)...
+    assert skewed.to_base(clock.to_base(deadline)) == pytest.approx(deadline, abs=1e-6)
     assert clock.sleep_until(deadline)
-    assert real.now() - deadline == pytest.approx(0.0, abs=0.002)
+    # ...and never before it (how late depends on the machine's load, not on the mapping).
+    assert real.now() >= deadline - 1e-6
 
 
 def test_a_skewed_clock_is_offset_and_fast_by_what_it_was_told() -> None:

@@ -37,8 +37,16 @@ def _reachable(session: zenoh.Session, wait: Callable[..., None]) -> None:
 
 
 def _truth(relay_clock: SkewedClock) -> float:
-    """The relay clock minus this machine's, now."""
-    return relay_clock.now() - time.monotonic()
+    """The relay clock minus this machine's, now (from one reading: no preemption between)."""
+    t = relay_clock.now()
+    return t - relay_clock.to_base(t)
+
+
+def _show_clock_error(show_clock: SlewingClock) -> float:
+    """How far the show clock is from this machine's clock: the smallest of a few paired
+    readings (a thread preempted between the two readings of a pair only adds to it)."""
+    pairs = [(show_clock.now(), time.monotonic()) for _ in range(20)]
+    return min((abs(c - m) for c, m in pairs), key=abs)
 
 
 def test_a_measured_offset_is_within_its_bound(zenoh_pair: Pair, wait: Callable[..., None]) -> None:
@@ -91,15 +99,15 @@ def test_the_tracker_keeps_a_drifting_relays_show_clock_on_the_conductors_time(
     try:
         _reachable(conductor, wait)
         first = tracker.start()
-        assert abs(show_clock.now() - time.monotonic()) <= first.bound + 0.0005
+        assert _show_clock_error(show_clock) <= first.bound + 0.0005
         wait(lambda: len(updates) >= 12, timeout=10.0)
-        errors = [abs(show_clock.now() - time.monotonic()) for _ in range(5)]
+        error = _show_clock_error(show_clock)
     finally:
         tracker.close()
         server.close()
     assert all(u.pushed for u in updates)
     assert {who for _, who in followed} == {"c-1"}
-    assert max(errors) < 0.001
+    assert error < 0.001
     newest = updates[-1].timebase
     assert abs(newest.rate - 400e-6) <= newest.rate_bound + 1e-6
 

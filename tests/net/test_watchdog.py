@@ -79,3 +79,14 @@ def test_on_the_real_clock_a_peer_heard_often_is_kept_and_silence_is_noticed_on_
 def test_a_timeout_must_be_positive() -> None:
     with pytest.raises(ValueError, match="positive"):
         Watchdog(0.0)
+
+
+def test_a_shorter_timeout_set_while_waiting_takes_effect_at_once() -> None:
+    lost = threading.Event()
+    with Watchdog(30.0, lambda s: lost.set(), clock=MonotonicClock()) as dog:
+        time.sleep(0.05)
+        dog.set_timeout(0.1)
+        assert lost.wait(2.0)
+        assert dog.lost
+    with pytest.raises(ValueError, match="positive"):
+        dog.set_timeout(-1.0)

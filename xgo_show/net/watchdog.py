@@ -54,8 +54,9 @@ class Watchdog:
         self._lock = threading.Lock()
         self._last = self.clock.now()
         self._lost = False
-        self._wake = threading.Event()  # set by heard() while lost, and by stop()
-        self._stop = threading.Event()
+        # Wakes the thread: set by stop(), by set_timeout() and by heard() after a loss.
+        self._poke = threading.Event()
+        self._stopped = False
         self._thread: threading.Thread | None = None
 
     # ------------------------------------------------------------------ the decision
@@ -86,9 +87,17 @@ class Watchdog:
             back = self._lost
             self._lost = False
         if back:
-            self._wake.set()
+            self._poke.set()
             if self.on_back is not None:
                 self.on_back(gap)
+
+    def set_timeout(self, timeout: float) -> None:
+        """Change the timeout (it counts from the last time the peer was heard)."""
+        if not timeout > 0:
+            raise ValueError("a watchdog timeout must be positive")
+        with self._lock:
+            self.timeout = timeout
+        self._poke.set()
 
     def check(self, now: float) -> float | None:
         """At clock time ``now``: the silence if the peer just became lost, else None.
@@ -116,21 +125,22 @@ class Watchdog:
         return self
 
     def _run(self) -> None:
-        while not self._stop.is_set():
+        while not self._stopped:
             if self.lost:
-                self._wake.wait()
-                self._wake.clear()
+                self._poke.wait()
+                self._poke.clear()
                 continue
-            if not self.clock.sleep_until(self.deadline, self._stop):
-                return
+            if not self.clock.sleep_until(self.deadline, self._poke):
+                self._poke.clear()
+                continue
             silence = self.check(self.clock.now())
-            if silence is not None and self.on_silence is not None:
+            if silence is not None and self.on_silence is not None and not self._stopped:
                 self.on_silence(silence)
 
     def stop(self) -> None:
         """Stop watching (no callback after this returns, unless one is running)."""
-        self._stop.set()
-        self._wake.set()
+        self._stopped = True
+        self._poke.set()
         thread = self._thread
         if thread is not None and thread is not threading.current_thread():
             thread.join(2.0)
