@@ -8,9 +8,11 @@ How it keeps time. The device pulls a buffer every few milliseconds; each buffer
 ``sink.latency`` seconds after the pull (the device buffer). The player renders every sample
 for the clock time at which it will sound: the show time there (from the start, pauses and
 seeks it was given, each at a clock time) plus the music's ``offset`` is the position in the
-recording. Consecutive buffers continue sample by sample, re-anchored on the clock only when
-callback timing drifts by more than ``RESYNC_S``, so steady playback has no clicks and never
-drifts.
+recording. Consecutive buffers continue sample by sample (see :meth:`MusicPlayer._place`),
+re-anchored on the clock only when the device's queue drifts by more than ``RESYNC_S``, so
+steady playback has no clicks and never drifts. The device's fixed output delay beyond one
+buffer is not visible to any program: measure it once (a microphone and a click) and give it
+as ``--latency music=MS``.
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ if TYPE_CHECKING:
 
 __all__ = ["RESYNC_S", "Anchor", "MusicPlayer", "Tap"]
 
-RESYNC_S = 0.015  # callback timing drift (s) beyond which a buffer re-anchors on the clock
+RESYNC_S = 0.015  # drift (s) of the device queue beyond which a buffer re-anchors on the clock
 
 #: ``tap(sounds_at, block)``: a rendered buffer and the clock time its first sample sounds
 Tap = Callable[[float, "npt.NDArray[np.float32]"], None]
@@ -87,7 +89,9 @@ class MusicPlayer:
         self._state = ExecutorState.IDLE
         self._fault: str | None = None
         self._stop: SafeStopResult | None = None
-        self._next_at: float | None = None  # where the previous buffer ended (clock time)
+        self._next_at: float | None = None  # where the previous buffer ends (clock time)
+        self._depth: float | None = None  # how far ahead of the clock buffers sound, steadily
+        self._prev_call = 0.0
         self._wake = threading.Event()
         self._ended = threading.Event()
         self._watcher: threading.Thread | None = None
@@ -242,13 +246,34 @@ class MusicPlayer:
             wait = self._until - show if self._running_at(now) else 0.25
             self._clock.sleep_until(now + max(0.001, min(wait, 0.25)), self._wake)
 
+    def _place(self, now: float, period: float) -> float:
+        """When the buffer asked for at ``now`` will sound.
+
+        Buffers queue behind each other, so each sounds where the previous one ends (frame
+        counting, immune to callback jitter). At the start the device asks for several buffers
+        at once to fill its queue; the first callback at least half a period after the previous
+        one ends that, and how far ahead of the clock it sounds is the queue's depth. From then
+        on, a buffer that would sound more than ``RESYNC_S`` off that depth (an underrun, or a
+        device crystal that runs fast or slow against the clock) re-anchors on the clock.
+        """
+        if self._next_at is None:
+            self._prev_call = now
+            return now + self._delay
+        at = self._next_at
+        if self._depth is None:
+            if now - self._prev_call >= period / 2:
+                self._depth = at - now
+        elif abs((at - now) - self._depth) > RESYNC_S:
+            at = now + self._depth
+        self._prev_call = now
+        return at
+
     def _render(self, frames: int) -> npt.NDArray[np.float32]:
         """The next ``frames`` frames of sound (called on the device's thread)."""
         xp = self._np
         rate = self._sink.rate
-        sounds_at = self._clock.now() + self._delay
-        if self._next_at is not None and abs(self._next_at - sounds_at) < RESYNC_S:
-            sounds_at = self._next_at  # continue sample by sample
+        now = self._clock.now()
+        sounds_at = self._place(now, frames / rate)
         self._next_at = sounds_at + frames / rate
         out = xp.zeros((frames, self._sink.channels), dtype=xp.float32)
         with self._lock:
