@@ -45,6 +45,8 @@ class PerformerReport:
     fault: str | None
 
     def format(self) -> str:
+        if self.model == "music":  # the soundtrack (xgo_show.audio.player): no frames to count
+            return f"{self.name}: {self.state}; {self.ending}"
         lines = [
             f"{self.name} ({self.model}): {self.state}; "
             f"{self.frames_sent}/{self.frames_total} frames, {self.bytes_sent} bytes sent, "
