@@ -20,6 +20,7 @@ from typing import Any
 
 from xgo_show.audio.soundtrack import parse_latency
 from xgo_show.audio.soundtrack import prepare as prepare_music
+from xgo_show.cli.live import LiveView
 from xgo_show.compiler.artifact import is_schedule_file
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import RuntimeFault, XgoShowError
@@ -333,8 +334,9 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
             offset, start_at = follow.wait_for_start()
         else:
             countdown(opts.countdown, out=out)
+        live = LiveView(schedule, out) if out.isatty() else None
         printer = ProgressPrinter(tempo=schedule.tempo(), out=out)
-        launch.events.subscribe(printer.on_event, ProgressTick)
+        launch.events.subscribe(live.on_event if live else printer.on_event, ProgressTick)
         where = f" from {offset:g} s" if offset else ""
         print(
             f"running {schedule.name!r}{where}: {len(schedule.performers)} performer(s), "
@@ -343,6 +345,9 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
             flush=True,
         )
         result = launch.run(offset=offset, start_at=start_at)
+        if live is not None:
+            runner = launch.runner
+            live.finish(runner.snapshot() if runner else None, completed=result.completed)
         printer.finish()
         print(format_report(result), file=out, flush=True)
         if sims is not None:
