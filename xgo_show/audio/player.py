@@ -36,7 +36,7 @@ if TYPE_CHECKING:
 
 __all__ = ["RESYNC_S", "Anchor", "MusicPlayer", "Tap"]
 
-RESYNC_S = 0.015  # drift (s) of the device queue beyond which a buffer re-anchors on the clock
+RESYNC_S = 0.015  # drift (s) of the device queue's mean depth that re-anchors on the clock
 
 #: ``tap(sounds_at, block)``: a rendered buffer and the clock time its first sample sounds
 Tap = Callable[[float, "npt.NDArray[np.float32]"], None]
@@ -92,6 +92,7 @@ class MusicPlayer:
         self._next_at: float | None = None  # where the previous buffer ends (clock time)
         self._depth: float | None = None  # how far ahead of the clock buffers sound, steadily
         self._prev_call = 0.0
+        self._mean = 0.0  # the depth, averaged
         self._wake = threading.Event()
         self._ended = threading.Event()
         self._watcher: threading.Thread | None = None
@@ -253,18 +254,24 @@ class MusicPlayer:
         counting, immune to callback jitter). At the start the device asks for several buffers
         at once to fill its queue; the first callback at least half a period after the previous
         one ends that, and how far ahead of the clock it sounds is the queue's depth. From then
-        on, a buffer that would sound more than ``RESYNC_S`` off that depth (an underrun, or a
-        device crystal that runs fast or slow against the clock) re-anchors on the clock.
+        on the buffer re-anchors on the clock when the queue ran dry (an underrun: the buffer
+        would sound before it is made) or when its depth, averaged over about half a second,
+        drifts more than ``RESYNC_S`` (a device crystal fast or slow against the clock). One
+        late callback (the machine busy) changes neither: its buffer still plays in turn.
         """
         if self._next_at is None:
             self._prev_call = now
             return now + self._delay
         at = self._next_at
+        ahead = at - now
         if self._depth is None:
             if now - self._prev_call >= period / 2:
-                self._depth = at - now
-        elif abs((at - now) - self._depth) > RESYNC_S:
-            at = now + self._depth
+                self._depth = self._mean = ahead
+        else:
+            self._mean += (ahead - self._mean) / 25
+            if ahead <= 0 or abs(self._mean - self._depth) > RESYNC_S:
+                at = now + self._depth
+                self._mean = self._depth
         self._prev_call = now
         return at
 
