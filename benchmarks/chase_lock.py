@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import random
 
+from xgo_show.runtime.stats import error_stats
 from xgo_show.timecode.chase import Chaser, ChaseSettings
 from xgo_show.timecode.mtc import RATES, MtcDecoder, quarter_frames
 
@@ -32,16 +33,6 @@ class _Start:
     def seek(self, show_time: float, at: float) -> None: ...
 
     def stop(self, reason: str) -> None: ...
-
-
-def _quantiles(values: list[float]) -> str:
-    v = sorted(values)
-
-    def q(p: float) -> float:
-        return v[min(len(v) - 1, int(p * len(v)))]
-
-    return (f"p50 {q(0.5) * 1000:6.2f}  p99 {q(0.99) * 1000:6.2f}  p99.9 {q(0.999) * 1000:6.2f}  "
-            f"max {v[-1] * 1000:6.2f} ms")
 
 
 def main() -> None:
@@ -87,11 +78,11 @@ def main() -> None:
         naive_errors.append(abs(naive[1]))
     print(f"MTC chase at {args.fps} fps, {args.runs} locks, arrival jitter 0-{args.jitter_ms:g} ms")
     print("lock time from the first byte (the show starts 0.1 s lead later):")
-    print(f"  chase (8 positions)     {_quantiles(lock_times)}")
-    print(f"  naive (first position)  {_quantiles(naive_times)}")
+    print(f"  chase (8 positions)     {error_stats(lock_times).format()}")
+    print(f"  naive (first position)  {error_stats(naive_times).format()}")
     print("error of the start position (show time the robots start at vs the timecode then):")
-    print(f"  chase (mean of window)  {_quantiles(errors)}")
-    print(f"  naive (one position)    {_quantiles(naive_errors)}")
+    print(f"  chase (mean of window)  {error_stats(errors).format()}")
+    print(f"  naive (one position)    {error_stats(naive_errors).format()}")
     print(f"resolution: one quarter frame = {qf * 1000:.2f} ms")
 
 

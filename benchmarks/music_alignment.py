@@ -32,6 +32,7 @@ from xgo_show.compiler import compile_show
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import EventRecorder, FrameSent
 from xgo_show.runtime.launch import Launch
+from xgo_show.runtime.stats import error_stats
 from xgo_show.sim.bench import SimBench
 
 BPM = 120.0
@@ -94,16 +95,6 @@ def _measure(folder: Path, beats: int, *, compensate: bool) -> list[float]:
     return [clicks[k] - frames[k] for k in range(n)]
 
 
-def _quantiles(values: list[float]) -> str:
-    v = sorted(values)
-
-    def q(p: float) -> float:
-        return v[min(len(v) - 1, int(p * len(v)))]
-
-    return (f"p50 {q(0.5) * 1000:+7.2f}  p99 {q(0.99) * 1000:+7.2f}  "
-            f"p99.9 {q(0.999) * 1000:+7.2f}  max |{max(abs(x) for x in v) * 1000:.2f}| ms")
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--beats", type=int, default=40)
@@ -115,8 +106,8 @@ def main() -> None:
         ours = _measure(folder, args.beats, compensate=True)
         naive = _measure(folder, args.beats, compensate=False)
     print(f"click sounds minus frame written, {len(ours)} beats at {BPM:g} bpm (null device)")
-    print(f"  render ahead of the device buffer   {_quantiles(ours)}")
-    print(f"  naive (render at the pull)          {_quantiles(naive)}")
+    print(f"  render ahead of the device buffer   {error_stats(ours).format()}")
+    print(f"  naive (render at the pull)          {error_stats(naive).format()}")
 
 
 if __name__ == "__main__":
