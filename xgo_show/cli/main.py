@@ -30,6 +30,7 @@ COMMANDS: tuple[str, ...] = (
     "run",
     "dry_run",
     "beats",
+    "schema",
 )
 
 
