@@ -48,11 +48,10 @@ from xgo_show.errors import XgoShowError
 from xgo_show.families import (
     Remerge,
     RobotFamily,
-    StopFrame,
-    TelemetryItem,
     register_family,
     unregister_family,
 )
+from xgo_show.families.values import StopFrame, TelemetryItem
 from xgo_show.profiles import Link, Profile, get_profile, register_profile, unregister_profile
 from xgo_show.runtime.preflight import PreflightRow
 from xgo_show.runtime.safety import UnsafeScheduleError, check_unsafe

@@ -4,12 +4,13 @@
 returns its :class:`RobotFamily` (decoder, client, simulator, planner, stop and rest frames,
 telemetry, pre-flight, state reconstruction). Built in: ``xgo``
 (:mod:`xgo_show.families.xgo`: Mini, Lite, Rider) and ``xarm`` (:mod:`xgo_show.families.xarm`).
-A new robot is a profile naming a new family plus one :func:`register_family` call.
+A new robot is a profile naming a new family plus one :func:`register_family` call. The values
+some hooks return are in :mod:`xgo_show.families.values`.
 """
 
 from __future__ import annotations
 
-from xgo_show.families.base import Remerge, RobotFamily, StopFrame, TelemetryItem
+from xgo_show.families.base import Remerge, RobotFamily
 from xgo_show.families.registry import (
     family_names,
     get_family,
@@ -20,8 +21,6 @@ from xgo_show.families.registry import (
 __all__ = [
     "Remerge",
     "RobotFamily",
-    "StopFrame",
-    "TelemetryItem",
     "family_names",
     "get_family",
     "register_family",

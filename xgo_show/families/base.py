@@ -8,62 +8,34 @@ test ``profile.family == "xarm"`` asks the family object instead
 delegate to the wire codec, the client, the simulator and the compiler's planner of its
 protocol, imported when first used (so ``xgo-show probe`` never loads the compiler).
 
-Small value types the hooks return (:class:`StopFrame`, :class:`TelemetryItem`) live here, so
-the runtime and the families share them without importing each other.
+The small value types some hooks return (:class:`~xgo_show.families.values.StopFrame`,
+:class:`~xgo_show.families.values.TelemetryItem`) are in :mod:`xgo_show.families.values`.
 """
 
 from __future__ import annotations
 
 import abc
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from xgo_show.profiles.model import Link, Profile, Register
+from xgo_show.profiles.model import Link, Profile
 
 if TYPE_CHECKING:
     from xgo_show.choreo.resolved import ResolvedTrack
     from xgo_show.client.base import ClientBase
     from xgo_show.compiler.frames import PlannedFrame, TrackPlan, Write
     from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.families.values import StopFrame, TelemetryItem
     from xgo_show.runtime.preflight import PreflightRow
     from xgo_show.sim.base import SimulatedRobot
     from xgo_show.transports.base import Transport
     from xgo_show.wire.stream import StreamDecoder
 
-__all__ = ["Remerge", "RobotFamily", "StopFrame", "TelemetryItem"]
+__all__ = ["Remerge", "RobotFamily"]
 
 #: ``remerge(t_us, writes)``: frames for register writes that pacing holds back (they are merged
 #: again into fewer frames), as :func:`~xgo_show.compiler.pacing.pace` takes it.
 Remerge = Callable[[int, "list[Write]"], "list[PlannedFrame]"]
-
-
-@dataclass(frozen=True)
-class StopFrame:
-    """One frame of a stop sequence and what it does (for the report)."""
-
-    data: bytes
-    label: str
-
-
-@dataclass(frozen=True)
-class TelemetryItem:
-    """One read request and the fields its reply carries.
-
-    ``address`` is the first register read (XGO) or the command number (xArm, whose replies
-    carry no register fields: ``fields`` is empty). ``reply_bytes`` is the reply's length where
-    the robot must not receive a frame while it answers (the executor leaves room for it).
-    """
-
-    name: str
-    address: int
-    fields: tuple[Register, ...]
-    request: bytes
-    reply_bytes: int = 0
-
-    @property
-    def count(self) -> int:
-        return sum(f.size for f in self.fields)
 
 
 class RobotFamily(abc.ABC):

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import XgoShowError
-from xgo_show.families import StopFrame, get_family
+from xgo_show.families import get_family
+from xgo_show.families.values import StopFrame
 from xgo_show.profiles.model import Profile
 
 __all__ = [

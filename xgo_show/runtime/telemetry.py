@@ -19,7 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from xgo_show.families import TelemetryItem, get_family
+from xgo_show.families import get_family
+from xgo_show.families.values import TelemetryItem
 from xgo_show.profiles.model import Profile
 
 __all__ = ["TelemetryItem", "TelemetryPoller", "TelemetrySample"]

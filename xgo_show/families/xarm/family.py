@@ -11,7 +11,8 @@ from functools import partial
 from typing import TYPE_CHECKING, Any
 
 from xgo_show.errors import XgoShowError
-from xgo_show.families.base import Remerge, RobotFamily, StopFrame, TelemetryItem
+from xgo_show.families.base import Remerge, RobotFamily
+from xgo_show.families.values import StopFrame, TelemetryItem
 from xgo_show.families.xarm import runtime
 from xgo_show.profiles.model import Link, Profile
 

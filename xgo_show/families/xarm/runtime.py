@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING
 
 from xgo_show.errors import XgoShowError
-from xgo_show.families.base import StopFrame, TelemetryItem
+from xgo_show.families.values import StopFrame, TelemetryItem
 from xgo_show.profiles.model import Profile
 from xgo_show.profiles.xarm import (
     BATTERY_MV_EMPTY,

@@ -9,7 +9,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from xgo_show.families.base import Remerge, RobotFamily, StopFrame, TelemetryItem
+from xgo_show.families.base import Remerge, RobotFamily
+from xgo_show.families.values import StopFrame, TelemetryItem
 from xgo_show.families.xgo import posture, stop, telemetry
 from xgo_show.profiles.model import Link, Profile
 from xgo_show.wire.xgo import XgoDecoder, decode_one

@@ -8,7 +8,7 @@ then the reset action (restore the default posture).
 from __future__ import annotations
 
 from xgo_show.errors import ProfileError
-from xgo_show.families.base import StopFrame
+from xgo_show.families.values import StopFrame
 from xgo_show.families.xgo.posture import RESET_ACTION
 from xgo_show.profiles.model import Profile
 from xgo_show.wire.xgo import XgoDecoder, write_frame

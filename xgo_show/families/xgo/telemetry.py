@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from xgo_show.errors import ProfileError
-from xgo_show.families.base import TelemetryItem
+from xgo_show.families.values import TelemetryItem
 from xgo_show.profiles.model import Profile, Register
 from xgo_show.wire.xgo import XgoFrame, read_frame
 
