@@ -418,3 +418,29 @@ def test_a_blocked_port_delays_no_one_else_and_ends_in_a_halt(rig, sched, walkin
     assert rig.servers["rex"].snapshot()["raw"]["vx"] == "80"
     assert not result.stops["lola"].ok
     assert "safe stop" in format_report(result).split("lola (mini)")[1]
+
+
+def test_seek_moves_every_performer_to_the_same_show_time(rig, perf, sched) -> None:
+    from xgo_show.errors import XgoShowError
+    from xgo_show.runtime.events import ShowSought
+    from xgo_show.runtime.performer import Performer
+
+    schedule = sched(
+        perf("rex", "mini", count=40, spacing=0.05), perf("lola", "lite", count=40, spacing=0.05)
+    )
+    rig.for_schedule(schedule)
+    runner = make_runner(schedule, rig.transports, telemetry=False)
+    assert all(isinstance(p, Performer) for p in runner.performers.values())
+    with pytest.raises(XgoShowError, match="outside the show"):
+        runner.seek(99.0)
+    rec = EventRecorder(runner.events)
+    result = run_until(runner, "rex", 4, lambda: runner.seek(1.5))
+    assert result.completed, result.reason
+    sought = [e for e in rec.events if isinstance(e, ShowSought)]
+    assert len(sought) == 1 and sought[0].show_time == 1.5
+    for name in ("rex", "lola"):
+        indexes = [r.index for r in rec.sent(name) if r.kind == "frame"]
+        jump = next(i for i in range(1, len(indexes)) if indexes[i] != indexes[i - 1] + 1)
+        assert indexes[jump] == 30  # t = 1.5 s, on both robots
+        assert indexes[jump:] == list(range(30, 40))
+        assert any(r.kind == "reach" for r in rec.sent(name))

@@ -298,7 +298,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
         latency=latency,
     )
     with contextlib.ExitStack() as stack:
-        log = stack.enter_context(RunLog(opts.log))
+        log = stack.enter_context(RunLog(opts.log, keep=False))  # memory: nothing kept
         sims = stack.enter_context(SimBench(schedule, sim_names)) if sim_names else None
         if sims is not None:
             launch.map(sims.urls)
