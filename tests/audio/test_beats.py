@@ -31,7 +31,7 @@ def _routine(folder: Path, tempo_file: str) -> Path:
     return path
 
 
-@pytest.mark.parametrize("suffix", [".ogg", ".flac"])
+@pytest.mark.parametrize("suffix", [".ogg", ".flac", ".mp3"])
 def test_tempo_map_from_a_click_track_puts_every_beat_within_10_ms(
     tmp_path: Path, suffix: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
