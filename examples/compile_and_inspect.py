@@ -3,7 +3,7 @@
 The compiler is a pure function from a loaded show to a schedule: per performer, the exact
 bytes of every frame and the time its first byte goes out, paced to fit the link. This prints
 per-performer totals, the first frames of the transcript (time, performer, values, bytes),
-saves the schedule as a versioned JSON artifact and reads it back.
+saves the schedule file (versioned, compact, with a digest) and reads it back.
 
     python examples/compile_and_inspect.py [ROUTINE.yaml] [--frames N] [--out FILE.xshow.json]
 """

@@ -17,7 +17,13 @@ from xgo_show.choreo.sections import (
 )
 from xgo_show.choreo.timebase import TempoMap
 from xgo_show.compiler import compile_show
-from xgo_show.compiler.artifact import dumps_schedule, loads_schedule
+from xgo_show.compiler.artifact import (
+    _canonical,
+    _envelope,
+    schedule_from_bytes,
+    schedule_to_bytes,
+)
+from xgo_show.compiler.schedule import Schedule
 
 ROOT = Path(__file__).resolve().parents[2]
 CURTAIN = ROOT / "choreographies" / "curtain_call.yaml"
@@ -107,22 +113,31 @@ def test_a_cue_across_a_wait_is_an_error_but_across_a_plain_section_is_not(
 def test_sections_survive_compile_save_and_load() -> None:
     schedule = compile_show(load_show(CURTAIN))
     assert schedule.sections == load_show(CURTAIN).sections
-    again = loads_schedule(dumps_schedule(schedule))
+    again = schedule_from_bytes(schedule_to_bytes(schedule))
     assert again.sections == schedule.sections
-    assert dumps_schedule(again) == dumps_schedule(schedule)
+    assert schedule_to_bytes(again) == schedule_to_bytes(schedule)
+
+
+def _document(schedule: Schedule) -> str:
+    """The JSON document in a schedule file's body."""
+    body = _canonical(schedule)
+    return body[4:4 + int.from_bytes(body[:4], "little")].decode()
 
 
 def test_a_schedule_without_sections_reads_as_one_straight_run() -> None:
-    text = dumps_schedule(compile_show(load_show(ROOT / "choreographies" / "hello_mini.yaml")))
-    assert '"sections"' not in text
-    assert loads_schedule(text).sections == ()
+    schedule = compile_show(load_show(ROOT / "choreographies" / "hello_mini.yaml"))
+    assert '"sections"' not in _document(schedule)
+    assert schedule_from_bytes(schedule_to_bytes(schedule)).sections == ()
 
 
 def test_a_schedule_with_an_unknown_else_target_is_refused() -> None:
-    text = dumps_schedule(compile_show(load_show(CURTAIN)))
-    text = text.replace('"else": "finale"', '"else": "fin"')
+    schedule = compile_show(load_show(CURTAIN))
+    body = _canonical(schedule)
+    size = int.from_bytes(body[:4], "little")
+    doc = _document(schedule).replace('"else":"finale"', '"else":"fin"').encode()
+    data = _envelope(len(doc).to_bytes(4, "little") + doc + body[4 + size:])
     with pytest.raises(Exception, match=r"sections\[2\]\.wait\.else: no section named 'fin'"):
-        loads_schedule(text, name="cc.xshow.json")
+        schedule_from_bytes(data, name="cc.xshow.json")
 
 
 def test_section_at_and_by_name() -> None:

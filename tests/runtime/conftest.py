@@ -7,6 +7,7 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
+from xgo_show.compiler.state import frame_labels
 from xgo_show.diagnostics import Origin
 from xgo_show.profiles import get_profile
 from xgo_show.sim import PtyServer, create_robot
@@ -37,7 +38,7 @@ def make_performer(
             start + i * spacing,
             write_frame(reg.address, bytes(((first_byte + i) % 256,)), write_type=wtype),
             Origin("show.yaml", 1 + i, 1, f"cue{i // 4}"),
-            f"{register} #{i}",
+            labels=frame_labels(profile),
         )
         for i in range(count)
     )
@@ -58,7 +59,7 @@ def walking_performer(name: str, model: str = "mini", *, seconds: float = 1.5) -
             0.0,
             write_frame(vx.address, forward, write_type=profile.write_type),
             Origin("show.yaml", 1, 1, "walk"),
-            "vx=max",
+            labels=frame_labels(profile),
         )
     ]
     n = int(seconds / 0.05)
@@ -68,7 +69,7 @@ def walking_performer(name: str, model: str = "mini", *, seconds: float = 1.5) -
                 i * 0.05,
                 write_frame(body_z.address, bytes((0x70 + i % 16,)), write_type=profile.write_type),
                 Origin("show.yaml", 2, 1, "sway"),
-                "body_z",
+                labels=frame_labels(profile),
             )
         )
     return PerformerSchedule(name, model, profile.link, tuple(frames), end=seconds)

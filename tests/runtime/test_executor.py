@@ -116,7 +116,7 @@ def test_a_frames_label_is_made_when_read_never_on_the_writers_time(perf) -> Non
     made: list[bytes] = []
     lazy = perf("rex", count=6, spacing=0.1)
     frames = tuple(
-        ScheduledFrame(f.t, f.data, f.origin, lambda data: made.append(data) or data.hex())
+        ScheduledFrame(f.t, f.data, f.origin, labels=lambda data: made.append(data) or data.hex())
         for f in lazy.frames
     )
     schedule = replace(lazy, frames=frames)

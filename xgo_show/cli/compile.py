@@ -23,9 +23,10 @@ def add_parser(sub: Any) -> None:
         help="compile a routine into a paced frame schedule (.xshow.json)",
         description=(
             "Load and check the routine SHOW.yaml, compute its trajectories, convert them to "
-            "register frames paced to each robot's serial link, and write the schedule as "
-            "versioned JSON. Every error is listed as file:line:col. Prints per-performer "
-            "totals (frames, bytes, link use) unless --quiet."
+            "register frames paced to each robot's serial link, and write the schedule file "
+            "(versioned and compact; 'xgo-show inspect --frames' prints it as text). Every "
+            "error is listed as file:line:col. Prints per-performer totals (frames, bytes, "
+            "link use) unless --quiet."
         ),
         epilog="example:\n  xgo-show compile choreographies/hello_mini.yaml -o hello.xshow.json",
     )

@@ -6,12 +6,12 @@ for frame and byte for byte. Errors are collected over the whole show and raised
 
 from __future__ import annotations
 
-import gc
-
 from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
 from xgo_show.compiler.frames import cue_label, to_us
+from xgo_show.compiler.gcpause import paused_gc
 from xgo_show.compiler.pacing import PaceResult, pace
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
+from xgo_show.compiler.state import frame_labels
 from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import CompileError, ProfileError
 from xgo_show.families import get_family
@@ -28,17 +28,8 @@ def compile_show(show: ResolvedShow) -> Schedule:
     that do not fit their link, ...), each with the cue's origin. Non-fatal findings (the
     loader's, and decimation) are in ``Schedule.warnings``.
     """
-    # The compiler allocates millions of small objects and frees none until it returns: the
-    # cyclic garbage collector would rescan them over and over for nothing (with it on,
-    # benchmarks/compile_speed.py's show takes 2.7 s of CPU instead of 1.6 s). Restored on the
-    # way out.
-    was_enabled = gc.isenabled()
-    gc.disable()
-    try:
+    with paused_gc():  # see gcpause: millions of objects, no cycle to collect
         return _compile(show)
-    finally:
-        if was_enabled:
-            gc.enable()
 
 
 def _compile(show: ResolvedShow) -> Schedule:
@@ -122,20 +113,12 @@ def _compile_track(
             "went out with later frames",
             paced.first_drop_origin, path,
         ))
-    # Labels are made from the bytes when first read (see ScheduledFrame.label): most never are.
-    labels = family.frame_labels(profile)
-    frames: list[ScheduledFrame] = []
-    append = frames.append
-    new_frame = object.__new__
-    for start_us, f in paced.frames:
-        frame = new_frame(ScheduledFrame)
-        # What the frozen dataclass's __init__ would set, without its per-field
-        # object.__setattr__ (most of the cost of a few hundred thousand frames). Valid while
-        # ScheduledFrame is a plain dataclass of these fields with its lazy label: a test
-        # (test_state.py) fails the day it is not.
-        frame.__dict__.update(t=start_us / 1_000_000, data=f.data, origin=f.origin,
-                              label=labels, duration=f.duration)
-        append(frame)
+    # Labels are derived from the bytes when read (see ScheduledFrame.label): most never are.
+    labels = frame_labels(profile)
+    frames = [
+        ScheduledFrame(start_us / 1_000_000, f.data, f.origin, f.duration, labels)
+        for start_us, f in paced.frames
+    ]
     end = plan.end if show.end is None else show.end
     if frames:
         end = max(end, frames[-1].t)

@@ -14,7 +14,7 @@ are here (``describe_xgo_frame``, ``xgo_state_at``, ``xgo_frames_to_reach``), th
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 from xgo_show.compiler.layout import ACTION_REGISTER, Layout
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
@@ -31,6 +31,7 @@ __all__ = [
     "format_fields",
     "format_value",
     "frame_label",
+    "frame_labels",
     "frames_to_reach",
     "reach_frame",
     "state_at",
@@ -128,9 +129,9 @@ def field_label(profile: Profile, address: int, raw: bytes) -> str:
 class FrameLabels:
     """``frame bytes -> label`` for one XGO profile: :func:`frame_label`, faster.
 
-    The compiler gives each frame it makes one of these (per XGO performer) as a lazy
-    :attr:`ScheduledFrame.label`. An XGO write frame is cut into its fields by the cached layout
-    walk and each distinct field's ``name=value`` text is made once (compiled frames are well
+    The XGO family's labeller (what :attr:`ScheduledFrame.label` is derived with, through
+    :func:`frame_labels`). An XGO write frame is cut into its fields by the cached layout walk
+    and each distinct field's ``name=value`` text is made once (compiled frames are well
     formed; anything else goes through :func:`describe_frame`, which checks).
     """
 
@@ -166,6 +167,32 @@ class FrameLabels:
                 text = texts[key] = field_label(profile, reg_address, payload[begin:end])
             parts.append(text)
         return " ".join(parts)
+
+
+class _Labels:
+    """A family's labeller that never raises: a label is read while a show runs, and a schedule
+    file may hold any frame its family accepts. Bytes it cannot read are labelled with why."""
+
+    def __init__(self, profile: Profile) -> None:
+        self.profile = profile
+        self._label = get_family(profile).frame_labels(profile)
+
+    def __call__(self, data: bytes) -> str:
+        try:
+            return self._label(data)
+        except ProtocolError as exc:
+            return f"({exc})"
+
+
+_LABELS: dict[str, _Labels] = {}
+
+
+def frame_labels(profile: Profile) -> Callable[[bytes], str]:
+    """``frame bytes -> label`` for ``profile``'s frames, one per profile (frames share it)."""
+    cached = _LABELS.get(profile.model)
+    if cached is None or cached.profile is not profile:
+        cached = _LABELS[profile.model] = _Labels(profile)
+    return cached
 
 
 def state_at(performer: PerformerSchedule, t: float) -> dict[str, bytes]:
@@ -239,8 +266,7 @@ def xgo_frames_to_reach(profile: Profile, state: Mapping[str, bytes]) -> list[Sc
 
 def reach_frame(profile: Profile, wire: bytes, duration: float = 0.0) -> ScheduledFrame:
     """A frame of :func:`frames_to_reach`: at ``t = 0``, labelled from its bytes."""
-    label = frame_label(profile, wire)
-    return ScheduledFrame(0.0, wire, None, label, duration)
+    return ScheduledFrame(0.0, wire, None, duration, frame_labels(profile))
 
 
 def _runs(layout: Layout, wanted: Mapping[int, bytes]) -> list[tuple[int, bytes]]:
