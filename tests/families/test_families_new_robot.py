@@ -18,9 +18,8 @@ The turret protocol: every frame is ``A5 cmd value check`` with ``check = (cmd +
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 from typing import Any
@@ -304,9 +303,8 @@ def test_a_registered_robot_compiles_saves_and_reads_back(turret: Profile, tmp_p
     assert state == {"pan": bytes((180,))}
     assert [f.data for f in frames_to_reach(turret, state)] == [frame(PAN, 180)]
     # A schedule file with a frame the turret protocol does not frame is refused on loading.
-    raw = json.loads(path.read_text())
-    raw["performers"][0]["frames"][0]["hex"] = "a5 01"
-    path.write_text(json.dumps(raw))
+    broken = replace(perf, frames=(ScheduledFrame(0.0, bytes.fromhex("a501")), *perf.frames[1:]))
+    save_schedule(replace(schedule, performers=(broken,)), path)
     with pytest.raises(XgoShowError, match="not one turret frame"):
         load_schedule(path)
 
