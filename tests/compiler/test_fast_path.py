@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 
 from tests.compiler.conftest import origin
 from xgo_show.choreo.resolved import ActionCue, Cue, FadeCue, MotionCue, ResolvedTrack, SetCue
-from xgo_show.compiler.frames import PlannedFrame, TrackPlan, plan_xgo_track
+from xgo_show.compiler.frames import PlannedFrame, TrackPlan
+from xgo_show.compiler.planner import plan_xgo_track
 from xgo_show.compiler.state import layout_of
 from xgo_show.profiles import get_profile
 

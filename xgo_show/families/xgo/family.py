@@ -65,8 +65,9 @@ class XgoFamily(RobotFamily):
         self, profile: Profile, track: ResolvedTrack, *, rate: float, link: Link, gap: float,
         details: bool,
     ) -> tuple[TrackPlan, Remerge | None]:
-        from xgo_show.compiler.frames import merge_writes, plan_xgo_track
         from xgo_show.compiler.layout import ACTION_REGISTER
+        from xgo_show.compiler.merge import merge_writes
+        from xgo_show.compiler.planner import plan_xgo_track
         from xgo_show.compiler.state import layout_of
 
         layout = layout_of(profile)

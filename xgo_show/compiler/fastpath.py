@@ -1,0 +1,327 @@
+"""Ticks in time order -> frames: de-duplication, state, and the fast road for sample ticks.
+
+:class:`TickFrames` keeps what each register was last sent and what it holds, drops samples
+that change nothing, and hands ticks of Writes to the general merger
+(:mod:`~xgo_show.compiler.merge`). Ticks only moves and fades write (nearly all of a long show)
+take a faster road to the very same frames: which registers changed is a byte comparison with
+the source's previous sample, the frame plan is cached per (registers, changed registers), and
+a frame's data is mostly one slice of a sample. ``tests/compiler/test_fast_path.py`` checks the
+two roads give the same frames on random tracks (``details=True`` takes the general one).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Container, Mapping, Sequence
+from operator import ne
+from typing import NamedTuple
+
+from xgo_show.compiler.frames import PlannedFrame, Write
+from xgo_show.compiler.layout import Layout
+from xgo_show.compiler.merge import Merger, by_address, by_order, wire_bytes
+from xgo_show.compiler.sources import Entry, Samples, Source, changes, entry_writes
+from xgo_show.profiles.model import Link, Register
+
+__all__ = ["Piece", "SampleFrame", "TickFrames", "frames_from_ticks", "sample_plan"]
+
+
+class Piece(NamedTuple):
+    """Where some of a frame's data comes from: a slice of one of the tick's samples, or the
+    bytes a register is known to hold (a gap filler no source of the tick owns)."""
+
+    chunk: int | None  # index of the tick's sample; None: ``known[address]``
+    begin: int
+    end: int
+    address: int
+
+
+class SampleFrame(NamedTuple):
+    """One frame of a merge plan for a tick only sources write, by where its bytes come from."""
+
+    address: int
+    one: Piece | None  # the piece holding all its data, when that is one sample slice
+    pieces: tuple[Piece, ...]  # its data, piece by piece
+    prefix: bytes  # frame bytes before the data
+    check_base: int  # length + type + address: the checksum's part that is not data
+    lead: int  # the chunk whose cue the frame is filed under (the earliest cue in it)
+    refills: tuple[int, ...]  # registers re-sent from ``known`` (they now count as sent)
+
+
+def sample_plan(
+    merger: Merger,
+    chunks: Sequence[tuple[Source, bytes]],
+    masks: Sequence[tuple[bool, ...]],
+    known: Mapping[int, bytes],
+) -> tuple[SampleFrame, ...]:
+    """The frames for a tick only sources write, given which registers changed (masks).
+
+    The same grouping as :meth:`Merger.merge` on the changed registers' Writes; only, each field's
+    bytes are located in the tick's samples (gap fillers too, when a source of the tick owns
+    the register: its bytes there are the ones sent last) or else in ``known``. The plan
+    depends on the sources' registers and their cues' order, not on the cues themselves:
+    one plan serves every move over the same registers.
+    """
+    owner: dict[int, tuple[int, int, int]] = {}
+    writes: list[Write] = []
+    for ci, ((src, sample), mask) in enumerate(zip(chunks, masks, strict=True)):
+        for address, (b, e), changed in zip(src.addresses, src.spans, mask, strict=True):
+            owner[address] = (ci, b, e)
+            if changed:
+                writes.append(Write(address, sample[b:e], src.origin, src.order, True))
+    if not writes:
+        return ()
+    writes.sort(key=by_address)
+    frames: list[SampleFrame] = []
+    for run in merger.plan_runs(writes, known):
+        pieces: list[Piece] = []
+        refills: list[int] = []
+        for address, _ in run.slots:
+            found = owner.get(address)
+            if found is None:
+                piece = Piece(None, 0, 0, address)
+                refills.append(address)
+            else:
+                piece = Piece(*found, address)
+            last = pieces[-1] if pieces else None
+            if (last is not None and piece.chunk is not None and last.chunk == piece.chunk
+                    and last.end == piece.begin):
+                pieces[-1] = last._replace(end=piece.end)  # contiguous: one slice
+            else:
+                pieces.append(piece)
+        lead = min((writes[i] for i in run.writes), key=by_order)  # as merge() files it
+        frames.append(SampleFrame(
+            run.address,
+            pieces[0] if len(pieces) == 1 and pieces[0].chunk is not None else None,
+            tuple(pieces), run.prefix, run.check_base, owner[lead.address][0],
+            tuple(refills),
+        ))
+    if len(chunks) > 1:
+        frames.sort(key=lambda f: (chunks[f.lead][0].order, f.address))
+    return tuple(frames)
+
+
+class TickFrames:
+    """Frames for one performer's ticks, in time order: de-duplication, merging, state.
+
+    ``sent`` holds what each register was last sent (unchanged samples drop); ``known`` what
+    each register holds as far as we know (gap fillers re-send these bytes): the initial values
+    at the start, and nothing after a preset action until sent again.
+
+    Ticks only sources write (samples of moves and fades: nearly all of a long show) take a
+    faster road to the same frames: which registers changed is a byte comparison with the
+    source's previous sample, the merge plan is cached per (registers, changed registers), and
+    a frame's data is mostly one slice of a sample. Such sources stay *live*: their registers
+    hold their ``prev`` sample, which sent/known learn only when the source is flushed, before
+    anything else reads those registers (another cue's tick, a tick without the source).
+    """
+
+    def __init__(self, layout: Layout, link: Link, gap: float, action_reg: Register | None
+                 ) -> None:
+        self.merger = Merger(layout, link, gap,
+                              action_reg.address if action_reg is not None else None)
+        self.sent: dict[int, bytes] = {}
+        self.known: dict[int, bytes] = {
+            r.address: r.initial for r in layout.profile.registers if r.initial is not None
+        }
+        self.n_known = len(self.known)
+        self.frames: list[PlannedFrame] = []
+        self.samples = 0  # frames holding only samples
+        self.live: list[Source] = []
+        self.shapes: dict[tuple[Source, ...], object] = {}  # see sources_tick
+        # Frame plans of ticks only sources write, by (registers, changed registers): see build
+        self.sample_plans: dict[object, tuple[SampleFrame, ...]] = {}
+
+    def _known_changed(self) -> None:
+        if len(self.known) != self.n_known:  # fillers depend on which registers are known
+            self.n_known = len(self.known)
+            self.merger.forget_plans()
+            self.sample_plans.clear()  # in place: frames_from_ticks holds it
+
+    def flush(self, keep: Container[Source] = ()) -> None:
+        """Tell sent/known the live sources' samples (but those in ``keep``, which stay live)."""
+        sent, known = self.sent, self.known
+        for src in self.live:
+            if src in keep:
+                continue
+            prev = src.prev
+            assert prev is not None
+            for address, (b, e) in zip(src.addresses, src.spans, strict=True):
+                sent[address] = known[address] = prev[b:e]
+            src.prev = None
+        self.live[:] = [src for src in self.live if src in keep]  # in place: see the loop
+
+    def _fresh(self, src: Source, sample: bytes) -> tuple[bool, ...]:
+        """Registers of a source not live that differ from what was sent; it becomes live."""
+        sent, known = self.sent, self.known
+        mask = []
+        for address, (b, e) in zip(src.addresses, src.spans, strict=True):
+            part = sample[b:e]
+            changed = sent.get(address) != part
+            if changed:  # told now: the register may be new to ``known``
+                sent[address] = known[address] = part
+            mask.append(changed)
+        src.prev = sample
+        self.live.append(src)
+        return tuple(mask)
+
+    def source_tick(self, t_us: int, src: Source, sample: bytes) -> None:
+        """A tick only ``src`` writes, ``src`` not the one live source (it becomes so).
+
+        The next tick of the one live source is :func:`frames_from_ticks`'s own (inlined).
+        """
+        self.flush()
+        mask = self._fresh(src, sample)
+        self._known_changed()
+        self.build(t_us, (src.addresses, mask), ((src, sample),), (mask,), (src,))
+
+    def sources_tick(self, t_us: int, chunks: Samples) -> None:
+        """A tick several sources write, none the same register."""
+        sources = [src for src, _ in chunks]
+        if self.live != sources and self.live:
+            self.flush(sources)
+        masks = []
+        fresh = False
+        for src, sample in chunks:
+            prev = src.prev
+            if prev is None:
+                masks.append(self._fresh(src, sample))
+                fresh = True
+            else:
+                masks.append(changes(src, sample, prev))
+                src.prev = sample
+        if fresh:
+            self._known_changed()
+        # The plan depends on the sources' registers and the order of their cues only.
+        group = tuple(sources)
+        shape = self.shapes.get(group)
+        if shape is None:
+            shape = self.shapes[group] = (
+                tuple([src.addresses for src in sources]),
+                tuple(sorted(range(len(sources)), key=lambda i: sources[i].order)),
+            )
+        self.build(t_us, (shape, tuple(masks)), chunks, masks, sources)
+
+    def build(
+        self,
+        t_us: int,
+        key: object,
+        chunks: Sequence[tuple[Source, bytes]],
+        masks: Sequence[tuple[bool, ...]],
+        sources: Sequence[Source],
+    ) -> None:
+        """The frames of a tick only sources write, by the sample plan cached under ``key``."""
+        plans = self.sample_plans
+        plan = plans.get(key)
+        if plan is None:
+            plan = plans[key] = sample_plan(self.merger, chunks, masks, self.known)
+        append = self.frames.append
+        for f in plan:
+            one = f.one
+            if one is not None:
+                assert one.chunk is not None
+                data = chunks[one.chunk][1][one.begin:one.end]
+            else:
+                known = self.known
+                data = b"".join([
+                    known[p.address] if p.chunk is None else chunks[p.chunk][1][p.begin:p.end]
+                    for p in f.pieces
+                ])
+                for address in f.refills:  # re-sent: now it counts as sent too
+                    self.sent[address] = known[address]
+            lead = sources[f.lead]
+            append(PlannedFrame(
+                t_us, wire_bytes(f.prefix, f.check_base, data),
+                (), (), lead.origin, lead.order, True, False, 0.0,
+            ))
+        self.samples += len(plan)
+
+    def writes_tick(self, t_us: int, bucket: list[Write], mixed: bool) -> None:
+        """A tick of Writes: keep the last write per register, drop unchanged samples, merge.
+
+        Unless ``mixed``, the tick holds one cue's writes, one per register in address order,
+        which need no sorting nor de-duplication.
+        """
+        if self.live:
+            self.flush()
+        sent, known = self.sent, self.known
+        get = sent.get
+        keep: Sequence[Write]
+        if mixed:
+            chosen: dict[int, Write] = {}
+            for w in sorted(bucket, key=by_order):  # stable: emit order breaks ties
+                chosen[w.address] = w
+            keep = [w for w in chosen.values() if not (w.sample and get(w.address) == w.data)]
+            keep.sort(key=by_address)
+        else:
+            keep = [w for w in bucket if get(w.address) != w.data] if bucket[0].sample else bucket
+        if not keep:
+            return
+        tick_frames = self.merger.merge(t_us, keep, known, uniform=not mixed)
+        self.frames.extend(tick_frames)
+        action = False
+        for f in tick_frames:
+            self.samples += f.droppable
+            action = action or f.action
+            sent.update(f.fields)  # gap fillers included: they went out too
+            known.update(f.fields)
+        if action:
+            # A preset action moves the robot on its own: what it holds afterwards is unknown,
+            # so nothing counts as already sent (and nothing is re-sent as a gap filler).
+            sent.clear()
+            known.clear()
+        self._known_changed()
+
+
+def frames_from_ticks(
+    layout: Layout,
+    link: Link,
+    gap: float,
+    ticks: Mapping[int, Entry],
+    mixed: Container[int],
+    action_reg: Register | None,
+    details: bool = True,
+) -> tuple[list[PlannedFrame], int]:
+    """Every tick's frames in time order, and how many hold only samples (see TickFrames).
+
+    ``mixed`` names the ticks that more than one cue wrote. Without ``details``, frames of
+    ticks only sources write carry no ``fields`` nor ``written`` (pacing reads those only to
+    decimate); with it, every tick goes through Writes.
+    """
+    out = TickFrames(layout, link, gap, action_reg)
+    source_tick, sources_tick, writes_tick = out.source_tick, out.sources_tick, out.writes_tick
+    build = out.build
+    # Held across the loop: TickFrames updates these in place.
+    live, plans, append = out.live, out.sample_plans, out.frames.append
+    for t_us in sorted(ticks):
+        entry = ticks[t_us]
+        if details:
+            writes_tick(t_us, entry_writes(entry),
+                        t_us in mixed or isinstance(entry, Samples))
+        elif isinstance(entry, tuple):  # one source's sample: nearly every tick
+            src, sample = entry
+            prev = src.prev
+            # prev is set exactly while src is live: else src is not the one live source.
+            if prev is None or len(live) != 1:
+                source_tick(t_us, src, sample)
+                continue
+            # The commonest tick of all: the next sample of the one live source.
+            if sample == prev:
+                continue
+            src.prev = sample
+            mask = tuple(map(ne, sample, prev)) if src.unit else changes(src, sample, prev)
+            key = (src.addresses, mask)
+            plan = plans.get(key)
+            if plan is not None and len(plan) == 1 and (one := plan[0].one) is not None:
+                # build() for its commonest plan, inlined: one frame, one slice of the sample.
+                f = plan[0]
+                append(PlannedFrame(
+                    t_us, wire_bytes(f.prefix, f.check_base, sample[one.begin:one.end]),
+                    (), (), src.origin, src.order, True, False, 0.0,
+                ))
+                out.samples += 1
+            else:
+                build(t_us, key, ((src, sample),), (mask,), (src,))
+        elif isinstance(entry, Samples):
+            sources_tick(t_us, entry)
+        else:
+            writes_tick(t_us, entry, t_us in mixed)
+    return out.frames, out.samples

@@ -1,0 +1,442 @@
+"""One XGO performer's cues -> each tick's writes, then its planned frames.
+
+Everything runs on integer microseconds from show start, so equal times compare equal and the
+output does not depend on float formatting. Trajectory and fade samples sit on a fixed tick grid
+(tick ``k`` at ``k / control_rate`` seconds) but for each one's last, the exact target, which goes
+out at the move's or fade's end itself; actions and settings go out at their own start.
+
+Per tick, each register's physical value becomes its byte through :meth:`Register.to_byte` (or
+:meth:`Register.encode_value` for settings); a *sample* whose bytes equal what was last sent is
+dropped (settings and actions are always sent: the user asked for them). The fast path
+(:mod:`~xgo_show.compiler.fastpath`) turns the ticks into frames.
+"""
+
+from __future__ import annotations
+
+import math
+from bisect import bisect_right
+from dataclasses import dataclass
+
+from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
+from xgo_show.compiler.fastpath import frames_from_ticks
+from xgo_show.compiler.frames import (
+    BYTES,
+    TIME_EPS,
+    TrackPlan,
+    Write,
+    cue_label,
+    first_tick,
+    tick_us,
+    to_us,
+)
+from xgo_show.compiler.layout import ACTION_REGISTER, Layout
+from xgo_show.compiler.sources import Entry, Samples, Source, entry_writes
+from xgo_show.compiler.trajectory import (
+    DofState,
+    InfeasibleMotion,
+    MotionPlan,
+    TrajectoryError,
+    plan_motion,
+)
+from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.errors import ProfileError, ProtocolError
+from xgo_show.families.xgo.posture import posture_after
+from xgo_show.profiles.model import Encoding, Limits, Link, Register
+
+__all__ = ["XgoPlanner", "plan_xgo_track"]
+
+
+class _Diag:
+    def __init__(self, performer: str) -> None:
+        self.performer = performer
+        self.items: list[Diagnostic] = []
+
+    def error(self, origin: Origin | None, message: str) -> None:
+        self.items.append(
+            Diagnostic("error", message, origin, f"tracks.{self.performer}")
+        )
+
+
+@dataclass
+class _Fade:
+    """A planned LED fade; ``cut`` is when a later cue took its register over, if one did."""
+
+    cue: FadeCue
+    order: int
+    reg: Register
+    start: tuple[int, int, int]  # the colour it fades from
+    cut: float | None = None
+
+    def colour_at(self, t: float) -> tuple[int, int, int]:
+        """The colour at show time ``t`` (clamped to the fade's span)."""
+        duration = self.cue.duration
+        frac = 1.0 if duration <= 0 else min(max((t - self.cue.start) / duration, 0.0), 1.0)
+        (r0, g0, b0), (r1, g1, b1) = self.start, self.cue.to
+        return (round(r0 + (r1 - r0) * frac), round(g0 + (g1 - g0) * frac),
+                round(b0 + (b1 - b0) * frac))
+
+
+@dataclass(eq=False)
+class _Run:
+    """A planned trajectory: its plan, its registers, and when each DoF's sampling stops."""
+
+    plan: MotionPlan
+    regs: tuple[Register, ...]
+    origin: Origin
+    order: int
+    cuts: list[float | None]  # per DoF: show time another cue took the register over
+
+
+def _round_up(seconds: float) -> float:
+    """Up to the next 0.01 s (float noise of 1e-6 s ignored)."""
+    return math.ceil(seconds * 100 - 1e-4) / 100
+
+
+def _limits_text(reg: Register, lim: Limits) -> str:
+    u = reg.unit or "units"
+    return (
+        f"velocity {lim.velocity:g} {u}/s, acceleration {lim.acceleration:g} {u}/s², "
+        f"jerk {lim.jerk:g} {u}/s³"
+    )
+
+
+class XgoPlanner:
+    """Walks one XGO performer's cues in order, keeping the commanded state as it goes."""
+
+    def __init__(self, layout: Layout, track: ResolvedTrack, rate: float) -> None:
+        self.layout = layout
+        self.profile = layout.profile
+        self.track = track
+        self.rate = rate
+        self.diag = _Diag(track.performer)
+        self.commanded: dict[str, float] = {}  # last commanded physical value (linear regs)
+        self.colours: dict[str, tuple[int, int, int]] = {}
+        for reg in self.profile.registers:
+            if reg.initial is None:
+                continue
+            if reg.linear and reg.size == 1:
+                self.commanded[reg.name] = reg.to_physical(reg.initial[0])
+            elif reg.encoding is Encoding.RGB:
+                self.colours[reg.name] = (reg.initial[0], reg.initial[1], reg.initial[2])
+        self.active: dict[str, tuple[_Run, int]] = {}  # register -> latest run and its DoF
+        self.runs: list[_Run] = []
+        self.fades: list[_Fade] = []
+        self.fading: dict[str, _Fade] = {}  # the last fade of each RGB register
+        self.ticks: dict[int, Entry] = {}
+        self.mixed: set[int] = set()  # ticks that more than one cue writes (see _emit)
+        self.action_reg = layout.by_name.get(ACTION_REGISTER)
+        self.end = 0.0
+
+    # -- cues -------------------------------------------------------------------------------
+
+    def plan(self) -> None:
+        for order, cue in enumerate(self.track.cues):
+            try:
+                if isinstance(cue, MotionCue):
+                    self._motion(cue, order)
+                elif isinstance(cue, SetCue):
+                    self._set(cue, order)
+                elif isinstance(cue, ActionCue):
+                    self._action(cue, order)
+                elif isinstance(cue, FadeCue):
+                    self._fade(cue, order)
+                else:
+                    self.diag.error(
+                        cue.origin, f"{self.profile.model} is not an xArm; it takes no arm cue"
+                    )
+            except (ProfileError, ProtocolError) as exc:
+                self.diag.error(cue.origin, f"{cue_label(cue.origin)}: {exc}")
+        for run in self.runs:
+            self._sample_run(run)
+        for fade in self.fades:
+            self._sample_fade(fade)
+
+    def _emit(self, t_us: int, writes: list[Write]) -> None:
+        """File one cue's writes at ``t_us`` (one per register, in address order).
+
+        A tick only one cue writes needs no de-duplication or sorting when merged: the ticks
+        where a second cue adds writes are noted in ``mixed``.
+        """
+        if not writes:
+            return
+        entry = self.ticks.get(t_us)
+        if entry is None:
+            self.ticks[t_us] = writes
+            return
+        bucket = entry_writes(entry)
+        if bucket is entry:
+            bucket.extend(writes)
+        else:
+            self.ticks[t_us] = bucket + writes
+        self.mixed.add(t_us)
+
+    def _emit_sample(self, t_us: int, src: Source, sample: bytes) -> None:
+        """File a source's sample at ``t_us``; with Writes or a sample of the same register
+        there, the tick becomes Writes (mixed)."""
+        entry = self.ticks.get(t_us)
+        if entry is None:
+            self.ticks[t_us] = (src, sample)
+            return
+        mine = src.address_set
+        if isinstance(entry, tuple):
+            if mine.isdisjoint(entry[0].addresses):
+                self.ticks[t_us] = Samples((entry, (src, sample)))
+                return
+        elif isinstance(entry, Samples):
+            for other, _ in entry:
+                if not mine.isdisjoint(other.addresses):
+                    break
+            else:
+                entry.append((src, sample))
+                return
+        self._emit(t_us, src.writes(sample))
+
+    def _take_over(self, name: str, t: float) -> DofState | None:
+        """A cue writes ``name`` at ``t``: stop sampling a move still running on it.
+
+        Returns the state the move had reached, or None if no move was running.
+        """
+        entry = self.active.get(name)
+        if entry is None:
+            return None
+        run, dof = entry
+        if run.cuts[dof] is not None or t >= run.plan.end - TIME_EPS:
+            return None
+        run.cuts[dof] = t
+        return run.plan.state_at(t)[dof]
+
+    def _set(self, cue: SetCue, order: int) -> None:
+        regs = sorted(
+            ((self.layout.register(n), v) for n, v in cue.values.items()),
+            key=lambda rv: rv[0].address,
+        )
+        t_us = to_us(cue.start)
+        writes: list[Write] = []
+        try:
+            for reg, value in regs:
+                data = reg.encode_value(value)
+                writes.append(Write(reg.address, data, cue.origin, order, False))
+                self._take_over(reg.name, cue.start)
+                if reg.linear and reg.size == 1 and isinstance(value, (int, float)):
+                    self.commanded[reg.name] = float(value)
+                elif reg.encoding is Encoding.RGB:
+                    self._cut_fade(reg.name, cue.start)
+                    self.colours[reg.name] = (data[0], data[1], data[2])
+        finally:
+            self._emit(t_us, writes)  # what was encoded before an error still goes out
+        self.end = max(self.end, cue.start)
+
+    def _action(self, cue: ActionCue, order: int) -> None:
+        if self.action_reg is None:
+            self.diag.error(cue.origin, f"{self.profile.model} has no action register")
+            return
+        data = self.action_reg.encode_value(cue.action_id)
+        t_us = to_us(cue.start)
+        # Any motion write cuts a running action on the robot: moves still under way (the cue
+        # interrupts them, on purpose) stop sampling before the action's command goes out.
+        for name in self.active:
+            reached = self._take_over(name, cue.start)
+            if reached is not None:
+                self.commanded[name] = reached.position  # the move stopped about here
+        self._emit(t_us, [
+            Write(self.action_reg.address, data, cue.origin, order, False, cue.duration)
+        ])
+        # The reset action restores the default posture: later moves start from there.
+        self.commanded.update(posture_after(self.profile, cue.action_id))
+        self.end = max(self.end, cue.start + cue.duration)
+
+    def _fade(self, cue: FadeCue, order: int) -> None:
+        reg = self.layout.register(cue.register)
+        if reg.encoding is not Encoding.RGB:
+            self.diag.error(cue.origin, f"{cue.register} is not an RGB register; it cannot fade")
+            return
+        reg.encode_value(cue.to)
+        # Cutting a fade still under way starts from the colour it had reached.
+        reached = self._cut_fade(cue.register, cue.start)
+        start = reached if reached is not None else self.colours.get(cue.register, (0, 0, 0))
+        self.colours[cue.register] = cue.to
+        self.end = max(self.end, cue.start + cue.duration)
+        fade = _Fade(cue, order, reg, start)
+        self.fades.append(fade)
+        self.fading[cue.register] = fade
+
+    def _cut_fade(self, name: str, t: float) -> tuple[int, int, int] | None:
+        """A cue writes RGB register ``name`` at ``t``: stop a fade of it still under way there.
+
+        Returns the colour the fade had reached, or None if none was running.
+        """
+        fade = self.fading.get(name)
+        if (fade is None or fade.cut is not None
+                or t >= fade.cue.start + fade.cue.duration - TIME_EPS):
+            return None
+        fade.cut = t
+        return fade.colour_at(t)
+
+    def _sample_fade(self, fade: _Fade) -> None:
+        """Steps on the tick grid strictly before the end, then the exact colour at the end
+        itself (as a move's last sample: never after it, over a cue starting there). A fade
+        another cue cut stops before that cue's start, with no final colour."""
+        cue, rate = fade.cue, self.rate
+        stop_us = to_us(cue.start + cue.duration if fade.cut is None else fade.cut)
+        src = Source((fade.reg,), cue.origin, fade.order)
+        ticks, emit = self.ticks, self._emit_sample
+        t0, duration = cue.start, cue.duration
+        (r0, g0, b0), (r1, g1, b1) = fade.start, cue.to
+        dr, dg, db = r1 - r0, g1 - g0, b1 - b0
+        k = first_tick(t0, rate)
+        # tick_us(k, rate) and fade.colour_at, inlined: this runs for every tick of every fade
+        while duration > 0 and (t_us := round(k * 1_000_000 / rate)) < stop_us:
+            frac = min(max((k / rate - t0) / duration, 0.0), 1.0)
+            sample = bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac)))
+            if t_us in ticks:
+                emit(t_us, src, sample)
+            else:
+                ticks[t_us] = (src, sample)  # emit's common case, inlined
+            k += 1
+        if fade.cut is None:
+            emit(stop_us, src, bytes(cue.to))
+
+    def _motion(self, cue: MotionCue, order: int) -> None:
+        diag = self.diag
+        pairs: list[tuple[Register, Limits]] = []
+        for name in cue.targets:
+            reg = self.layout.register(name)
+            lim = cue.limits.get(name, reg.limits)
+            if lim is None or reg.encoding is not Encoding.U8 or not reg.linear or reg.size != 1:
+                diag.error(
+                    cue.origin, f"{cue_label(cue.origin)}: {name} cannot follow a trajectory"
+                )
+                return
+            pairs.append((reg, lim))
+        pairs.sort(key=lambda p: p[0].address)
+        regs = tuple(r for r, _ in pairs)
+        limits = [lim for _, lim in pairs]
+        current: list[DofState] = []
+        for reg in regs:
+            # Interrupting a move still under way starts from where it is, moving as it moves;
+            # otherwise from the last commanded value, at rest.
+            reached = self._take_over(reg.name, cue.start)
+            current.append(reached if reached is not None else DofState(self.commanded[reg.name]))
+        names = [r.name for r in regs]
+        targets = [float(cue.targets[n]) for n in names]
+        try:
+            plan = plan_motion(names, cue.start, current, targets, limits, cue.duration)
+        except InfeasibleMotion as exc:
+            reg = regs[exc.dof]
+            diag.error(
+                cue.origin,
+                # Rounded up: "at least 0.51 s" must be enough, and never read like "0.50 s"
+                # when 0.50 s was given and falls short.
+                f"{cue_label(cue.origin)} needs at least {_round_up(exc.minimum):.2f} s under "
+                "its limits "
+                f"({reg.name}: {_limits_text(reg, limits[exc.dof])}) but is given "
+                f"{exc.requested:.2f} s",
+            )
+            return
+        except TrajectoryError as exc:
+            diag.error(cue.origin, f"{cue_label(cue.origin)}: {exc}")
+            return
+        for reg, (lo, hi) in zip(regs, plan.extrema(), strict=True):
+            assert reg.minimum is not None and reg.maximum is not None
+            if lo < reg.minimum - 1e-6 or hi > reg.maximum + 1e-6:
+                worst = lo if lo < reg.minimum - 1e-6 else hi
+                diag.error(
+                    cue.origin,
+                    f"{cue_label(cue.origin)}: {reg.name} would overshoot to {worst:.1f}"
+                    f"{reg.unit or ''} (range {reg.minimum:g}..{reg.maximum:g}) because it "
+                    "interrupts the move before it",
+                )
+                return
+        run = _Run(plan, regs, cue.origin, order, [None] * len(regs))
+        self.runs.append(run)
+        for i, (reg, target) in enumerate(zip(regs, targets, strict=True)):
+            self.commanded[reg.name] = target
+            self.active[reg.name] = (run, i)
+        self.end = max(self.end, plan.end)
+
+    # -- sampling ---------------------------------------------------------------------------
+
+    def _sample_run(self, run: _Run) -> None:
+        """Sample a trajectory on the tick grid from its start, then its exact end.
+
+        Ticks strictly before the move's end carry samples; the last sample is the exact target
+        (rounding never leaves a register one byte short) and goes out at the end itself, on the
+        grid or not: never after it, where it would overwrite a cue starting right at the end
+        (and a motion write would cut a preset action starting there). A DoF another cue took
+        over stops before that cue's start and sends no final target.
+        """
+        plan, rate = run.plan, self.rate
+        k0 = first_tick(plan.start, rate)
+        end_us = to_us(plan.end)
+        # k_end: index of the final sample, at end_us; on the grid it is the tick at the end.
+        k_end = first_tick(plan.end, rate)
+        if k_end > k0 and tick_us(k_end - 1, rate) >= end_us:  # the end a hair past a tick
+            k_end -= 1
+        stops = [
+            (k_end if cut is None else min(first_tick(cut, rate), k_end) - 1)
+            for cut in run.cuts
+        ]
+        targets = plan.targets
+        last = max(stops, default=k0 - 1)
+        at_time = plan.trajectory.at_time
+        start = plan.start
+        tables = [self.layout.byte_table(reg) for reg in run.regs]
+        # While every DoF is sampled and the whole move (ruckig's exact extrema, and the
+        # targets) lies within each register's range, all bytes of a tick come from one
+        # C-level map of bisect over the tables: the hot loop of the compiler.
+        in_range = all(
+            t.lo <= lo and hi <= t.hi and t.lo <= x <= t.hi
+            for t, (lo, hi), x in zip(tables, plan.extrema(), targets, strict=True)
+        )
+        full = min(stops, default=k0 - 1) if in_range else k0 - 1
+        padded = [t.padded for t in tables]
+        # Elsewhere, the table per DoF (out of range, Register.to_byte raises the usual error).
+        spec = [(reg.address, t) for reg, t in zip(run.regs, tables, strict=True)]
+        origin, order = run.origin, run.order
+        src = Source(run.regs, origin, order)
+        ticks = self.ticks
+        emit, emit_sample = self._emit, self._emit_sample
+        # The hot loop of the compiler: the ticks before the end with every DoF sampled.
+        for k in range(k0, min(full, k_end - 1) + 1):
+            t_us = round(k * 1_000_000 / rate)  # tick_us(k, rate), inlined
+            sample = bytes(map(bisect_right, padded, at_time(max(k / rate - start, 0.0))[0]))
+            if t_us in ticks:
+                emit_sample(t_us, src, sample)
+            else:
+                ticks[t_us] = (src, sample)  # emit_sample's common case, inlined
+        for k in range(max(k0, min(full, k_end - 1) + 1), last + 1):
+            if k >= k_end:
+                pos, t_us = targets, end_us
+            else:
+                pos = at_time(max(k / rate - start, 0.0))[0]
+                t_us = round(k * 1_000_000 / rate)
+            if k <= full:
+                emit_sample(t_us, src, bytes(map(bisect_right, padded, pos)))
+                continue
+            writes = []
+            for i, (address, table) in enumerate(spec):
+                if k <= stops[i]:
+                    writes.append(Write(address, BYTES[table(pos[i])], origin, order, True))
+            emit(t_us, writes)
+
+
+def plan_xgo_track(
+    layout: Layout,
+    track: ResolvedTrack,
+    *,
+    rate: float,
+    link: Link,
+    gap: float,
+    details: bool = True,
+) -> TrackPlan:
+    """Plan every frame of one XGO performer (unpaced), with its diagnostics.
+
+    ``details=False`` leaves ``fields`` and ``written`` empty in frames holding only move and
+    fade samples, which is faster; pacing needs them only to decimate.
+    """
+    planner = XgoPlanner(layout, track, rate)
+    planner.plan()
+    frames, samples = frames_from_ticks(
+        layout, link, gap, planner.ticks, planner.mixed, planner.action_reg, details
+    )
+    return TrackPlan(frames, planner.end, planner.diag.items, samples)
