@@ -52,7 +52,9 @@ def data_loc(data: object, loc: Sequence[str | int]) -> Loc:
 
 
 def _is_tag(part: str | int) -> bool:
-    return isinstance(part, str) and (part.endswith("-cue") or part in {"constant", "map", "file"})
+    return isinstance(part, str) and (
+        part.endswith(("-cue", "-kind")) or part in {"constant", "map", "file"}
+    )
 
 
 def _unwrap(tp: Any) -> tuple[Any, list[Any]]:
