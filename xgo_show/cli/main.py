@@ -25,6 +25,7 @@ COMMANDS: tuple[str, ...] = (
     "probe",
     "simulate",
     "validate",
+    "behave",
     "compile",
     "inspect",
     "run",
