@@ -98,7 +98,7 @@ def test_hysteresis_fires_once_until_the_reading_clears(tmp_path: Path) -> None:
     for t, battery in enumerate([25, 19, 21, 19.5, 29, 18, 31, 19]):
         eng.on_event(TelemetryRead(float(t), "rex", "battery", battery))
     for t, roll in enumerate([10, 70, 40, 65, 20, -80], start=10):
-        eng.on_event(TelemetryRead(float(t), "rex", "roll", roll))
+        eng.on_event(TelemetryRead(float(t), "rex", "imu_roll", roll))
     rests = [t for t, kind, *_ in stage.calls if kind == "rest"]
     assert rests == [1, 7, 11, 15]
 

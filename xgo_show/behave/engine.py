@@ -60,6 +60,8 @@ from xgo_show.behave.model import (
     TimeCondition,
     Wait,
 )
+from xgo_show.families import get_family
+from xgo_show.profiles import get_profile
 from xgo_show.runtime.events import Event, FaultRaised, TelemetryRead
 
 __all__ = ["QUEUE_LIMIT", "BehaviourNote", "Engine", "Stage"]
@@ -143,6 +145,7 @@ class Engine:
         self.active_set = self.model.initial
         self.claims: dict[str, _Claim] = {}
         self.readings: dict[str, dict[str, float]] = {p: {} for p in self.model.performers}
+        self._profiles = {p: get_profile(ref.model) for p, ref in self.model.performers.items()}
         self.last_seen: dict[str, float] = {}
         self.offline: set[str] = set()
         self._armed: dict[tuple[int, int, str], bool] = {}
@@ -272,6 +275,10 @@ class Engine:
             return
         readings = self.readings[performer]
         readings[name] = value
+        if name == "status":
+            profile = self._profiles[performer]
+            fallen = get_family(profile).telemetry_fault(profile, name, value) is not None
+            readings["status_fallen"] = 1.0 if fallen else 0.0
         self.last_seen[performer] = now
         if performer in self.offline:
             self.offline.discard(performer)
@@ -299,7 +306,7 @@ class Engine:
     def _tilt(readings: Mapping[str, float]) -> float | None:
         if readings.get("status_fallen"):
             return FALLEN_TILT
-        angles = [abs(readings[k]) for k in ("roll", "pitch") if k in readings]
+        angles = [abs(readings[k]) for k in ("imu_roll", "imu_pitch") if k in readings]
         return max(angles) if angles else None
 
     def _edge(

@@ -186,8 +186,8 @@ def _compile_routines(c: _Checker, base_dir: Path) -> dict[str, Schedule]:
         try:
             schedule = compile_show(load_show(path))
         except ChoreographyError as exc:
-            first = str(exc).splitlines()[0]
-            c.error(loc, f"routine {name!r} does not load: {first}")
+            lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+            c.error(loc, f"routine {name!r} does not load: {' '.join(lines)}")
             continue
         except XgoShowError as exc:
             c.error(loc, f"routine {name!r} does not compile: {exc}")

@@ -173,7 +173,7 @@ class PerformerIs(_Model):
 
 class TelemetryTest(_Model):
     performer: Name
-    name: Literal["battery", "roll", "pitch", "tilt"]
+    name: Literal["battery", "imu_roll", "imu_pitch", "tilt"]
     below: float | None = None
     above: float | None = None
 

@@ -13,7 +13,7 @@ A script lists what happens to the robots and when (seconds from start-up)::
 
 :func:`rehearse` runs the :class:`~xgo_show.behave.engine.Engine` against a
 :class:`VirtualStage`: each performer is a virtual robot that plays a routine for the
-routine's compiled length, reports telemetry (battery, roll, pitch) every
+routine's compiled length, reports telemetry (battery, imu_roll, imu_pitch) every
 :data:`TELEMETRY_INTERVAL` seconds while online, and falls, recovers, drains or goes offline on
 cue. Nothing waits and nothing is random: the same script gives the same trace.
 """
@@ -181,7 +181,8 @@ class VirtualStage:
             if robot.online:
                 roll = 90.0 if robot.fallen else 0.0
                 out += [TelemetryRead(t, p, "battery", robot.battery),
-                        TelemetryRead(t, p, "roll", roll), TelemetryRead(t, p, "pitch", 0.0)]
+                        TelemetryRead(t, p, "imu_roll", roll),
+                        TelemetryRead(t, p, "imu_pitch", 0.0)]
         return out
 
 

@@ -1,13 +1,19 @@
-"""``xgo-show behave``: check a behaviour file, or rehearse it from a timed script.
+"""``xgo-show behave``: run a behaviour on robots, on simulators, or rehearse it from a script.
 
-``xgo-show behave FILE`` loads the behaviour (every routine compiled, every name checked) and
-lists its rules; with ``--script EVENTS.yaml --fast`` it rehearses the behaviour on virtual
-robots and virtual time and prints a trace: what fired, and what each robot did.
+``xgo-show behave FILE --check`` loads the behaviour (every routine compiled, every name
+checked) and lists its rules. ``--sim`` runs it on one simulated robot per performer, each on
+its own pseudo-terminal; without it, on the performers' ports (``port:`` in the file, or
+``--map NAME=PORT``). ``--script EVENTS.yaml`` plays timed triggers and things happening to the
+simulated robots (falls, battery levels, going offline) and ends after the script's duration;
+``--fast`` rehearses the script on virtual robots and virtual time, without waiting. Each
+decision is printed with its time: what fired, and what each robot did.
 """
 
 from __future__ import annotations
 
 import argparse
+import threading
+import time
 from typing import Any
 
 from xgo_show.errors import XgoShowError
@@ -19,29 +25,34 @@ def add_parser(sub: Any) -> None:
     """Register the ``behave`` subcommand."""
     parser = sub.add_parser(
         "behave",
-        help="check a behaviour file (rules reacting to triggers and telemetry), or rehearse it",
+        help="run rules that react to triggers and telemetry (or check or rehearse them)",
         description=(
-            "Load BEHAVIOUR.yaml (every routine it may play is compiled, every routine, "
-            "performer, trigger and set it names is checked) and list its rules; with --script "
-            "and --fast, rehearse it on virtual robots and print what fired and what each robot "
-            "did."
+            "Run BEHAVIOUR.yaml: rules that play routines when triggers fire, telemetry "
+            "crosses a threshold or a timer is due. Every routine it may play is compiled and "
+            "every name checked first. Runs on the performers' ports, on simulators (--sim), "
+            "or rehearses a script on virtual time (--script with --fast)."
         ),
         epilog=(
             "example:\n"
-            "  xgo-show behave behaviours/exhibition/exhibition.yaml\n"
+            "  xgo-show behave behaviours/exhibition/exhibition.yaml --check\n"
             "  xgo-show behave behaviours/exhibition/exhibition.yaml --sim --fast "
-            "--script behaviours/exhibition/rehearsal.yaml"
+            "--script behaviours/exhibition/rehearsal.yaml\n"
+            "  xgo-show behave behaviours/exhibition/exhibition.yaml --map rex=/dev/ttyAMA0"
         ),
     )
     parser.add_argument("behaviour", metavar="BEHAVIOUR.yaml", help="the behaviour file")
+    parser.add_argument("--check", action="store_true",
+                        help="load and check the file, list its rules, and exit")
     parser.add_argument(
         "--script", metavar="EVENTS.yaml",
         help="a rehearsal script: timed triggers, falls, battery levels, robots going offline",
     )
-    parser.add_argument("--sim", action="store_true", help="on simulated robots (the default "
-                        "for a rehearsal: robots on ports are not driven by this version)")
+    parser.add_argument("--sim", action="store_true",
+                        help="on simulated robots (one pseudo-terminal each)")
     parser.add_argument("--fast", action="store_true",
-                        help="rehearse on virtual time, without waiting (needed with --script)")
+                        help="rehearse the script on virtual time, without waiting")
+    parser.add_argument("--map", action="append", default=[], metavar="NAME=PORT",
+                        help="a performer's port (repeatable; default: port: in the file)")
     parser.set_defaults(func=run)
 
 
@@ -51,9 +62,7 @@ def run(args: argparse.Namespace) -> int:
 
     behaviour = load_behaviour(args.behaviour)
     model = behaviour.model
-    if args.script is None:
-        if args.fast:
-            raise XgoShowError("--fast rehearses a script: give --script EVENTS.yaml")
+    if args.check:
         print(f"{args.behaviour}: behaviour {model.behaviour!r}: {len(model.rules)} rules, "
               f"{len(behaviour.routines)} routines compiled, performers "
               f"{', '.join(model.performers)}")
@@ -62,13 +71,108 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {rule.name}: {len(rule.when)} trigger(s), {len(rule.do)} action(s), "
                   f"{rule.mode}, {rank}")
         return 0
-    if not args.fast:
-        raise XgoShowError("a rehearsal runs on virtual time in this version: add --fast "
-                           "(real-time rehearsal on ptys and robots on ports are not built yet)")
-    from xgo_show.behave.rehearsal import load_rehearsal, rehearse
+    script = None
+    if args.script is not None:
+        from xgo_show.behave.rehearsal import load_rehearsal
 
-    script = load_rehearsal(args.script, behaviour)
-    print(f"rehearsing {model.behaviour!r} for {script.duration:g} s from {script.start} "
-          f"(virtual time)")
-    rehearse(behaviour, script, lambda t, line: print(f"{t:9.2f}  {line}"))
-    return 0
+        script = load_rehearsal(args.script, behaviour)
+        if not args.sim and not args.fast:
+            raise XgoShowError("a script happens to simulated robots: add --sim (or --fast)")
+    elif args.fast:
+        raise XgoShowError("--fast rehearses a script: give --script EVENTS.yaml")
+    if script is not None and args.fast:
+        from xgo_show.behave.rehearsal import rehearse
+
+        print(f"rehearsing {model.behaviour!r} for {script.duration:g} s from {script.start} "
+              f"(virtual time)")
+        rehearse(behaviour, script, lambda t, line: print(f"{t:9.2f}  {line}"))
+        return 0
+    return _run_live(args, behaviour, script)
+
+
+def _run_live(args: argparse.Namespace, behaviour: Any, script: Any) -> int:
+    from xgo_show.behave.ports import BehaviourRunner
+    from xgo_show.sim import create_robot
+    from xgo_show.sim.pty_server import PtyServer
+    from xgo_show.transports import open_transport
+
+    model = behaviour.model
+    servers: dict[str, PtyServer] = {}
+    transports = {}
+    try:
+        if args.sim:
+            battery = script.battery if script is not None else 100.0
+            for name, ref in model.performers.items():
+                servers[name] = PtyServer(create_robot(ref.model, battery=battery)).start()
+            ports = {name: s.path for name, s in servers.items()}
+        else:
+            ports = {n: r.port for n, r in model.performers.items() if r.port}
+            for item in args.map:
+                name, sep, port = item.partition("=")
+                if not sep or name not in model.performers:
+                    raise XgoShowError(f"--map {item}: give NAME=PORT for a performer of the "
+                                       f"behaviour ({', '.join(model.performers)})")
+                ports[name] = port
+            missing = [n for n in model.performers if n not in ports]
+            if missing:
+                raise XgoShowError(f"no port for {', '.join(missing)}: give --map NAME=PORT "
+                                   "(or --sim)")
+        for name, port in ports.items():
+            transport = open_transport(port)
+            transport.open()
+            transports[name] = transport
+        start = time.monotonic()
+        runner = BehaviourRunner(
+            behaviour, transports, say=lambda t, line: print(f"{t - start:9.2f}  {line}")
+        )
+        if script is not None:
+            feeder = threading.Thread(target=_play_script, args=(script, runner, servers, start),
+                                      daemon=True)
+            feeder.start()
+        where = "simulated robots" if args.sim else "robots on " + ", ".join(ports.values())
+        print(f"behaviour {model.behaviour!r} on {where}" +
+              (f" for {script.duration:g} s" if script else " (Ctrl-C ends it with a safe stop)"))
+        try:
+            runner.run(None if script is None else script.duration)
+        except KeyboardInterrupt:
+            runner.stop()
+            print("stopped: every robot was safe-stopped")
+        return 0
+    finally:
+        for transport in transports.values():
+            transport.close()
+        for server in servers.values():
+            server.close()
+
+
+def _play_script(script: Any, runner: Any, servers: dict[str, Any], start: float) -> None:
+    """Apply the script's cues at their times (seconds from ``start``)."""
+    for ev in sorted(script.events, key=lambda e: e.at):
+        delay = start + ev.at - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        print(f"{time.monotonic() - start:9.2f}  script: {_describe(ev)}")
+        if ev.trigger is not None:
+            runner.trigger(ev.trigger)
+            continue
+        server = servers[ev.performer]
+        if ev.offline or ev.online:
+            server.offline = bool(ev.offline)
+            continue
+        with server.lock:
+            robot = server.robot
+            if ev.fall:
+                robot.fall()
+            elif ev.recover:
+                robot.recover()
+            elif ev.battery is not None:
+                robot.set_battery(ev.battery)
+
+
+def _describe(ev: Any) -> str:
+    if ev.trigger is not None:
+        return f"trigger {ev.trigger}"
+    what = next(k for k in ("fall", "recover", "battery", "offline", "online")
+                if getattr(ev, k) is not None)
+    value = f" {ev.battery:g}%" if what == "battery" else ""
+    return f"{ev.performer} {what}{value}"

@@ -45,8 +45,11 @@ class TelemetryPoller:
         interval: float = 0.25,
         battery_floor: float | None = None,
         low_readings: int = 2,
+        detect_falls: bool = True,
     ) -> None:
         self.profile = profile
+        #: a fallen status is a fault (a show); False leaves it to a listener (a behaviour)
+        self.detect_falls = detect_falls
         self.interval = interval
         self.battery_floor = battery_floor
         self.low_readings = low_readings
@@ -102,7 +105,7 @@ class TelemetryPoller:
         if self.fault is not None:
             return
         fault = self._family.telemetry_fault(self.profile, name, value)
-        if fault is not None:
+        if fault is not None and self.detect_falls:
             self.fault = fault
             return
         if self.battery_floor is None:

@@ -62,6 +62,9 @@ class PtyServer(Closing):
         self._thread: threading.Thread | None = None
         self._error: BaseException | None = None
         self._loops = 0  # serving-loop iterations done (settle() waits for one more)
+        #: a robot gone offline (cable pulled, powered off): what clients write is dropped
+        #: (counted in ``dropped_bytes``) and nothing is sent back, until it is set False again
+        self.offline = False
 
     @property
     def path(self) -> str:
@@ -162,6 +165,10 @@ class PtyServer(Closing):
                         if exc.errno != errno.EIO:  # EIO: no slave open (cannot happen here)
                             raise
                 now = time.monotonic()
+                if self.offline:
+                    self.dropped_bytes += len(data)
+                    self._loops += 1
+                    continue
                 with self.lock:
                     if data:
                         self.robot.receive(data, now)

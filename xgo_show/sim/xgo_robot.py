@@ -233,12 +233,9 @@ class XgoRobot(FrameRobot[XgoFrame]):
 
     # ------------------------------------------------------------------ fault injection
     def fall(self) -> None:
-        """Make the robot fall over: ``status`` reads 0 and the IMU reads it lying on its side.
-
-        Only robots with a fall-detecting ``status`` register (the Rider) can fall.
+        """Make the robot fall over: the IMU reads it lying on its side (through its attitude
+        filter), and a fall-detecting ``status`` register (the Rider's) reads "fallen" at once.
         """
-        if self._status_register() is None:
-            raise ProfileError(f"{self.model} has no fall status register")
         self._fallen = True
         self._write_status()
 

@@ -1,0 +1,125 @@
+"""Reaction time of a behaviour: a simulated fall on the wire -> the first frame of the routine
+the fallen rule plays.
+
+A simulated Rider on a real pseudo-terminal; ``xgo-show``'s behaviour runner polls its
+telemetry (battery, status, attitude in turn) over pyserial and runs one safety rule,
+``tilt_beyond: 60 -> play get_up``. Each round the benchmark makes the robot fall (its status
+register reads "fallen" from that instant), takes the time, and waits for the first frame of
+``get_up`` to be written to the port (the runtime's FrameSent event: the write call); then it
+stands the robot up and waits for the rule to re-arm. The same rounds run at the default
+telemetry interval (0.25 s per item, the show runtime's) and at a fast one (0.02 s), side by
+side. Prints figures only (no asserts)::
+
+    python benchmarks/behave_fall.py [--rounds 40]
+
+What limits it: the status register is read once per cycle of the telemetry items, so the
+fall is seen on average half a cycle after it happens (a cycle is 3 items x the interval);
+then the running watcher is ended and the routine's executor started (a few ms).
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import textwrap
+import threading
+import time
+from pathlib import Path
+
+from xgo_show.behave import load_behaviour
+from xgo_show.behave.ports import BehaviourRunner
+from xgo_show.runtime.events import Event, EventBus, FrameSent
+from xgo_show.runtime.stats import percentile
+from xgo_show.sim import create_robot
+from xgo_show.sim.pty_server import PtyServer
+from xgo_show.transports import open_transport
+
+ROUTINE = """\
+show: get up
+performers: {rio: {model: rider}}
+tracks:
+  rio: [{move: {body_z: 80}, duration: 0.6}]
+"""
+BEHAVIOUR = """\
+behaviour: fall reaction
+performers: {rio: {model: rider}}
+routines: {get_up: get_up.yaml}
+rules:
+  - {name: fallen, safety: true, when: [{tilt_beyond: 60, clear: 30}], do: [{play: get_up}]}
+"""
+
+
+def measure(folder: Path, interval: float, rounds: int) -> list[float]:
+    """Seconds from each fall to the first frame of the reacting routine."""
+    behaviour = load_behaviour(folder / "behaviour.yaml")
+    bus = EventBus()
+    first: list[float] = []
+    got = threading.Event()
+
+    def on_frame(event: Event) -> None:
+        if isinstance(event, FrameSent) and event.kind == "frame" and event.index == 0:
+            first.append(event.t)
+            got.set()
+
+    bus.subscribe(on_frame, FrameSent)
+    out: list[float] = []
+    with PtyServer(create_robot("rider", seed=1)) as server:
+        transport = open_transport(server.path)
+        transport.open()
+        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus,
+                                 telemetry_interval=interval)
+        thread = threading.Thread(target=runner.run)
+        thread.start()
+        try:
+            time.sleep(0.5)
+            for _ in range(rounds):
+                got.clear()
+                with server.lock:
+                    fell = time.monotonic()
+                    server.robot.fall()  # type: ignore[attr-defined]
+                if not got.wait(5.0):
+                    raise SystemExit("no reaction within 5 s")
+                out.append(first[-1] - fell)
+                time.sleep(0.7)  # the routine plays
+                with server.lock:
+                    server.robot.recover()  # type: ignore[attr-defined]
+                readings = runner.engine.readings["rio"]
+                deadline = time.monotonic() + 10
+                while time.monotonic() < deadline and (
+                    readings.get("status_fallen", 1.0) or abs(readings.get("imu_roll", 90.0)) >= 30
+                ):
+                    time.sleep(0.01)
+                time.sleep(interval * 4)  # one more full cycle: the rule is armed again
+        finally:
+            runner.stop()
+            thread.join(5)
+            transport.close()
+    return out
+
+
+def row(name: str, values: list[float]) -> str:
+    ms = sorted(v * 1000 for v in values)
+    p = [percentile(ms, q) for q in (0.5, 0.99, 0.999)]
+    return (f"{name:<34} {p[0]:8.1f} {p[1]:8.1f} {p[2]:8.1f} {ms[-1]:8.1f}  ({len(ms)} falls)")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--rounds", type=int, default=40, help="falls per configuration")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        (folder / "get_up.yaml").write_text(textwrap.dedent(ROUTINE))
+        (folder / "behaviour.yaml").write_text(textwrap.dedent(BEHAVIOUR))
+        default = measure(folder, 0.25, args.rounds)
+        fast = measure(folder, 0.02, args.rounds)
+    print("fall on the wire -> first frame of the reacting routine, ms")
+    print(f"{'':<34} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}")
+    print(row("telemetry every 0.25 s (default)", default))
+    print(row("telemetry every 0.02 s", fast))
+    print("(p99.9 of a few dozen falls is the max; the status register is read once per "
+          "cycle of 3 telemetry items)")
+
+
+if __name__ == "__main__":
+    main()

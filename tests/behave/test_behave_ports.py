@@ -1,0 +1,93 @@
+"""A behaviour in real time on a simulated Rider over a real pty: a fall on the wire makes the
+fallen rule play its routine (first frame measured), an offline robot fires the offline rule,
+and never two executors write on the port."""
+
+from __future__ import annotations
+
+import textwrap
+import threading
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import wait_until
+from xgo_show.behave import load_behaviour
+from xgo_show.behave.engine import BehaviourNote
+from xgo_show.behave.ports import BehaviourRunner
+from xgo_show.cli.main import main
+from xgo_show.runtime.events import Event, EventBus, FrameSent
+from xgo_show.sim import create_robot
+from xgo_show.sim.pty_server import PtyServer
+from xgo_show.transports import open_transport
+
+EXHIBITION = Path(__file__).resolve().parents[2] / "behaviours" / "exhibition" / "exhibition.yaml"
+
+
+def test_fall_and_offline_on_a_pty(tmp_path: Path) -> None:
+    (tmp_path / "get_up.yaml").write_text(textwrap.dedent("""\
+        show: get up
+        performers: {rio: {model: rider}}
+        tracks:
+          rio: [{move: {body_z: 80}, duration: 0.6}]
+        """))
+    (tmp_path / "b.yaml").write_text(textwrap.dedent("""\
+        behaviour: rider
+        performers: {rio: {model: rider}}
+        routines: {get_up: get_up.yaml}
+        rules:
+          - {name: fallen, safety: true, when: [{tilt_beyond: 60}], do: [{play: get_up}]}
+          - {name: lost, when: [{offline: 0.5}], do: [{publish: lost}]}
+        """))
+    behaviour = load_behaviour(tmp_path / "b.yaml")
+    bus = EventBus()
+    seen: list[Event] = []
+    bus.subscribe(seen.append, FrameSent, BehaviourNote)
+    with PtyServer(create_robot("rider")) as server:
+        transport = open_transport(server.path)
+        transport.open()
+        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus,
+                                 telemetry_interval=0.02)
+        thread = threading.Thread(target=runner.run, kwargs={"duration": 10.0})
+        thread.start()
+        try:
+            time.sleep(0.2)
+            with server.lock:
+                fell = time.monotonic()
+                server.robot.fall()  # type: ignore[attr-defined]
+            wait_until(lambda: any(
+                isinstance(e, FrameSent) and e.kind == "frame" for e in list(seen)
+            ), timeout=3.0)
+            first = next(e for e in list(seen) if isinstance(e, FrameSent) and e.kind == "frame")
+            assert first.t - fell < 0.3  # 3 telemetry items at 20 ms each, and the hand-over
+            server.offline = True
+            wait_until(lambda: any(
+                isinstance(e, BehaviourNote) and e.kind == "published" for e in list(seen)
+            ), timeout=3.0)
+        finally:
+            runner.stop()
+            thread.join(5)
+            transport.close()
+    notes = [f"{e.rule} {e.kind}: {e.text}" for e in seen if isinstance(e, BehaviourNote)]
+    assert "fallen fired: rio tilted 90 deg > 60" in notes
+    assert "fallen action: rio plays get_up" in notes
+    assert "lost published: lost" in notes
+    # One writer at a time: the frames' write times never go backwards on the port.
+    times = [e.t for e in seen if isinstance(e, FrameSent)]
+    assert times == sorted(times)
+    assert not thread.is_alive()
+
+
+def test_cli_rehearses_a_script_in_real_time_on_ptys(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    script = tmp_path / "events.yaml"
+    script.write_text("duration: 1.5\nevents:\n  - {at: 0.3, trigger: visitor}\n"
+                      "  - {at: 0.6, performer: rex, battery: 15}\n")
+    assert main(["behave", str(EXHIBITION), "--sim", "--script", str(script)]) == 0
+    out = [" ".join(line.split()[1:]) for line in capsys.readouterr().out.splitlines()]
+    for want in ["rule idle: action: rex loops idle", "script: trigger visitor",
+                 "rule greet: action: rex plays greet", "script: rex battery 15%",
+                 "rule greet: cut: rex taken by rule battery-low",
+                 "rule battery-low: action: rex plays sit"]:
+        assert want in out, (want, out)
