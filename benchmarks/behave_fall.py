@@ -80,13 +80,16 @@ def measure(folder: Path, interval: float, rounds: int) -> list[float]:
                 if not got.wait(5.0):
                     raise SystemExit("no reaction within 5 s")
                 out.append(first[-1] - fell)
-                time.sleep(0.7)  # the routine plays
                 with server.lock:
                     server.robot.recover()  # type: ignore[attr-defined]
-                readings = runner.engine.readings["rio"]
+                engine, readings = runner.engine, runner.engine.readings["rio"]
                 deadline = time.monotonic() + 10
+                # The rule's run ends with its routine (single mode: a fall seen while it
+                # runs would be skipped), and the tilt must read below clear: to re-arm.
                 while time.monotonic() < deadline and (
-                    readings.get("status_fallen", 1.0) or abs(readings.get("imu_roll", 90.0)) >= 30
+                    engine.playing("rio") is not None
+                    or readings.get("status_fallen", 1.0)
+                    or abs(readings.get("imu_roll", 90.0)) >= 30
                 ):
                     time.sleep(0.01)
                 time.sleep(interval * 4)  # one more full cycle: the rule is armed again

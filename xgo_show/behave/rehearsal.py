@@ -29,11 +29,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 from pydantic_core import PydanticCustomError
 
 from xgo_show.behave.engine import BehaviourNote, Engine
 from xgo_show.behave.loader import Behaviour
+from xgo_show.behave.model import ClockTime, Name
 from xgo_show.choreo.source import read_yaml
 from xgo_show.choreo.validation import validate
 from xgo_show.errors import ChoreographyError
@@ -42,10 +43,6 @@ from xgo_show.runtime.events import Event, TelemetryRead
 __all__ = ["TELEMETRY_INTERVAL", "RehearsalScript", "VirtualStage", "load_rehearsal", "rehearse"]
 
 TELEMETRY_INTERVAL = 0.25  # the executor's default poll interval
-Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$")]
-ClockTime = Annotated[
-    str, StringConstraints(pattern=r"^([01][0-9]|2[0-3]):[0-5][0-9](:[0-5][0-9])?$")
-]
 _CUES = ("trigger", "fall", "recover", "battery", "offline", "online")
 
 
