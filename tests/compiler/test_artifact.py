@@ -69,7 +69,7 @@ def test_file_is_one_line_of_json_around_a_digested_body(show) -> None:  # type:
     size = int.from_bytes(body[:4], "little")
     doc = json.loads(body[4:4 + size])
     rex = doc["performers"][0]
-    assert rex["link"] == {"baud": 115200, "bits_per_byte": 10, "gap_us": 1000}
+    assert rex["link"] == {"baud": 115200, "bits_per_byte": 10, "gap_us": 1200}
     assert rex["frames"] == len(schedule.performer("rex").frames)
     assert doc["origins"][0] == {"column": 5, "cue": "setup", "file": "show.yaml", "line": 2}
 

@@ -336,7 +336,8 @@ def test_default_posture_registers_exist_and_are_posture() -> None:
 
 def test_links_and_write_types() -> None:
     for profile in XGOS:
-        assert (profile.link.baud, profile.link.gap) == (115200, 0.001)
+        # The 1 ms the documents ask for, and the margin for delivery jitter on top of it.
+        assert (profile.link.baud, profile.link.gap) == (115200, 0.0012)
     assert (MINI.write_type, LITE.write_type, RIDER.write_type) == (0x00, 0x00, 0x01)
     assert XARM.link.baud == 9600
     assert XARM.family == "xarm" and not XARM.registers

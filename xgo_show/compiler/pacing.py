@@ -4,7 +4,9 @@ Frames go out in planned order. A frame starts no earlier than its planned time,
 than the previous frame's start plus that frame's wire time (``Link.wire_time``: 10 bits a byte,
 86.8 µs a byte at 115200 baud) plus the silence between frames (the show's ``gap`` or the
 profile's ``Link.gap``; the XGO document asks for "at least 1 ms between instructions" and we
-read it the safe way: 1 ms of silence after the last byte). A frame that cannot start on time
+read it the safe way: silence after the last byte, 1.2 ms for XGO robots, the 0.2 ms above the
+1 ms a margin for delivery jitter measured by ``benchmarks/silence_jitter.py``; see
+``xgo_show.profiles._common``). A frame that cannot start on time
 moves later; gaps never shrink. All arithmetic is in integer microseconds, wire times rounded up.
 
 **Link fit.** A track fits its link when every frame starts at most one control period
