@@ -10,6 +10,7 @@ from __future__ import annotations
 __all__ = [
     "ChoreographyError",
     "CompileError",
+    "NetworkError",
     "ProfileError",
     "ProtocolError",
     "RuntimeFault",
@@ -54,6 +55,10 @@ class ChoreographyError(XgoShowError):
 
 class CompileError(ChoreographyError):
     """A validated routine that cannot be turned into a schedule (infeasible, does not fit)."""
+
+
+class NetworkError(XgoShowError):
+    """A Zenoh session that cannot open, a relay that does not answer or refuses a request."""
 
 
 class RuntimeFault(XgoShowError):

@@ -32,6 +32,7 @@ COMMANDS: tuple[str, ...] = (
     "dry_run",
     "beats",
     "schema",
+    "relay",
 )
 
 

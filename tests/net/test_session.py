@@ -1,0 +1,112 @@
+"""Zenoh session options: defaults that stay on this machine, Zenoh's own options and files."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import socket
+from pathlib import Path
+
+import pytest
+
+from xgo_show.errors import NetworkError
+from xgo_show.net.session import (
+    DEFAULT_HUB,
+    LOOPBACK_ANY,
+    SessionOptions,
+    add_session_arguments,
+    build_config,
+    open_session,
+    session_options,
+)
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def get(config: object, key: str) -> object:
+    return json.loads(config.get_json(key))  # type: ignore[attr-defined]
+
+
+def test_defaults_listen_on_the_loopback_hub_or_join_it() -> None:
+    first = build_config(SessionOptions(), hub_taken=False)
+    assert get(first, "listen/endpoints") == [DEFAULT_HUB]
+    assert get(first, "connect/endpoints") == []
+    assert get(first, "scouting/multicast/enabled") is False
+    later = build_config(SessionOptions(), hub_taken=True)
+    assert get(later, "listen/endpoints") == [LOOPBACK_ANY]
+    assert get(later, "connect/endpoints") == [DEFAULT_HUB]
+    assert get(later, "connect/timeout_ms") == 2000
+
+
+def test_the_options_replace_the_default_endpoints() -> None:
+    parser = argparse.ArgumentParser()
+    add_session_arguments(parser)
+    args = parser.parse_args(
+        ["--connect", "tcp/10.0.0.2:7447", "--listen", "tcp/0.0.0.0:7448", "--namespace", "acme/a"]
+    )
+    opts = session_options(args)
+    config = build_config(opts)
+    assert get(config, "connect/endpoints") == ["tcp/10.0.0.2:7447"]
+    assert get(config, "listen/endpoints") == ["tcp/0.0.0.0:7448"]
+    assert opts.namespace == "acme/a"
+
+
+def test_a_config_file_is_used_and_multicast_stays_off_unless_it_says(tmp_path: Path) -> None:
+    file = tmp_path / "z.json5"
+    file.write_text('{mode: "client", connect: {endpoints: ["tcp/127.0.0.1:1"]}, // router\n}')
+    config = build_config(SessionOptions(config_file=str(file)))
+    assert get(config, "mode") == "client"
+    assert get(config, "connect/endpoints") == ["tcp/127.0.0.1:1"]
+    assert get(config, "scouting/multicast/enabled") is False
+    file.write_text("{scouting: {multicast: {enabled: true}}}")
+    assert get(build_config(SessionOptions(config_file=str(file))), "scouting/multicast/enabled")
+
+
+@pytest.mark.parametrize(
+    ("opts", "says"),
+    [
+        (SessionOptions(config_file="/nonexistent/z.json5"), "--zenoh-config /nonexistent"),
+        (SessionOptions(connect=("carrier-pigeon/home",)), "Zenoh"),
+    ],
+)
+def test_bad_options_are_one_line(opts: SessionOptions, says: str) -> None:
+    with pytest.raises(NetworkError, match=says) as info:
+        open_session(opts)
+    assert "\n" not in str(info.value) and ".rs:" not in str(info.value)
+
+
+def test_bad_config_file_and_namespace(tmp_path: Path) -> None:
+    file = tmp_path / "z.json5"
+    file.write_text("{mode: ")
+    with pytest.raises(NetworkError, match="not a valid Zenoh config"):
+        build_config(SessionOptions(config_file=str(file)))
+    with pytest.raises(NetworkError, match="--namespace"):
+        SessionOptions(namespace="a/*")
+
+
+def test_a_client_that_reaches_no_router_fails_in_time(tmp_path: Path) -> None:
+    file = tmp_path / "z.json5"
+    file.write_text(f'{{mode: "client", connect: {{endpoints: ["tcp/127.0.0.1:{free_port()}"]}}}}')
+    with pytest.raises(NetworkError, match="cannot open the Zenoh session"):
+        open_session(SessionOptions(config_file=str(file), timeout=0.3))
+
+
+def test_two_sessions_on_explicit_loopback_endpoints_talk() -> None:
+    port = free_port()
+    a = open_session(SessionOptions(listen=(f"tcp/127.0.0.1:{port}",)))
+    b = open_session(SessionOptions(connect=(f"tcp/127.0.0.1:{port}",)))
+    try:
+        a.declare_queryable("t/q", lambda q: q.reply(q.key_expr, b"pong"))
+        replies = []
+        for _ in range(50):
+            replies = [r.ok.payload.to_bytes() for r in b.get("t/q", timeout=0.5) if r.ok]
+            if replies:
+                break
+        assert replies == [b"pong"]
+    finally:
+        b.close()
+        a.close()

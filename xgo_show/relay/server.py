@@ -1,0 +1,504 @@
+"""The relay: owns local robots, announces itself on Zenoh, plays uploaded schedules on time.
+
+A :class:`Relay` serves, under ``NS/relay/NAME/`` (:mod:`xgo_show.net.keys`):
+
+- a liveliness token ``alive``;
+- ``info``: its description (robots with model, firmware, battery and state; who holds it);
+- ``cmd``: the commands of :mod:`xgo_show.net.messages`, answered one at a time by a worker
+  thread (a slow pre-flight never delays heartbeats, which are answered at once).
+
+One conductor at a time holds the relay (``hello``); any other is refused with the holder's
+name. An upload is validated (:func:`~xgo_show.relay.validate.validate_upload`), then every
+robot in it is checked (:func:`~xgo_show.runtime.preflight.preflight`). ``start`` arms the show
+at a time on the relay's own clock; the show then runs in a
+:class:`~xgo_show.runtime.show_runner.ShowRunner` over the relay's open ports (the same executor
+as a local ``xgo-show run``), so frames never cross the network during a show.
+
+Watchdog: a conductor that has not been heard for its ``watchdog_ms`` (500 ms by default) is
+gone. A show in progress then gets the upload's link-loss policy: ``stop`` safe-stops every
+robot, ``continue`` plays the uploaded show to its end. Either way the relay is released once
+no show runs. Between shows nothing is sent; :meth:`Relay.close` (Ctrl-C) safe-stops.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import queue
+import threading
+import uuid
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from xgo_show.compiler.schedule import Schedule
+from xgo_show.errors import XgoShowError
+from xgo_show.net import messages as msg
+from xgo_show.net.keys import check_relay_name, relay_key
+from xgo_show.relay.robots import OwnedRobot
+from xgo_show.relay.validate import validate_upload
+from xgo_show.runtime.clock import Clock, MonotonicClock
+from xgo_show.runtime.preflight import preflight
+from xgo_show.runtime.runlog import RunLog
+from xgo_show.runtime.show_runner import ShowResult, ShowRunner
+
+if TYPE_CHECKING:
+    import zenoh
+
+__all__ = ["DEFAULT_WATCHDOG_MS", "Relay", "RelayState"]
+
+DEFAULT_WATCHDOG_MS = 500
+#: Seconds between two checks of the watchdog.
+_WATCH_INTERVAL = 0.01
+
+
+class RelayState:
+    """The relay's show states (plain strings in messages)."""
+
+    IDLE = "idle"  # no show uploaded
+    LOADED = "loaded"  # a show uploaded and checked
+    ARMED = "armed"  # a start time set
+    RUNNING = "running"
+    ENDED = "ended"  # the last show is over (see "last")
+
+
+@dataclass
+class _Holder:
+    conductor: msg.Conductor
+    heard: float  # relay clock
+    watchdog: float = DEFAULT_WATCHDOG_MS / 1000
+
+
+@dataclass
+class _Show:
+    schedule: Schedule
+    sha256: str
+    link_loss: str
+    preflight_ok: bool
+    runner: ShowRunner | None = None
+    thread: threading.Thread | None = None
+    start_at: float | None = None
+    offset: float = 0.0
+    link_lost: bool = False
+
+
+class Relay:
+    """A relay over an open Zenoh ``session`` for ``robots`` (see the module docstring).
+
+    Keyword options: ``namespace``, ``clock`` (the relay's timebase; tests give a skewed one),
+    ``allow_unsafe``, ``log`` (a :class:`RunLog`), ``telemetry`` (poll robots during shows).
+    Use as a context manager, or call :meth:`start` and :meth:`close`.
+    """
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        name: str,
+        robots: Mapping[str, OwnedRobot],
+        *,
+        namespace: str = "xgo-show",
+        clock: Clock | None = None,
+        allow_unsafe: bool = False,
+        log: RunLog | None = None,
+        telemetry: bool = True,
+    ) -> None:
+        self.session = session
+        self.name = check_relay_name(name)
+        self.robots = dict(robots)
+        self.namespace = namespace
+        self.clock: Clock = clock if clock is not None else MonotonicClock()
+        self.allow_unsafe = allow_unsafe
+        self.log = log if log is not None else RunLog(None, keep=False)
+        self.telemetry = telemetry
+        self.instance = uuid.uuid4().hex[:12]  # tells a restarted relay from the old one
+        self._lock = threading.RLock()
+        self._holder: _Holder | None = None
+        self._show: _Show | None = None
+        self._last: dict[str, Any] | None = None
+        self._work: queue.Queue[zenoh.Query | None] = queue.Queue()
+        self._closed = threading.Event()
+        self._threads: list[threading.Thread] = []
+        self._declared: list[Any] = []
+
+    # ------------------------------------------------------------------ life cycle
+
+    def start(self) -> Relay:
+        """Declare the queryables and the liveliness token; start the worker and watchdog."""
+        s = self.session
+        ns, name = self.namespace, self.name
+        self._declared = [
+            s.declare_queryable(relay_key(ns, name, "cmd"), self._on_command),
+            s.declare_queryable(relay_key(ns, name, "info"), self._on_info),
+            s.liveliness().declare_token(relay_key(ns, name, "alive")),
+        ]
+        for target, what in ((self._serve, "commands"), (self._watch, "watchdog")):
+            th = threading.Thread(target=target, name=f"relay {what}", daemon=True)
+            th.start()
+            self._threads.append(th)
+        self.log.event("relay_start", relay=name, robots=list(self.robots), instance=self.instance)
+        return self
+
+    def close(self, reason: str = "relay closed") -> None:
+        """Safe-stop every robot, withdraw from Zenoh, stop the threads (ports stay open)."""
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        for entity in reversed(self._declared):
+            with contextlib.suppress(Exception):
+                entity.undeclare()
+        self._work.put(None)
+        self.stop_show(reason)
+        for th in self._threads:
+            th.join(2.0)
+        self.log.event("relay_stop", relay=self.name, reason=reason)
+
+    def __enter__(self) -> Relay:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ description
+
+    def describe(self) -> dict[str, Any]:
+        """The relay's description (``info`` and the ``hello`` reply)."""
+        with self._lock:
+            holder = self._holder.conductor.to_json() if self._holder else None
+            state = self._state()
+            states = self._robot_states()
+            return {
+                "v": msg.PROTOCOL_VERSION,
+                "relay": self.name,
+                "instance": self.instance,
+                "relay_time": self.clock.now(),
+                "allow_unsafe": self.allow_unsafe,
+                "holder": holder,
+                "state": state,
+                "last": self._last,
+                "robots": [r.describe(states.get(n, "idle")) for n, r in self.robots.items()],
+            }
+
+    def _state(self) -> str:
+        show = self._show
+        if show is None:
+            return RelayState.ENDED if self._last is not None else RelayState.IDLE
+        if show.thread is None:
+            return RelayState.ARMED if show.start_at is not None else RelayState.LOADED
+        return RelayState.RUNNING
+
+    def _robot_states(self) -> dict[str, str]:
+        show = self._show
+        if show is None or show.runner is None:
+            return {}
+        return {n: ex.state.value for n, ex in show.runner.executors.items()}
+
+    # ------------------------------------------------------------------ Zenoh callbacks
+
+    def _on_info(self, query: zenoh.Query) -> None:
+        query.reply(query.key_expr, msg.encode(self.describe()))
+
+    def _on_command(self, query: zenoh.Query) -> None:
+        # Heartbeats are answered here, at once; everything else by the worker, in order.
+        payload = query.payload
+        data = b"" if payload is None else payload.to_bytes()
+        if len(data) < 1024 and b'"heartbeat"' in data:
+            self._reply(query, data)
+            return
+        self._work.put(query)
+
+    def _serve(self) -> None:
+        while True:
+            query = self._work.get()
+            if query is None:
+                return
+            payload = query.payload
+            self._reply(query, b"" if payload is None else payload.to_bytes())
+
+    def _reply(self, query: zenoh.Query, data: bytes) -> None:
+        seq = -1
+        try:
+            request = msg.decode_request(data)
+            seq = request.seq
+            fields = self.handle(request)
+            out: dict[str, Any] = {
+                "v": msg.PROTOCOL_VERSION,
+                "seq": seq,
+                "ok": True,
+                "error": None,
+                "relay": self.name,
+                "relay_time": self.clock.now(),
+                **fields,
+            }
+        except XgoShowError as exc:
+            out = msg.error_reply(self.name, self.clock.now(), seq, str(exc))
+        except Exception as exc:  # a bug must not kill the relay: say it, keep serving
+            out = msg.error_reply(self.name, self.clock.now(), seq, f"internal error: {exc!r}")
+            self.log.event("internal_error", error=repr(exc))
+        try:
+            query.reply(query.key_expr, msg.encode(out))
+        finally:
+            query.drop()  # type: ignore[no-untyped-call]  # the stub lacks a return type
+
+    # ------------------------------------------------------------------ commands
+
+    def handle(self, request: msg.Request) -> dict[str, Any]:
+        """Carry out one command; return the reply's own fields (raise to refuse it)."""
+        with self._lock:
+            now = self.clock.now()
+            holder = self._holder
+            if holder is None or holder.conductor.id != request.conductor.id:
+                if request.op != "hello":
+                    raise XgoShowError(self._not_holder(request))
+                if holder is not None:
+                    raise XgoShowError(self._held_by(holder))
+                self._holder = _Holder(request.conductor, now)
+                self.log.event("hello", conductor=request.conductor.name)
+                return {"description": self.describe()}
+            holder.heard = now
+            op = request.op
+            if op == "hello":
+                return {"description": self.describe()}
+            if op == "heartbeat":
+                return {"show": self._show_status()}
+            if op == "release":
+                self._release("released by the conductor")
+                return {}
+        # The slow ones run outside the lock, so heartbeats keep being answered.
+        if op == "upload":
+            return self._upload(request)
+        if op == "start":
+            return self._start(request)
+        if op in ("pause", "resume"):
+            return self._pause_resume(op, request.maybe_number("at"))
+        if op == "stop":
+            return {"stops": self.stop_show(request.text("reason"))}
+        if op == "probe":
+            return {"rows": self._probe(request.text("performer"))}
+        raise XgoShowError(f"{op}: not supported by this relay")
+
+    def _held_by(self, holder: _Holder) -> str:
+        return (
+            f"relay {self.name} is held by conductor {holder.conductor.name!r} "
+            f"(id {holder.conductor.id}); it serves one conductor at a time"
+        )
+
+    def _not_holder(self, request: msg.Request) -> str:
+        if self._holder is None:
+            return f"{request.op}: this conductor does not hold relay {self.name}; send hello first"
+        return f"{request.op}: {self._held_by(self._holder)}"
+
+    def _release(self, why: str) -> None:
+        if self._holder is not None:
+            self.log.event("release", conductor=self._holder.conductor.name, reason=why)
+        self._holder = None
+        if self._show is not None and self._show.thread is None:
+            self._show = None  # an armed or loaded show never starts without its conductor
+
+    def _busy(self) -> bool:
+        show = self._show
+        return show is not None and show.thread is not None and show.thread.is_alive()
+
+    def _upload(self, request: msg.Request) -> dict[str, Any]:
+        if self._busy():
+            raise XgoShowError("a show is running on this relay; stop it before uploading")
+        schedule, unsafe = validate_upload(
+            request.text("schedule"),
+            request.text("sha256"),
+            self.robots,
+            allow_unsafe=self.allow_unsafe,
+        )
+        transports = {p.name: self.robots[p.name].transport for p in schedule.performers}
+        urls = {n: self.robots[n].url for n in transports}
+        report = preflight(
+            schedule, transports, urls=urls, battery_floor=request.maybe_number("battery_floor")
+        )
+        for row in report.rows:
+            robot = self.robots[row.performer]
+            robot.firmware = row.firmware or robot.firmware
+            robot.battery = row.battery if row.battery is not None else robot.battery
+            robot.voltage = row.voltage if row.voltage is not None else robot.voltage
+        with self._lock:
+            if self._holder is not None:
+                self._holder.watchdog = request.whole("watchdog_ms") / 1000
+            self._show = _Show(
+                schedule, request.text("sha256"), request.text("link_loss"), report.ok
+            )
+            self._last = None
+        self.log.event(
+            "upload",
+            show=schedule.name,
+            sha256=request.text("sha256"),
+            performers=[p.name for p in schedule.performers],
+            preflight_ok=report.ok,
+            unsafe_allowed=unsafe,
+        )
+        return {
+            "sha256": request.text("sha256"),
+            "preflight_ok": report.ok,
+            "preflight": [
+                {
+                    "performer": r.performer,
+                    "model": r.model,
+                    "port": r.port,
+                    "opened": r.opened,
+                    "firmware": r.firmware,
+                    "detected": r.detected,
+                    "battery": r.battery,
+                    "voltage": r.voltage,
+                    "low_latency": r.low_latency,
+                    "problems": r.problems,
+                    "notes": r.notes,
+                }
+                for r in report.rows
+            ],
+        }
+
+    def _start(self, request: msg.Request) -> dict[str, Any]:
+        sha = request.text("sha256")
+        start_at = request.number("start_at")
+        offset = request.number("offset")
+        with self._lock:
+            show = self._show
+            if show is None or show.sha256 != sha:
+                raise XgoShowError(f"start: no uploaded show with SHA-256 {sha[:12]}...")
+            if show.thread is not None:
+                raise XgoShowError("start: this show has already started")
+            if not 0 <= offset < show.schedule.duration:
+                raise XgoShowError(f"start: offset {offset:g} s is outside the show")
+            now = self.clock.now()
+            if start_at <= now:
+                raise XgoShowError(
+                    f"start: the start time passed {(now - start_at) * 1e3:.1f} ms ago "
+                    "(give a longer lead time)"
+                )
+            runner = ShowRunner(
+                show.schedule,
+                {p.name: self.robots[p.name].transport for p in show.schedule.performers},
+                clock=self.clock,
+                telemetry=self.telemetry,
+                allow_unsafe=self.allow_unsafe,
+                log=self.log,
+            )
+            show.runner, show.start_at, show.offset = runner, start_at, offset
+            show.thread = threading.Thread(
+                target=self._play, args=(show,), name="relay show", daemon=True
+            )
+            show.thread.start()
+        return {"start_at": start_at}
+
+    def _play(self, show: _Show) -> None:
+        runner = show.runner
+        assert runner is not None and show.start_at is not None
+        lead = show.start_at - self.clock.now()
+        try:
+            result = runner.run(offset=show.offset, lead=max(lead, 0.0), handle_signals=False)
+        except Exception as exc:  # the runner has safe-stopped every robot already
+            result = ShowResult(False, f"exception: {exc!r}")
+        with self._lock:
+            self._last = {
+                "sha256": show.sha256,
+                "completed": result.completed,
+                "reason": result.reason,
+                "faults": dict(result.faults),
+                "link_lost": show.link_lost,
+                "stops": {n: s.ok for n, s in result.stops.items()},
+                "stop_latency_ms": (
+                    None if result.stop_latency is None else round(result.stop_latency * 1e3, 3)
+                ),
+            }
+            if self._show is show:
+                self._show = None
+
+    def _pause_resume(self, op: str, at: float | None) -> dict[str, Any]:
+        with self._lock:
+            show = self._show
+            if show is None or show.runner is None:
+                raise XgoShowError(f"{op}: no show is running")
+            runner = show.runner
+        when = self.clock.now() if at is None else at
+        action = runner.pause if op == "pause" else runner.resume
+
+        def later() -> None:
+            if self.clock.sleep_until(when, self._closed):
+                action()
+
+        if when <= self.clock.now():
+            action()
+        else:
+            threading.Thread(target=later, name=f"relay {op}", daemon=True).start()
+        return {"at": when}
+
+    def stop_show(self, reason: str) -> dict[str, bool]:
+        """Safe-stop every robot now, whatever runs; return per robot whether it worked."""
+        with self._lock:
+            show = self._show
+        if show is not None and show.runner is not None and show.thread is not None:
+            show.runner.stop(reason)
+            show.thread.join(1.0)
+            return {n: s.ok for n, s in (show.runner.result or ShowResult(False, "")).stops.items()}
+        with self._lock:
+            self._show = None
+            out = {}
+            for name, robot in self.robots.items():
+                error = robot.safe_stop()
+                out[name] = not error
+            self.log.event("safe_stop", relay=self.name, reason=reason, ok=out)
+            return out
+
+    def _probe(self, performer: str) -> list[list[str]]:
+        robot = self.robots.get(performer)
+        if robot is None:
+            raise XgoShowError(f"probe: no robot {performer!r} on relay {self.name}")
+        if self._busy():
+            raise XgoShowError(f"probe: a show is running on relay {self.name}")
+        from xgo_show.families import get_family
+
+        rows = get_family(robot.profile).probe(robot.client(), given=robot.model)
+        return [[k, v] for k, v in rows]
+
+    def _show_status(self) -> dict[str, Any]:
+        show = self._show
+        status: dict[str, Any] = {"state": self._state(), "last": self._last}
+        if show is not None and show.runner is not None:
+            snap = show.runner.snapshot()
+            status["show_time"] = snap.show_time
+            status["performers"] = {
+                p.performer: {
+                    "state": p.state.value,
+                    "show_time": p.show_time,
+                    "sent": p.sent,
+                    "total": p.total,
+                    "cue": p.cue,
+                    "fault": show.runner.executors[p.performer].fault,
+                }
+                for p in snap.performers
+            }
+        return status
+
+    # ------------------------------------------------------------------ watchdog
+
+    def _watch(self) -> None:
+        while not self._closed.wait(_WATCH_INTERVAL):
+            with self._lock:
+                holder = self._holder
+                if holder is None:
+                    continue
+                silent = self.clock.now() - holder.heard
+                if silent <= holder.watchdog:
+                    continue
+                show = self._show
+                running = show is not None and show.thread is not None
+                name = holder.conductor.name
+                self.log.event(
+                    "link_lost",
+                    conductor=name,
+                    silent_ms=round(silent * 1e3, 3),
+                    policy=show.link_loss if running and show is not None else None,
+                )
+                if not running or show is None:
+                    self._release(f"conductor silent for {silent * 1e3:.0f} ms")
+                    continue
+                show.link_lost = True
+                self._holder = None
+                policy = show.link_loss
+            if policy == "stop":
+                self.stop_show(f"link lost: conductor {name} silent for {silent * 1e3:.0f} ms")
