@@ -37,6 +37,8 @@ from xgo_show.net.keys import check_relay_name, relay_key
 from xgo_show.relay.robots import OwnedRobot
 from xgo_show.relay.validate import validate_upload
 from xgo_show.runtime.clock import Clock, MonotonicClock
+from xgo_show.runtime.events import EventBus
+from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.preflight import preflight
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
@@ -108,6 +110,9 @@ class Relay:
         self.clock: Clock = clock if clock is not None else MonotonicClock()
         self.allow_unsafe = allow_unsafe
         self.log = log if log is not None else RunLog(None, keep=False)
+        #: every show's runtime events (frames, faults, safe stops); the run log listens
+        self.events = EventBus()
+        self._log_sub = self.log.attach(self.events)
         self.telemetry = telemetry
         self.instance = uuid.uuid4().hex[:12]  # tells a restarted relay from the old one
         self._lock = threading.RLock()
@@ -150,6 +155,7 @@ class Relay:
         for th in self._threads:
             th.join(2.0)
         self.log.event("relay_stop", relay=self.name, reason=reason)
+        self._log_sub.close()
 
     def __enter__(self) -> Relay:
         return self.start()
@@ -189,7 +195,7 @@ class Relay:
         show = self._show
         if show is None or show.runner is None:
             return {}
-        return {n: ex.state.value for n, ex in show.runner.executors.items()}
+        return {n: p.state.value for n, p in show.runner.performers.items()}
 
     # ------------------------------------------------------------------ Zenoh callbacks
 
@@ -267,8 +273,8 @@ class Relay:
             return self._upload(request)
         if op == "start":
             return self._start(request)
-        if op in ("pause", "resume"):
-            return self._pause_resume(op, request.maybe_number("at"))
+        if op in ("pause", "resume", "seek"):
+            return self._timed(op, request)
         if op == "stop":
             return {"stops": self.stop_show(request.text("reason"))}
         if op == "probe":
@@ -370,13 +376,13 @@ class Relay:
                     f"start: the start time passed {(now - start_at) * 1e3:.1f} ms ago "
                     "(give a longer lead time)"
                 )
-            runner = ShowRunner(
+            runner = local_runner(
                 show.schedule,
                 {p.name: self.robots[p.name].transport for p in show.schedule.performers},
                 clock=self.clock,
+                events=self.events,
                 telemetry=self.telemetry,
                 allow_unsafe=self.allow_unsafe,
-                log=self.log,
             )
             show.runner, show.start_at, show.offset = runner, start_at, offset
             show.thread = threading.Thread(
@@ -388,9 +394,10 @@ class Relay:
     def _play(self, show: _Show) -> None:
         runner = show.runner
         assert runner is not None and show.start_at is not None
-        lead = show.start_at - self.clock.now()
         try:
-            result = runner.run(offset=show.offset, lead=max(lead, 0.0), handle_signals=False)
+            result = runner.run(
+                offset=show.offset, lead=0.0, start_at=show.start_at, handle_signals=False
+            )
         except Exception as exc:  # the runner has safe-stopped every robot already
             result = ShowResult(False, f"exception: {exc!r}")
         with self._lock:
@@ -408,23 +415,21 @@ class Relay:
             if self._show is show:
                 self._show = None
 
-    def _pause_resume(self, op: str, at: float | None) -> dict[str, Any]:
+    def _timed(self, op: str, request: msg.Request) -> dict[str, Any]:
+        """pause, resume or seek at a time on the show clock (the executors act on it)."""
         with self._lock:
             show = self._show
             if show is None or show.runner is None:
                 raise XgoShowError(f"{op}: no show is running")
             runner = show.runner
+        at = request.maybe_number("at")
         when = self.clock.now() if at is None else at
-        action = runner.pause if op == "pause" else runner.resume
-
-        def later() -> None:
-            if self.clock.sleep_until(when, self._closed):
-                action()
-
-        if when <= self.clock.now():
-            action()
+        if op == "pause":
+            runner.pause(at=when)
+        elif op == "resume":
+            runner.resume(at=when)
         else:
-            threading.Thread(target=later, name=f"relay {op}", daemon=True).start()
+            runner.seek(request.number("show_time"), at=when)
         return {"at": when}
 
     def stop_show(self, reason: str) -> dict[str, bool]:
@@ -468,7 +473,7 @@ class Relay:
                     "sent": p.sent,
                     "total": p.total,
                     "cue": p.cue,
-                    "fault": show.runner.executors[p.performer].fault,
+                    "fault": show.runner.performers[p.performer].fault,
                 }
                 for p in snap.performers
             }
