@@ -14,6 +14,7 @@ from xgo_show.cli.run import (
     add_common_arguments,
     check_options,
     load_schedule_file,
+    parse_maps,
     play,
     play_options,
 )
@@ -57,4 +58,5 @@ def run(args: argparse.Namespace) -> int:
         from xgo_show.compiler import plot_schedule
 
         print(f"schedule plot written to {plot_schedule(schedule, args.plot)}")
-    return play(schedule, play_options(args, schedule, sim=True, fast=args.fast))
+    maps = parse_maps(schedule, args.map)
+    return play(schedule, play_options(args, schedule, maps=maps, sim=True, fast=args.fast))

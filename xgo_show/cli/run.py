@@ -24,6 +24,12 @@ from xgo_show.cli.live import LiveView
 from xgo_show.compiler.artifact import is_schedule_file
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import RuntimeFault, XgoShowError
+from xgo_show.relay.options import (
+    ConductorOptions,
+    close_session,
+    conductor_options,
+    use_relays,
+)
 from xgo_show.runtime.clock import FakeClock, MonotonicClock
 from xgo_show.runtime.events import ProgressTick
 from xgo_show.runtime.launch import Launch
@@ -68,13 +74,6 @@ def add_parser(sub: Any) -> None:
         ),
     )
     parser.add_argument(
-        "--map",
-        action="append",
-        default=[],
-        metavar="NAME=PORT",
-        help="port or URL of a performer (repeatable); overrides the show file and --sim",
-    )
-    parser.add_argument(
         "--sim",
         action="store_true",
         help="run every performer on a simulated robot served on its own pseudo-terminal",
@@ -109,6 +108,14 @@ def add_parser(sub: Any) -> None:
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments shared by ``run`` and ``dry-run`` (:func:`play_options` reads them)."""
     parser.add_argument("show", metavar="SHOW", help="SHOW.yaml or SCHEDULE.xshow.json")
+    parser.add_argument(
+        "--map",
+        action="append",
+        default=[],
+        metavar="NAME=PORT",
+        help="port or URL of a performer (repeatable); overrides the show file and --sim; "
+        "zenoh:RELAY/ROBOT plays it on a robot behind an xgo-show relay",
+    )
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
         "--start", type=float, metavar="SECONDS", help="start mid-show at this show time"
@@ -168,6 +175,9 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="TC",
         help="the timecode of show time 0, HH:MM:SS:FF or seconds (default 0)",
     )
+    from xgo_show.relay.options import add_conductor_arguments
+
+    add_conductor_arguments(parser)
 
 
 def check_options(args: argparse.Namespace) -> None:
@@ -258,6 +268,7 @@ class PlayOptions:
     chase_policy: str = "hold"
     timecode_origin: float = 0.0
     latency: list[str] = field(default_factory=list)  # NAME=MS, checked by play()
+    relays: ConductorOptions | None = None  # how to reach relays (zenoh: performers)
 
 
 def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> PlayOptions:
@@ -274,6 +285,7 @@ def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> Pl
         chase_policy=args.chase_policy,
         timecode_origin=parse_timecode(args.timecode_origin),
         latency=args.latency,
+        relays=conductor_options(args),
         **own,
     )
 
@@ -286,6 +298,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
     music = prepare_music(schedule, enabled=opts.music, fast=opts.fast, device=opts.audio_device)
     outputs = [p.name for p in schedule.performers] + ([music.name] if music.build else [])
     latency = parse_latency(opts.latency, outputs)
+    relayed = use_relays(opts.maps, opts.relays, fast=opts.fast)
     # The launch refuses unsafe writes before anything opens (no log, no simulator, no port).
     launch = Launch(
         schedule,
@@ -296,8 +309,11 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
         telemetry=opts.telemetry and not opts.fast,
         extra_performers=[music.build] if music.build else [],
         latency=latency,
+        **relayed,
     )
     with contextlib.ExitStack() as stack:
+        if relayed:
+            stack.callback(close_session)
         log = stack.enter_context(RunLog(opts.log, keep=False))  # memory: nothing kept
         sims = stack.enter_context(SimBench(schedule, sim_names)) if sim_names else None
         if sims is not None:

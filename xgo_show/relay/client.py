@@ -11,6 +11,7 @@ open) is noticed after ``watchdog`` seconds of silence, not after Zenoh's lease.
 
 from __future__ import annotations
 
+import contextlib
 import getpass
 import json
 import os
@@ -159,6 +160,13 @@ class RelayClient:
     def start(self, sha256: str, start_at: float, offset: float = 0.0) -> None:
         """Start the uploaded show at ``start_at`` on the RELAY's clock."""
         self.request("start", sha256=sha256, start_at=start_at, offset=offset)
+
+    def release(self) -> None:
+        """Stop the heartbeats and give the relay up (quietly if it is gone already)."""
+        self.stop_heartbeat()
+        # A relay that does not answer lets go after its watchdog anyway.
+        with contextlib.suppress(NetworkError):
+            self.request("release", timeout=min(self.timeout, 1.0))
 
     def command(self, op: str, **fields: Any) -> dict[str, Any]:
         """Any other command (pause, resume, seek, stop, probe, release): its reply's fields."""

@@ -1,0 +1,168 @@
+"""``xgo-show run``/``dry-run`` with performers behind relay processes (``zenoh:RELAY/ROBOT``)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from xgo_show.compiler.artifact import save_schedule
+
+
+def conduct(show_file: Path, *args: str, relay=None) -> subprocess.Popen[str]:  # type: ignore[no-untyped-def]
+    """Start ``xgo-show run SHOW ...`` connected to ``relay`` (no countdown)."""
+    cmd = [sys.executable, "-m", "xgo_show", "run", str(show_file), "--countdown", "0", *args]
+    if relay is not None:
+        cmd += ["--connect", relay.endpoint, "--listen", "tcp/127.0.0.1:0"]
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def test_dry_run_mixes_a_relayed_robot_with_a_local_one_in_one_table(
+    relays, walk, tmp_path: Path
+) -> None:
+    left = relays.start("left", {"dog": "mini"})
+    show = walk(0.6, rex="mini", lola="lite")
+    save_schedule(show, tmp_path / "walk.xshow.json")
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "xgo_show",
+            "dry-run",
+            str(tmp_path / "walk.xshow.json"),
+            "--map",
+            "rex=zenoh:left/dog",
+            "--connect",
+            left.endpoint,
+            "--listen",
+            "tcp/127.0.0.1:0",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 0, out.stdout + out.stderr
+    table = out.stdout.split("battery floor")[0]
+    assert "zenoh:left/dog" in table and "via relay left" in table and "lola" in table
+    sent = [f.data for f in show.performer("rex").frames]
+    assert [d for d in left.received("dog") if d in sent] == sent
+
+
+def test_a_held_relay_fails_the_preflight_with_the_holders_name(
+    relays, conductor_session, walk, tmp_path: Path
+) -> None:
+    from xgo_show.relay.client import RelayClient, new_conductor
+
+    left = relays.start("left", {"rex": "mini"})
+    holder = RelayClient(conductor_session(left), "left", conductor=new_conductor("alice@desk"))
+    deadline = time.monotonic() + 5
+    while True:
+        try:
+            holder.hello()
+            break
+        except Exception:
+            assert time.monotonic() < deadline
+            time.sleep(0.05)
+    holder.start_heartbeat(period=0.05, watchdog=0.5)
+    save_schedule(walk(0.3, rex="mini"), tmp_path / "s.xshow.json")
+    proc = conduct(tmp_path / "s.xshow.json", "--map", "rex=zenoh:left/rex", relay=left)
+    stdout, stderr = proc.communicate(timeout=60)
+    holder.stop_heartbeat()
+    assert proc.returncode == 2
+    assert "held by conductor 'alice@desk'" in stdout
+    assert "pre-flight failed" in stderr and "Traceback" not in stderr
+
+
+def test_fast_is_refused_with_relays(walk, tmp_path: Path) -> None:
+    save_schedule(walk(0.3, rex="mini"), tmp_path / "s.xshow.json")
+    out = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "xgo_show",
+            "dry-run",
+            str(tmp_path / "s.xshow.json"),
+            "--fast",
+            "--map",
+            "rex=zenoh:left/rex",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert out.returncode == 2 and "--fast cannot drive relayed performers" in out.stderr
+
+
+@pytest.mark.parametrize("policy", ["stop", "continue"])
+def test_a_conductor_killed_mid_show_leaves_the_robots_safe(
+    relays, walk, until, tmp_path: Path, policy: str
+) -> None:
+    left = relays.start("left", {"rex": "mini"})
+    show = walk(2.0, rex="mini")
+    save_schedule(show, tmp_path / "s.xshow.json")
+    proc = conduct(
+        tmp_path / "s.xshow.json",
+        "--map",
+        "rex=zenoh:left/rex",
+        "--link-loss",
+        policy,
+        "--watchdog-ms",
+        "300",
+        relay=left,
+    )
+    first = show.performer("rex").frames[3].data
+    until(lambda: first in left.received("rex"), 20)
+    os.kill(proc.pid, signal.SIGKILL)
+    killed = time.monotonic()
+    proc.communicate(timeout=10)
+    if policy == "stop":
+        stopped = until(lambda: bool(left.stop_times("rex")), 3)
+        assert stopped - killed < 0.3 + 0.2  # the watchdog, one check and the stop frames
+    else:
+        sent = [f.data for f in show.performer("rex").frames]
+        until(lambda: [d for d in left.received("rex") if d in sent] == sent, 5)
+        assert not left.stop_times("rex")
+
+
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGSTOP])
+def test_a_lost_relay_stops_the_whole_show_within_the_watchdog(
+    relays, walk, until, tmp_path: Path, sig: int
+) -> None:
+    left = relays.start("left", {"rex": "mini"})
+    show = walk(3.0, rex="mini", lola="lite")
+    save_schedule(show, tmp_path / "s.xshow.json")
+    log = tmp_path / "run.jsonl"
+    proc = conduct(
+        tmp_path / "s.xshow.json",
+        "--map",
+        "rex=zenoh:left/rex",
+        "--sim",
+        "--watchdog-ms",
+        "300",
+        "--log",
+        str(log),
+        relay=left,
+    )
+    until(lambda: show.performer("rex").frames[3].data in left.received("rex"), 20)
+    left.kill(sig)
+    lost_at = time.monotonic()
+    stdout, stderr = proc.communicate(timeout=20)
+    ended = time.monotonic()
+    assert proc.returncode == 2, stdout + stderr
+    assert "relay left lost" in stderr + stdout
+    assert ended - lost_at < 3.0  # stopped well before the show's end
+    from xgo_show.runtime.runlog import read_log
+
+    events = [r for r in read_log(log) if r.get("kind") == "event"]
+    faults = [e for e in events if e.get("event") == "fault" and "relay left lost" in e["reason"]]
+    stops = [e for e in events if e.get("event") == "safe_stop" and e.get("performer") == "lola"]
+    assert faults and stops and stops[0]["ok"]
+    assert stops[0]["mono"] - faults[0]["mono"] < 0.2
+    if sig == signal.SIGSTOP:
+        left.proc.send_signal(signal.SIGCONT)  # its own watchdog then stops its robot
+        until(lambda: bool(left.stop_times("rex")), 3)

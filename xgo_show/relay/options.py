@@ -1,0 +1,103 @@
+"""The conductor's relay options on ``run`` and ``dry-run`` (light: imports no Zenoh).
+
+``--map NAME=zenoh:RELAY/ROBOT`` plays a performer on a robot behind an ``xgo-show relay``;
+these options say how to reach relays (Zenoh's own ``--connect``/``--listen``/
+``--zenoh-config``, ``--namespace``) and what a relay does when it loses this conductor
+(``--link-loss stop|continue`` after ``--watchdog-ms`` of silence).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from xgo_show.errors import XgoShowError
+from xgo_show.net.session import SessionOptions, add_session_arguments, session_options
+
+__all__ = [
+    "ConductorOptions",
+    "add_conductor_arguments",
+    "close_session",
+    "conductor_options",
+    "use_relays",
+]
+
+#: Seconds a relay's safe stop may take, answer included (a local port's is 0.1).
+RELAY_STOP_TIMEOUT = 0.5
+
+
+@dataclass(frozen=True)
+class ConductorOptions:
+    """How this process conducts relays: its Zenoh session and the show's link-loss policy."""
+
+    session: SessionOptions = dataclasses.field(default_factory=SessionOptions)
+    link_loss: str = "stop"
+    watchdog: float = 0.5  # seconds of silence before either side gives the other up
+    timeout: float = 3.0  # seconds to wait for a relay's answer to a command
+    name: str | None = None  # the conductor's name for people (default: user@host pid N)
+
+
+def add_conductor_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--link-loss``, ``--watchdog-ms`` and the Zenoh session options."""
+    group = parser.add_argument_group("relays (performers mapped to zenoh:RELAY/ROBOT)")
+    group.add_argument(
+        "--link-loss",
+        choices=("stop", "continue"),
+        default="stop",
+        help="what a relay does when it loses this conductor: safe-stop its robots (default) "
+        "or finish the uploaded show on its own",
+    )
+    group.add_argument(
+        "--watchdog-ms",
+        type=int,
+        default=500,
+        metavar="MS",
+        help="silence after which a relay and this conductor give each other up (default 500)",
+    )
+    add_session_arguments(parser)
+
+
+def conductor_options(args: argparse.Namespace) -> ConductorOptions:
+    """The :class:`ConductorOptions` :func:`add_conductor_arguments` parsed."""
+    if not 50 <= args.watchdog_ms <= 60_000:
+        raise XgoShowError(f"--watchdog-ms {args.watchdog_ms}: give 50 to 60000")
+    return ConductorOptions(
+        session=session_options(args),
+        link_loss=args.link_loss,
+        watchdog=args.watchdog_ms / 1000,
+    )
+
+
+def use_relays(
+    maps: Mapping[str, str], options: ConductorOptions | None, *, fast: bool
+) -> dict[str, Any]:
+    """Set up the ``zenoh:`` performers of ``maps``; return the launch options they need.
+
+    Empty when no performer is relayed. ``--fast`` is refused with relays: a relay plays in
+    real time on its own clock.
+    """
+    relayed = sorted(n for n, url in maps.items() if url.lower().startswith("zenoh:"))
+    if not relayed:
+        return {}
+    if fast:
+        raise XgoShowError(
+            f"--fast cannot drive relayed performers ({', '.join(relayed)}): relays play in "
+            "real time"
+        )
+    from xgo_show.relay.conductor import configure
+    from xgo_show.relay.performer import NETWORK_LEAD
+
+    configure(options if options is not None else ConductorOptions())
+    return {"stop_timeout": RELAY_STOP_TIMEOUT, "command_lead": NETWORK_LEAD}
+
+
+def close_session() -> None:
+    """Close the Zenoh session the relayed performers used (if one was opened)."""
+    import sys
+
+    conductor = sys.modules.get("xgo_show.relay.conductor")
+    if conductor is not None:
+        conductor.close_session()
