@@ -36,6 +36,11 @@ def free_port() -> int:
         return int(sock.getsockname()[1])
 
 
+@pytest.fixture
+def unused_port() -> int:
+    return free_port()
+
+
 @dataclass
 class RelayProcess:
     """One ``xgo-show relay`` process and the simulators it drives."""

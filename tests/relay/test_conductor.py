@@ -48,7 +48,7 @@ def test_dry_run_mixes_a_relayed_robot_with_a_local_one_in_one_table(
     )
     assert out.returncode == 0, out.stdout + out.stderr
     table = out.stdout.split("battery floor")[0]
-    assert "zenoh:left/dog" in table and "via relay left" in table and "lola" in table
+    assert left.servers["dog"].path in table and "via relay left" in table and "lola" in table
     sent = [f.data for f in show.performer("rex").frames]
     assert [d for d in left.received("dog") if d in sent] == sent
 

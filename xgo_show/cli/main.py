@@ -33,6 +33,7 @@ COMMANDS: tuple[str, ...] = (
     "beats",
     "schema",
     "relay",
+    "relays",
 )
 
 

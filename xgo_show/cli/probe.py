@@ -13,6 +13,7 @@ from typing import Any
 from xgo_show.client import DEFAULT_TIMEOUT, open_client
 from xgo_show.errors import XgoShowError
 from xgo_show.families import get_family
+from xgo_show.net.session import add_session_arguments, session_options
 from xgo_show.profiles import MODELS
 
 __all__ = ["add_parser", "format_table", "probe", "run"]
@@ -28,11 +29,17 @@ def add_parser(sub: Any) -> None:
             "servo positions) and print them as a table. PORT is a serial device "
             "(/dev/ttyUSB0, COM3), a pyserial URL (socket://host:port), a simulator "
             "(sim:mini, sim:lite, sim:rider, sim:xarm) or the pty path `xgo-show simulate` "
-            "prints; prefix hex+ to log the traffic."
+            "prints, or zenoh:RELAY/ROBOT for a robot behind an xgo-show relay; prefix hex+ to "
+            "log the traffic."
         ),
-        epilog="example:\n  xgo-show probe /dev/ttyUSB0\n  xgo-show probe sim:rider --timeout 2",
+        epilog=(
+            "example:\n  xgo-show probe /dev/ttyUSB0\n  xgo-show probe sim:rider --timeout 2\n"
+            "  xgo-show probe zenoh:stage-left/rex --connect tcp/192.168.1.20:7447"
+        ),
     )
-    parser.add_argument("port", metavar="PORT", help="serial device, URL or sim:<model>")
+    parser.add_argument(
+        "port", metavar="PORT", help="serial device, URL, sim:<model> or zenoh:RELAY/ROBOT"
+    )
     parser.add_argument(
         "--model",
         choices=sorted(MODELS),
@@ -45,13 +52,19 @@ def add_parser(sub: Any) -> None:
         default=DEFAULT_TIMEOUT,
         help=f"seconds to wait for each reply (default {DEFAULT_TIMEOUT:g})",
     )
+    add_session_arguments(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     if not args.timeout > 0:
         raise XgoShowError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
-    rows = probe(args.port, model=args.model, timeout=args.timeout)
+    if args.port.lower().startswith("zenoh:"):
+        from xgo_show.relay.conductor import probe_relayed
+
+        rows = probe_relayed(args.port, session_options(args), timeout=args.timeout)
+    else:
+        rows = probe(args.port, model=args.model, timeout=args.timeout)
     print(format_table(rows))
     return 0
 

@@ -12,6 +12,9 @@ import re
 import select
 import signal
 import socket
+import sys
+import threading
+import time
 from types import FrameType
 from typing import Any
 
@@ -20,7 +23,10 @@ from xgo_show.relay.robots import close_robots, open_robots, parse_pairs
 from xgo_show.relay.server import Relay
 from xgo_show.runtime.runlog import RunLog
 
-__all__ = ["add_parser", "default_name", "run"]
+__all__ = ["PARENT_DONE", "PARENT_GONE", "add_parser", "default_name", "run"]
+
+PARENT_GONE = "conductor process gone"
+PARENT_DONE = "conductor done"
 
 
 def default_name() -> str:
@@ -78,14 +84,36 @@ def add_parser(sub: Any) -> None:
         action="store_true",
         help="do not poll battery, status and attitude during shows",
     )
+    parser.add_argument(
+        "--realtime",
+        action="store_true",
+        help="run the show's threads under SCHED_FIFO where permitted (see run --realtime)",
+    )
+    # Set by xgo-show run for the relay child that owns its local ports.
     parser.add_argument("--parent-pid", type=int, help=argparse.SUPPRESS)
     add_session_arguments(parser)
     parser.set_defaults(func=run)
 
 
 def _wait_for_signal(parent: int | None) -> str:
-    """Block until SIGINT or SIGTERM (or the parent process is gone); return which."""
+    """Block until SIGINT or SIGTERM (or the parent process is gone); return why.
+
+    A relay started by a conductor (``parent``) also ends when the conductor writes ``done``
+    to the relay's standard input (:data:`PARENT_DONE`), or dies (:data:`PARENT_GONE`: the
+    pipe closes without it, and Linux sends SIGTERM). The handlers stay installed when this
+    returns: a signal that arrives while the relay stops its robots must not kill it halfway.
+    """
     got: list[str] = []
+    if parent is not None:
+
+        def watch_stdin() -> None:
+            for line in sys.stdin.buffer:
+                if line.strip() == b"done":
+                    got.append(PARENT_DONE)  # seen within one select() timeout below
+                    return
+            got.append(PARENT_GONE)
+
+        threading.Thread(target=watch_stdin, name="relay parent pipe", daemon=True).start()
     r, w = os.pipe()
     os.set_blocking(w, False)
 
@@ -93,16 +121,26 @@ def _wait_for_signal(parent: int | None) -> str:
         got.append(signal.Signals(signum).name)
 
     old_fd = signal.set_wakeup_fd(w)
-    saved = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, on_signal)
     try:
         while not got:
             select.select([r], [], [], 0.2)
             if parent is not None and os.getppid() != parent:
-                return "parent process gone"
+                return PARENT_GONE
+        if parent is not None and got[0] in ("SIGTERM", "SIGINT"):
+            # The parent's death sends SIGTERM, and its end of the pipe closes, but getppid()
+            # may still name it for a moment: give it 0.1 s to show, so a conductor's death is
+            # told from a plain SIGTERM (which safe-stops whatever the link-loss policy).
+            deadline = time.monotonic() + 0.1
+            while time.monotonic() < deadline and PARENT_GONE not in got:
+                if os.getppid() != parent:
+                    return PARENT_GONE
+                time.sleep(0.005)
+        if parent is not None and (PARENT_GONE in got or os.getppid() != parent):
+            return PARENT_GONE
         return got[0]
     finally:
-        for sig, old in saved.items():
-            signal.signal(sig, old)
         signal.set_wakeup_fd(old_fd)
         os.close(r)
         os.close(w)
@@ -116,6 +154,10 @@ def run(args: argparse.Namespace) -> int:
         watch_parent(args.parent_pid)
     opts = session_options(args)
     name = args.name or default_name()
+    if args.realtime:
+        from xgo_show.runtime.preflight import request_realtime
+
+        request_realtime()
     ports = parse_pairs(args.map, "--map", "rex=/dev/ttyUSB0")
     models = parse_pairs(args.model, "--model", "arm=xarm")
     robots = open_robots(ports, models)
@@ -139,8 +181,14 @@ def run(args: argparse.Namespace) -> int:
                         flush=True,
                     )
                     why = _wait_for_signal(args.parent_pid)
-                    relay.close(why)
-                print(f"relay {name}: {why}; every robot was safe-stopped", flush=True)
+                    if why == PARENT_DONE:
+                        relay.close(why, stop_idle=False)
+                    elif why == PARENT_GONE:
+                        relay.finish(why)
+                    else:
+                        relay.close(why)
+                if args.parent_pid is None:
+                    print(f"relay {name}: {why}; every robot was safe-stopped", flush=True)
         finally:
             session.close()  # type: ignore[no-untyped-call]  # the stub lacks a return type
     finally:

@@ -28,6 +28,7 @@ from xgo_show.relay.options import (
     ConductorOptions,
     close_session,
     conductor_options,
+    guard_local_ports,
     use_relays,
 )
 from xgo_show.runtime.clock import FakeClock, MonotonicClock
@@ -100,6 +101,13 @@ def add_parser(sub: Any) -> None:
             "programs keep the CPUs busy; helps most with USB serial adapters (a pty's bytes "
             "are moved by a kernel worker that real-time threads do not speed up)"
         ),
+    )
+    parser.add_argument(
+        "--in-process",
+        action="store_true",
+        help="drive local ports from this process instead of a relay child: starts about a "
+        "second sooner, but kill -9 of this process (or the OOM killer) then leaves robots "
+        "moving",
     )
     add_common_arguments(parser)
     parser.set_defaults(func=run)
@@ -269,6 +277,7 @@ class PlayOptions:
     timecode_origin: float = 0.0
     latency: list[str] = field(default_factory=list)  # NAME=MS, checked by play()
     relays: ConductorOptions | None = None  # how to reach relays (zenoh: performers)
+    guard: bool = False  # local ports owned by a relay child (run, unless --in-process)
 
 
 def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> PlayOptions:
@@ -298,11 +307,17 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
     music = prepare_music(schedule, enabled=opts.music, fast=opts.fast, device=opts.audio_device)
     outputs = [p.name for p in schedule.performers] + ([music.name] if music.build else [])
     latency = parse_latency(opts.latency, outputs)
-    relayed = use_relays(opts.maps, opts.relays, fast=opts.fast)
+    # run: a relay child owns the local ports, so that kill -9 of this process stops the robots.
+    maps, relay_opts, child = (
+        guard_local_ports(schedule, opts.maps, opts.relays, sim_names, opts)
+        if opts.guard and not opts.fast
+        else (opts.maps, opts.relays, None)
+    )
+    relayed = use_relays(maps, relay_opts, fast=opts.fast)
     # The launch refuses unsafe writes before anything opens (no log, no simulator, no port).
     launch = Launch(
         schedule,
-        opts.maps,
+        maps,
         clock=FakeClock(time.monotonic(), keep_waits=False) if opts.fast else MonotonicClock(),
         battery_floor=opts.battery_floor,
         allow_unsafe=opts.allow_unsafe,
@@ -314,6 +329,8 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
     with contextlib.ExitStack() as stack:
         if relayed:
             stack.callback(close_session)
+        if child is not None:
+            stack.enter_context(child)  # started now: unsafe writes were refused above
         log = stack.enter_context(RunLog(opts.log, keep=False))  # memory: nothing kept
         sims = stack.enter_context(SimBench(schedule, sim_names)) if sim_names else None
         if sims is not None:
@@ -392,5 +409,6 @@ def run(args: argparse.Namespace) -> int:
         force=args.force,
         countdown=args.countdown,
         realtime=args.realtime,
+        guard=not args.in_process,
     )
     return play(schedule, opts)

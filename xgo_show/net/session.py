@@ -18,7 +18,8 @@ listens beyond 127.0.0.1 and nothing is sent to the network unless asked.
 
 Options given replace the defaults they concern: any ``--connect``/``--listen`` replaces the
 default endpoints (``--listen tcp/0.0.0.0:7447`` on a relay, ``--connect tcp/RELAY:7447`` on
-the conductor is a two-host set-up). A ``--zenoh-config`` file is Zenoh's configuration as
+the conductor is a two-host set-up); ``--connect`` alone listens on a loopback port only (not
+on every interface, Zenoh's own default). A ``--zenoh-config`` file is Zenoh's configuration as
 written, except that xgo-show still turns multicast scouting off unless the file mentions
 ``multicast``, still bounds connection attempts (``connect/timeout_ms``,
 ``listen/timeout_ms``) unless it mentions ``timeout_ms``, and uses the default endpoints only
@@ -71,6 +72,9 @@ class SessionOptions:
     config_file: str | None = None
     namespace: str = DEFAULT_NAMESPACE
     timeout: float = 2.0  # seconds: connect/timeout_ms and listen/timeout_ms
+    #: endpoints connected to in addition to whatever the rules below chose (the relay child
+    #: of ``xgo-show run``): they never replace the defaults
+    also_connect: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if not _NAMESPACE_RE.match(self.namespace):
@@ -177,6 +181,8 @@ def build_config(opts: SessionOptions, *, hub_taken: bool | None = None) -> zeno
         config.insert_json5("listen/endpoints", json.dumps(listen))
         config.insert_json5("connect/endpoints", json.dumps(connect))
     else:
+        if connect and not listen and "endpoints" not in text:
+            listen = [LOOPBACK_ANY]  # Zenoh's own default would listen on every interface
         try:
             if listen:
                 config.insert_json5("listen/endpoints", json.dumps(listen))
@@ -184,6 +190,10 @@ def build_config(opts: SessionOptions, *, hub_taken: bool | None = None) -> zeno
                 config.insert_json5("connect/endpoints", json.dumps(connect))
         except zenoh.ZError as exc:
             raise NetworkError(f"bad Zenoh endpoint in {listen + connect}: {exc}") from exc
+    if opts.also_connect:
+        chosen = json.loads(config.get_json("connect/endpoints"))
+        extra = [e for e in opts.also_connect if e not in chosen]
+        config.insert_json5("connect/endpoints", json.dumps([*chosen, *extra]))
     return config
 
 

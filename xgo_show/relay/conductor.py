@@ -29,7 +29,7 @@ from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import NetworkError, XgoShowError
 from xgo_show.net import messages as msg
 from xgo_show.net.keys import check_relay_name
-from xgo_show.net.session import open_session
+from xgo_show.net.session import SessionOptions, open_session
 from xgo_show.relay.client import RelayClient, new_conductor
 from xgo_show.relay.options import ConductorOptions
 from xgo_show.relay.performer import RelayedPerformer, RelayShow
@@ -46,6 +46,7 @@ __all__ = [
     "close_session",
     "configure",
     "parse_zenoh_url",
+    "probe_relayed",
     "shared_session",
 ]
 
@@ -98,8 +99,28 @@ def parse_zenoh_url(url: str, performer: str) -> tuple[str, str]:
         raise NetworkError(f"{url!r} is not a zenoh:RELAY/ROBOT URL")
     relay, _, robot = rest.strip().strip("/").partition("/")
     if not relay:
-        raise NetworkError(f"{url!r}: name the relay, e.g. zenoh:stage-left/{performer}")
+        raise NetworkError(f"{url!r}: name the relay, e.g. zenoh:stage-left/{performer or 'rex'}")
+    if not (robot or performer):
+        raise NetworkError(f"{url!r}: name the robot too, e.g. zenoh:{relay}/rex")
     return check_relay_name(relay), check_relay_name(robot or performer)
+
+
+def probe_relayed(url: str, session: SessionOptions, *, timeout: float) -> list[tuple[str, str]]:
+    """``xgo-show probe zenoh:RELAY/ROBOT``: the relay reads its robot (only between shows)."""
+    relay, robot = parse_zenoh_url(url, "")
+    zsession = open_session(session)
+    try:
+        client = RelayClient(
+            zsession, relay, namespace=session.namespace, timeout=max(timeout, 1.0) + 1.0
+        )
+        client.hello()
+        try:
+            rows = client.command("probe", performer=robot).get("rows", [])
+        finally:
+            client.release()
+    finally:
+        zsession.close()  # type: ignore[no-untyped-call]  # the stub lacks a return type
+    return [("relay", relay), *((str(k), str(v)) for k, v in rows)]
 
 
 def _endpoints(schedule: Schedule, urls: Mapping[str, str]) -> Sequence[Endpoint]:
@@ -132,6 +153,7 @@ class RelayEndpoint:
         self.sha256 = ""
         self.show: RelayShow | None = None
         self._errors: dict[str, str] = {}
+        self._robots: dict[str, dict[str, Any]] = {}  # the relay's robots by name
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -164,6 +186,7 @@ class RelayEndpoint:
         # Hold the relay from now on: it gives up a silent conductor after the watchdog.
         client.start_heartbeat(period=self.options.watchdog / 5, watchdog=self.options.watchdog)
         robots = {r.get("name"): r for r in self.description.get("robots", [])}
+        self._robots = {str(n): r for n, r in robots.items()}
         models = {p.name: p.model for p in self.schedule.performers}
         for perf, robot in self.map.items():
             row = robots.get(robot)
@@ -213,6 +236,9 @@ class RelayEndpoint:
             row.problems.extend(str(p) for p in got.get("problems", []))
             row.notes.extend(str(n) for n in got.get("notes", []))
             row.notes.append(f"via relay {self.relay}")
+            robot = self._robots.get(str(got.get("performer")), {})
+            if robot.get("port"):
+                row.port = str(robot["port"])
         return list(rows.values())
 
     def _model(self, perf: str) -> str:

@@ -10,18 +10,23 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from xgo_show.errors import XgoShowError
 from xgo_show.net.session import SessionOptions, add_session_arguments, session_options
+
+if TYPE_CHECKING:
+    from xgo_show.compiler.schedule import Schedule
+    from xgo_show.relay.child import RelayChild
 
 __all__ = [
     "ConductorOptions",
     "add_conductor_arguments",
     "close_session",
     "conductor_options",
+    "guard_local_ports",
     "use_relays",
 ]
 
@@ -101,3 +106,56 @@ def close_session() -> None:
     conductor = sys.modules.get("xgo_show.relay.conductor")
     if conductor is not None:
         conductor.close_session()
+
+
+def _relayed(url: str) -> bool:
+    return url.lower().startswith("zenoh:")
+
+
+def guard_local_ports(
+    schedule: Schedule,
+    maps: Mapping[str, str],
+    options: ConductorOptions | None,
+    sim_names: Sequence[str],
+    play: Any,
+) -> tuple[dict[str, str], ConductorOptions | None, RelayChild | None]:
+    """Hand the show's local ports to a relay child (:mod:`xgo_show.relay.child`).
+
+    Returns the performers' new URLs (``zenoh:CHILD/NAME`` for those ports), the relay options
+    that reach the child, and the child (not started yet), or the inputs unchanged when no
+    performer is on a local port (simulators in this process, ``sim:`` and ``zenoh:`` URLs are
+    left alone). ``play`` gives ``telemetry``, ``allow_unsafe`` and ``realtime``.
+    """
+    from xgo_show.relay.child import RelayChild
+
+    urls = {p.name: p.port for p in schedule.performers if p.port}
+    urls.update(maps)
+    local = {
+        name: url
+        for name, url in urls.items()
+        if url
+        and name not in sim_names
+        and not _relayed(url)
+        and not url.strip().lower().startswith("sim:")
+    }
+    if not local:
+        return dict(maps), options, None
+    options = options if options is not None else ConductorOptions()
+    models = {p.name: p.model for p in schedule.performers}
+    child = RelayChild(
+        local,
+        models,
+        namespace=options.session.namespace,
+        telemetry=play.telemetry,
+        allow_unsafe=play.allow_unsafe,
+        realtime=play.realtime,
+    )
+    session = options.session
+    asked = session.connect or session.listen or session.config_file
+    if asked or any(_relayed(u) for u in urls.values()):
+        session = dataclasses.replace(session, also_connect=(child.endpoint,))
+    else:  # only the child: a private link, nothing listening on the well-known port
+        session = dataclasses.replace(session, connect=(child.endpoint,))
+    new_maps = dict(maps)
+    new_maps.update({name: f"zenoh:{child.name}/{name}" for name in local})
+    return new_maps, dataclasses.replace(options, session=session), child

@@ -25,8 +25,15 @@ from xgo_show.compiler.schedule import PerformerSchedule
 from xgo_show.errors import NetworkError, XgoShowError
 from xgo_show.profiles import get_profile
 from xgo_show.relay.client import RelayClient
+from xgo_show.relay.forward import decode_events
 from xgo_show.runtime.clock import Clock
-from xgo_show.runtime.events import EventBus, FaultRaised, SafeStopped, StateChanged
+from xgo_show.runtime.events import (
+    EventBus,
+    FaultRaised,
+    SafeStopped,
+    StateChanged,
+    TelemetryRead,
+)
 from xgo_show.runtime.executor import ExecutorState, Progress, SafeStopResult
 from xgo_show.runtime.show_runner import default_reach
 
@@ -80,6 +87,7 @@ class RelayShow:
         self._lost: str | None = None
         self._stop: dict[str, Any] | None = None
         self._ended = threading.Event()
+        self._readings: dict[str, dict[str, float]] = {}
 
     # ------------------------------------------------------------------ heartbeat side
 
@@ -94,6 +102,13 @@ class RelayShow:
         )
 
     def _on_status(self, status: Mapping[str, Any]) -> None:
+        # What the relay sent and read since the last answer first: the state below may say
+        # the show is over, and the runner then reports at once.
+        for event in decode_events(status.get("events"), self.robots, self.to_conductor):
+            if isinstance(event, TelemetryRead):
+                with self._lock:
+                    self._readings.setdefault(event.performer, {})[event.name] = event.value
+            self.events.publish(event)
         performers = status.get("performers")
         last = status.get("last")
         now = self.clock.now()
@@ -165,6 +180,15 @@ class RelayShow:
     def to_relay(self, t: float) -> float:
         """A time on the conductor's clock, on the relay's show clock."""
         return t + self.client.link.offset
+
+    def to_conductor(self, t: float) -> float:
+        """A time on the relay's show clock, on the conductor's clock."""
+        return t - self.client.link.offset
+
+    def readings(self, perf: str) -> dict[str, float]:
+        """The latest telemetry values the relay read from ``perf``'s robot."""
+        with self._lock:
+            return dict(self._readings.get(perf, {}))
 
     def once(self, op: str, at: float | None, value: float | None = None, **fields: Any) -> None:
         """Send ``op`` for every performer of this relay, once per (op, at, value)."""
@@ -274,7 +298,7 @@ class RelayedPerformer:
 
     @property
     def readings(self) -> Mapping[str, float]:
-        return {}
+        return self.show.readings(self.name)
 
     def lead_time(self, offset: float) -> float:
         """The network's lead plus what the robot's catch-up frames need on its link."""

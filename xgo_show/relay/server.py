@@ -34,6 +34,7 @@ from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import XgoShowError
 from xgo_show.net import messages as msg
 from xgo_show.net.keys import check_relay_name, relay_key
+from xgo_show.relay.forward import EventCollector
 from xgo_show.relay.robots import OwnedRobot
 from xgo_show.relay.validate import validate_upload
 from xgo_show.runtime.clock import Clock, MonotonicClock
@@ -81,6 +82,7 @@ class _Show:
     start_at: float | None = None
     offset: float = 0.0
     link_lost: bool = False
+    battery_floor: float | None = None  # the conductor's, else the schedule's
 
 
 class Relay:
@@ -113,6 +115,7 @@ class Relay:
         #: every show's runtime events (frames, faults, safe stops); the run log listens
         self.events = EventBus()
         self._log_sub = self.log.attach(self.events)
+        self._collector = EventCollector(self.events)  # sent back in heartbeat answers
         self.telemetry = telemetry
         self.instance = uuid.uuid4().hex[:12]  # tells a restarted relay from the old one
         self._lock = threading.RLock()
@@ -142,8 +145,12 @@ class Relay:
         self.log.event("relay_start", relay=name, robots=list(self.robots), instance=self.instance)
         return self
 
-    def close(self, reason: str = "relay closed") -> None:
-        """Safe-stop every robot, withdraw from Zenoh, stop the threads (ports stay open)."""
+    def close(self, reason: str = "relay closed", *, stop_idle: bool = True) -> None:
+        """Safe-stop every robot, withdraw from Zenoh, stop the threads (ports stay open).
+
+        With ``stop_idle`` false, robots are only stopped if a show is running (a conductor
+        that ends a relay it started between shows leaves its robots as the show left them).
+        """
         if self._closed.is_set():
             return
         self._closed.set()
@@ -151,11 +158,13 @@ class Relay:
             with contextlib.suppress(Exception):
                 entity.undeclare()
         self._work.put(None)
-        self.stop_show(reason)
+        if stop_idle or self._busy():
+            self.stop_show(reason)
         for th in self._threads:
             th.join(2.0)
         self.log.event("relay_stop", relay=self.name, reason=reason)
         self._log_sub.close()
+        self._collector.close()
 
     def __enter__(self) -> Relay:
         return self.start()
@@ -299,6 +308,16 @@ class Relay:
         if self._show is not None and self._show.thread is None:
             self._show = None  # an armed or loaded show never starts without its conductor
 
+    def finish(self, reason: str) -> None:
+        """The conductor is gone for good: play a ``continue`` show to its end, then close
+        (safe-stopping what still runs)."""
+        with self._lock:
+            show = self._show
+        if show is not None and show.link_loss == "continue" and show.thread is not None:
+            self.log.event("finishing", relay=self.name, reason=reason)
+            show.thread.join()
+        self.close(reason, stop_idle=False)
+
     def _busy(self) -> bool:
         show = self._show
         return show is not None and show.thread is not None and show.thread.is_alive()
@@ -326,9 +345,14 @@ class Relay:
             if self._holder is not None:
                 self._holder.watchdog = request.whole("watchdog_ms") / 1000
             self._show = _Show(
-                schedule, request.text("sha256"), request.text("link_loss"), report.ok
+                schedule,
+                request.text("sha256"),
+                request.text("link_loss"),
+                report.ok,
+                battery_floor=request.maybe_number("battery_floor"),
             )
             self._last = None
+            self._collector.drain()  # nothing of an earlier show goes to this one
         self.log.event(
             "upload",
             show=schedule.name,
@@ -382,6 +406,7 @@ class Relay:
                 clock=self.clock,
                 events=self.events,
                 telemetry=self.telemetry,
+                battery_floor=show.battery_floor,
                 allow_unsafe=self.allow_unsafe,
             )
             show.runner, show.start_at, show.offset = runner, start_at, offset
@@ -462,7 +487,12 @@ class Relay:
 
     def _show_status(self) -> dict[str, Any]:
         show = self._show
-        status: dict[str, Any] = {"state": self._state(), "last": self._last}
+        status: dict[str, Any] = {
+            "state": self._state(),
+            "last": self._last,
+            "events": self._collector.drain(),
+            "dropped": self._collector.dropped,
+        }
         if show is not None and show.runner is not None:
             snap = show.runner.snapshot()
             status["show_time"] = snap.show_time
