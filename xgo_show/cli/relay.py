@@ -19,6 +19,7 @@ from types import FrameType
 from typing import Any
 
 from xgo_show.net.session import add_session_arguments, open_session, session_options
+from xgo_show.net.testhooks import clock_from_env, delay_from_env
 from xgo_show.relay.robots import close_robots, open_robots, parse_pairs
 from xgo_show.relay.server import Relay
 from xgo_show.runtime.runlog import RunLog
@@ -170,9 +171,11 @@ def run(args: argparse.Namespace) -> int:
                     name,
                     robots,
                     namespace=opts.namespace,
+                    clock=clock_from_env(),  # this host's clock, unless a test skews it
                     allow_unsafe=args.allow_unsafe,
                     log=log,
                     telemetry=not args.no_telemetry,
+                    sync_delay=delay_from_env(),
                 )
                 with relay:
                     rows = ", ".join(f"{r.name} ({r.model} on {r.url})" for r in robots.values())

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 from xgo_show.errors import NetworkError
 from xgo_show.net import messages as msg
 from xgo_show.net.keys import check_relay_name, relay_key, relay_wildcard
+from xgo_show.net.watchdog import Watchdog
 
 if TYPE_CHECKING:
     import zenoh
@@ -91,14 +92,23 @@ class RelayClient:
         import zenoh
 
         seq, payload = self._next(op, fields)
-        sent = time.monotonic()
         wait = self.timeout if timeout is None else timeout
-        replies = self.session.get(
-            self.key,
-            payload=payload,
-            timeout=wait,
-            congestion_control=zenoh.CongestionControl.BLOCK,
-        )
+        deadline = time.monotonic() + wait
+        while True:
+            sent = time.monotonic()
+            replies = list(
+                self.session.get(
+                    self.key,
+                    payload=payload,
+                    timeout=max(0.01, deadline - sent),
+                    congestion_control=zenoh.CongestionControl.BLOCK,
+                )
+            )
+            # No answer long before the timeout: no route to the relay yet (the session is
+            # still learning of it), so the request was never delivered: send it again.
+            if replies or time.monotonic() > deadline - 0.05:
+                break
+            time.sleep(0.02)
         for answer in replies:
             ok = answer.ok
             if ok is None:
@@ -191,6 +201,13 @@ class RelayClient:
         self.link.last_reply = time.monotonic()
         self._beat_stop.clear()
 
+        def lost(silence: float) -> None:
+            self.link.lost = True
+            if on_lost is not None:
+                on_lost(silence)
+
+        dog = Watchdog(watchdog, lost, name=f"relay {self.relay}")
+
         def on_reply(sent: float) -> Callable[[zenoh.Reply], None]:
             def handle(answer: zenoh.Reply) -> None:
                 ok = answer.ok
@@ -200,8 +217,9 @@ class RelayClient:
                     reply = msg.decode_reply(ok.payload.to_bytes())
                 except msg.MessageError:
                     return
-                if not reply.ok:
-                    return
+                if not reply.ok or self.link.lost:
+                    return  # a relay once lost stays lost for this show
+                dog.heard()
                 self._learn(sent, time.monotonic(), reply.relay_time)
                 status = reply.fields.get("show")
                 if isinstance(status, dict):
@@ -214,27 +232,25 @@ class RelayClient:
         def beat() -> None:
             next_at = time.monotonic()
             while not self._beat_stop.is_set():
-                now = time.monotonic()
-                silence = now - self.link.last_reply
-                if silence > watchdog and not self.link.lost:
-                    self.link.lost = True
-                    if on_lost is not None:
-                        on_lost(silence)
                 _, payload = self._next("heartbeat", {})
                 try:
                     self.session.get(
                         self.key,
-                        on_reply(now),
+                        on_reply(time.monotonic()),
                         payload=payload,
                         timeout=watchdog,
                         congestion_control=zenoh.CongestionControl.BLOCK,
                     )
                 except zenoh.ZError:
-                    return  # the session is closing
+                    break  # the session is closing
                 next_at += period
                 self._beat_stop.wait(max(0.0, next_at - time.monotonic()))
+            dog.stop()
 
-        self._beat = threading.Thread(target=beat, name=f"heartbeat {self.relay}", daemon=True)
+        dog.start()
+        self._beat = threading.Thread(
+            target=beat, name=f"xgo-show heartbeat {self.relay}", daemon=True
+        )
         self._beat.start()
 
     def stop_heartbeat(self) -> None:

@@ -28,12 +28,15 @@ from xgo_show.compiler.artifact import dumps_schedule
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import NetworkError, XgoShowError
 from xgo_show.net import messages as msg
-from xgo_show.net.keys import check_relay_name
+from xgo_show.net.keys import check_relay_name, relay_key
+from xgo_show.net.offset import Timebase
 from xgo_show.net.session import SessionOptions, open_session
+from xgo_show.net.timesync import ClockTracker
 from xgo_show.relay.client import RelayClient, new_conductor
 from xgo_show.relay.options import ConductorOptions
 from xgo_show.relay.performer import RelayedPerformer, RelayShow
 from xgo_show.relay.validate import schedule_digest
+from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.launch import Endpoint, PerformerContext, register_endpoint
 from xgo_show.runtime.performer import Performer
 from xgo_show.runtime.preflight import PreflightRow
@@ -154,6 +157,8 @@ class RelayEndpoint:
         self.show: RelayShow | None = None
         self._errors: dict[str, str] = {}
         self._robots: dict[str, dict[str, Any]] = {}  # the relay's robots by name
+        self.tracker: ClockTracker | None = None
+        self.timebase: Timebase | None = None  # the first one (for the pre-flight notes)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -185,6 +190,20 @@ class RelayEndpoint:
         self.client = client
         # Hold the relay from now on: it gives up a silent conductor after the watchdog.
         client.start_heartbeat(period=self.options.watchdog / 5, watchdog=self.options.watchdog)
+        # Measure the relay's clock and push the timebase: from now on its show clock reads
+        # this process's time, and keeps doing so (drift included) while the tracker runs.
+        self.tracker = ClockTracker(
+            session,
+            relay_key(self.options.session.namespace, self.relay, "time"),
+            conductor=conductor.id,
+            clock=MonotonicClock(),
+        )
+        try:
+            self.timebase = self.tracker.start()
+        except XgoShowError as exc:
+            self.tracker = None
+            self._errors = {p: f"time sync with relay {self.relay} failed: {exc}" for p in self.map}
+            return self._errors
         robots = {r.get("name"): r for r in self.description.get("robots", [])}
         self._robots = {str(n): r for n, r in robots.items()}
         models = {p.name: p.model for p in self.schedule.performers}
@@ -235,11 +254,17 @@ class RelayEndpoint:
             row.low_latency = bool(got.get("low_latency"))
             row.problems.extend(str(p) for p in got.get("problems", []))
             row.notes.extend(str(n) for n in got.get("notes", []))
-            row.notes.append(f"via relay {self.relay}")
+            row.notes.append(f"via relay {self.relay}{self._sync_note()}")
             robot = self._robots.get(str(got.get("performer")), {})
             if robot.get("port"):
                 row.port = str(robot["port"])
         return list(rows.values())
+
+    def _sync_note(self) -> str:
+        tb = self.timebase
+        if tb is None:
+            return ""
+        return f", clock offset {tb.offset:+.6f} s +- {tb.bound * 1e3:.3f} ms"
 
     def _model(self, perf: str) -> str:
         return next(p.model for p in self.schedule.performers if p.name == perf)
@@ -254,6 +279,7 @@ class RelayEndpoint:
             clock=ctx.clock,
             events=ctx.events,
             watchdog=self.options.watchdog,
+            synced=self.tracker is not None,
         )
         self.show.begin()
         return {
@@ -263,6 +289,9 @@ class RelayEndpoint:
         }
 
     def close(self) -> None:
+        if self.tracker is not None:
+            self.tracker.close()
+            self.tracker = None
         if self.show is not None:
             self.show.close()
         elif self.client is not None:

@@ -72,8 +72,10 @@ class RelayShow:
         clock: Clock,
         events: EventBus,
         watchdog: float,
+        synced: bool = True,
     ) -> None:
         self.client = client
+        self.synced = synced
         self.names = dict(names)
         self.robots = {robot: perf for perf, robot in self.names.items()}
         self.sha256 = sha256
@@ -178,12 +180,16 @@ class RelayShow:
     # ------------------------------------------------------------------ shared commands
 
     def to_relay(self, t: float) -> float:
-        """A time on the conductor's clock, on the relay's show clock."""
-        return t + self.client.link.offset
+        """A time on the conductor's clock, on the relay's show clock.
+
+        The same once the conductor's clock tracker has pushed its timebase (the relay's show
+        clock then reads the conductor's time); until then, the offset the heartbeats saw.
+        """
+        return t if self.synced else t + self.client.link.offset
 
     def to_conductor(self, t: float) -> float:
         """A time on the relay's show clock, on the conductor's clock."""
-        return t - self.client.link.offset
+        return t if self.synced else t - self.client.link.offset
 
     def readings(self, perf: str) -> dict[str, float]:
         """The latest telemetry values the relay read from ``perf``'s robot."""

@@ -34,6 +34,11 @@ from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import XgoShowError
 from xgo_show.net import messages as msg
 from xgo_show.net.keys import check_relay_name, relay_key
+from xgo_show.net.offset import Timebase
+from xgo_show.net.slew import SlewingClock
+from xgo_show.net.testhooks import DelayInjector
+from xgo_show.net.timesync import TimeServer, serve_time
+from xgo_show.net.watchdog import Watchdog
 from xgo_show.relay.forward import EventCollector
 from xgo_show.relay.robots import OwnedRobot
 from xgo_show.relay.validate import validate_upload
@@ -51,7 +56,6 @@ __all__ = ["DEFAULT_WATCHDOG_MS", "Relay", "RelayState"]
 
 DEFAULT_WATCHDOG_MS = 500
 #: Seconds between two checks of the watchdog.
-_WATCH_INTERVAL = 0.01
 
 
 class RelayState:
@@ -67,8 +71,7 @@ class RelayState:
 @dataclass
 class _Holder:
     conductor: msg.Conductor
-    heard: float  # relay clock
-    watchdog: float = DEFAULT_WATCHDOG_MS / 1000
+    watchdog: Watchdog  # hears every command and heartbeat from the holder
 
 
 @dataclass
@@ -88,8 +91,9 @@ class _Show:
 class Relay:
     """A relay over an open Zenoh ``session`` for ``robots`` (see the module docstring).
 
-    Keyword options: ``namespace``, ``clock`` (the relay's timebase; tests give a skewed one),
-    ``allow_unsafe``, ``log`` (a :class:`RunLog`), ``telemetry`` (poll robots during shows).
+    Keyword options: ``namespace``, ``clock`` (this host's clock; tests give a skewed one),
+    ``allow_unsafe``, ``log`` (a :class:`RunLog`), ``telemetry`` (poll robots during shows),
+    ``sync_delay`` (test-only: hold time-sync replies back, as a slow network would).
     Use as a context manager, or call :meth:`start` and :meth:`close`.
     """
 
@@ -104,12 +108,18 @@ class Relay:
         allow_unsafe: bool = False,
         log: RunLog | None = None,
         telemetry: bool = True,
+        sync_delay: DelayInjector | None = None,
     ) -> None:
         self.session = session
         self.name = check_relay_name(name)
         self.robots = dict(robots)
         self.namespace = namespace
-        self.clock: Clock = clock if clock is not None else MonotonicClock()
+        #: this host's clock; the time-sync server stamps pings with it
+        self.base: Clock = clock if clock is not None else MonotonicClock()
+        #: the show clock: the holder's timebase once it has pushed one (every time in a
+        #: command, every event time), this host's clock until then
+        self.clock = SlewingClock(self.base)
+        self.sync_delay = sync_delay
         self.allow_unsafe = allow_unsafe
         self.log = log if log is not None else RunLog(None, keep=False)
         #: every show's runtime events (frames, faults, safe stops); the run log listens
@@ -126,6 +136,7 @@ class Relay:
         self._closed = threading.Event()
         self._threads: list[threading.Thread] = []
         self._declared: list[Any] = []
+        self._time: TimeServer | None = None
 
     # ------------------------------------------------------------------ life cycle
 
@@ -133,15 +144,21 @@ class Relay:
         """Declare the queryables and the liveliness token; start the worker and watchdog."""
         s = self.session
         ns, name = self.namespace, self.name
+        self._time = serve_time(
+            s,
+            relay_key(ns, name, "time"),
+            self.base,
+            on_timebase=self._on_timebase,
+            delay=self.sync_delay,
+        )
         self._declared = [
             s.declare_queryable(relay_key(ns, name, "cmd"), self._on_command),
             s.declare_queryable(relay_key(ns, name, "info"), self._on_info),
             s.liveliness().declare_token(relay_key(ns, name, "alive")),
         ]
-        for target, what in ((self._serve, "commands"), (self._watch, "watchdog")):
-            th = threading.Thread(target=target, name=f"relay {what}", daemon=True)
-            th.start()
-            self._threads.append(th)
+        th = threading.Thread(target=self._serve, name="xgo-show relay commands", daemon=True)
+        th.start()
+        self._threads.append(th)
         self.log.event("relay_start", relay=name, robots=list(self.robots), instance=self.instance)
         return self
 
@@ -157,6 +174,12 @@ class Relay:
         for entity in reversed(self._declared):
             with contextlib.suppress(Exception):
                 entity.undeclare()
+        if self._time is not None:
+            self._time.close()
+        with self._lock:
+            holder = self._holder
+        if holder is not None:
+            holder.watchdog.stop()
         self._work.put(None)
         if stop_idle or self._busy():
             self.stop_show(reason)
@@ -249,7 +272,11 @@ class Relay:
             out = msg.error_reply(self.name, self.clock.now(), seq, f"internal error: {exc!r}")
             self.log.event("internal_error", error=repr(exc))
         try:
-            query.reply(query.key_expr, msg.encode(out))
+            try:
+                data = msg.encode(out)
+            except ValueError as exc:  # a NaN or infinity in a reading: say so, never crash
+                data = msg.encode(msg.error_reply(self.name, self.clock.now(), seq, str(exc)))
+            query.reply(query.key_expr, data)
         finally:
             query.drop()  # type: ignore[no-untyped-call]  # the stub lacks a return type
 
@@ -258,17 +285,15 @@ class Relay:
     def handle(self, request: msg.Request) -> dict[str, Any]:
         """Carry out one command; return the reply's own fields (raise to refuse it)."""
         with self._lock:
-            now = self.clock.now()
             holder = self._holder
             if holder is None or holder.conductor.id != request.conductor.id:
                 if request.op != "hello":
                     raise XgoShowError(self._not_holder(request))
                 if holder is not None:
                     raise XgoShowError(self._held_by(holder))
-                self._holder = _Holder(request.conductor, now)
-                self.log.event("hello", conductor=request.conductor.name)
+                self._hold(request.conductor)
                 return {"description": self.describe()}
-            holder.heard = now
+            holder.watchdog.heard()
             op = request.op
             if op == "hello":
                 return {"description": self.describe()}
@@ -301,9 +326,40 @@ class Relay:
             return f"{request.op}: this conductor does not hold relay {self.name}; send hello first"
         return f"{request.op}: {self._held_by(self._holder)}"
 
+    def _hold(self, conductor: msg.Conductor) -> None:
+        """``conductor`` holds the relay from now (called with the lock held)."""
+        dog = Watchdog(
+            DEFAULT_WATCHDOG_MS / 1000,
+            lambda silence: self._on_silence(conductor, silence),
+            clock=self.base,
+            name=f"conductor {conductor.name}",
+        )
+        self._holder = _Holder(conductor, dog)
+        if not self._busy():
+            self.clock.reset()  # the new conductor's timebase is set at once, not slewed to
+        self.log.event("hello", conductor=conductor.name)
+        dog.start()
+
+    def _on_timebase(self, timebase: Timebase, conductor: str) -> float:
+        """A timebase pushed by a conductor's clock tracker: only the holder's is followed."""
+        with self._lock:
+            holder = self._holder
+            if holder is None or holder.conductor.id != conductor:
+                raise XgoShowError(
+                    f"relay {self.name}: timebase from a conductor that does not hold it"
+                )
+            holder.watchdog.heard()
+        return self.clock.follow(timebase)
+
     def _release(self, why: str) -> None:
-        if self._holder is not None:
-            self.log.event("release", conductor=self._holder.conductor.name, reason=why)
+        """Let the holder go (called with the lock held)."""
+        holder = self._holder
+        if holder is not None:
+            self.log.event("release", conductor=holder.conductor.name, reason=why)
+            # Not joined here: its thread may be waiting for the lock this caller holds.
+            threading.Thread(
+                target=holder.watchdog.stop, name="xgo-show watchdog stop", daemon=True
+            ).start()
         self._holder = None
         if self._show is not None and self._show.thread is None:
             self._show = None  # an armed or loaded show never starts without its conductor
@@ -343,7 +399,7 @@ class Relay:
             robot.voltage = row.voltage if row.voltage is not None else robot.voltage
         with self._lock:
             if self._holder is not None:
-                self._holder.watchdog = request.whole("watchdog_ms") / 1000
+                self._holder.watchdog.set_timeout(request.whole("watchdog_ms") / 1000)
             self._show = _Show(
                 schedule,
                 request.text("sha256"),
@@ -511,29 +567,27 @@ class Relay:
 
     # ------------------------------------------------------------------ watchdog
 
-    def _watch(self) -> None:
-        while not self._closed.wait(_WATCH_INTERVAL):
-            with self._lock:
-                holder = self._holder
-                if holder is None:
-                    continue
-                silent = self.clock.now() - holder.heard
-                if silent <= holder.watchdog:
-                    continue
-                show = self._show
-                running = show is not None and show.thread is not None
-                name = holder.conductor.name
-                self.log.event(
-                    "link_lost",
-                    conductor=name,
-                    silent_ms=round(silent * 1e3, 3),
-                    policy=show.link_loss if running and show is not None else None,
-                )
-                if not running or show is None:
-                    self._release(f"conductor silent for {silent * 1e3:.0f} ms")
-                    continue
-                show.link_lost = True
-                self._holder = None
-                policy = show.link_loss
-            if policy == "stop":
-                self.stop_show(f"link lost: conductor {name} silent for {silent * 1e3:.0f} ms")
+    def _on_silence(self, conductor: msg.Conductor, silence: float) -> None:
+        """The holder was not heard for its watchdog time: apply the link-loss policy."""
+        with self._lock:
+            holder = self._holder
+            if holder is None or holder.conductor.id != conductor.id:
+                return
+            show = self._show
+            running = show is not None and show.thread is not None
+            self.log.event(
+                "link_lost",
+                conductor=conductor.name,
+                silent_ms=round(silence * 1e3, 3),
+                policy=show.link_loss if running and show is not None else None,
+            )
+            if not running or show is None:
+                self._release(f"conductor silent for {silence * 1e3:.0f} ms")
+                return
+            show.link_lost = True
+            self._release(f"link lost during the show; policy {show.link_loss}")
+            policy = show.link_loss
+        if policy == "stop":
+            self.stop_show(
+                f"link lost: conductor {conductor.name} silent for {silence * 1e3:.0f} ms"
+            )
