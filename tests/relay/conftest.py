@@ -19,7 +19,7 @@ from typing import Any
 
 import pytest
 
-from xgo_show.compiler.artifact import dumps_schedule
+from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.net.session import SessionOptions, open_session
 from xgo_show.profiles import get_profile
@@ -154,7 +154,7 @@ def conductor_session() -> Iterator[Callable[..., Any]]:
 
 
 def upload_text(schedule: Schedule) -> tuple[str, str]:
-    text = dumps_schedule(schedule)
+    text = schedule_to_bytes(schedule).decode("ascii")
     return text, schedule_digest(text)
 
 

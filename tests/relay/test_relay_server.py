@@ -84,7 +84,7 @@ def test_a_schedule_with_an_unsafe_register_is_refused(
     client = claim(conductor_session(relay), relay)
     show = walk(0.3, rex="mini")
     rex = show.performers[0]
-    zero = ScheduledFrame(0.2, write_frame(0x21, b"\x01"), None, "servo_zero")  # unsafe
+    zero = ScheduledFrame(0.2, write_frame(0x21, b"\x01"))  # servo_zero: unsafe
     bad = dataclasses.replace(rex, frames=(*rex.frames[:2], zero))
     text, sha = as_upload(dataclasses.replace(show, performers=(bad,)))
     with pytest.raises(NetworkError, match=r"servo_zero.*without --allow-unsafe"):

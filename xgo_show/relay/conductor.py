@@ -24,7 +24,7 @@ import threading
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from xgo_show.compiler.artifact import dumps_schedule
+from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import NetworkError, XgoShowError
 from xgo_show.net import messages as msg
@@ -225,7 +225,7 @@ class RelayEndpoint:
                 row.problems.append(self._errors.get(perf, "relay not opened"))
             return list(rows.values())
         row_of = {robot: perf for perf, robot in self.map.items()}
-        text = dumps_schedule(self.part())
+        text = schedule_to_bytes(self.part()).decode("ascii")
         self.sha256 = schedule_digest(text)
         try:
             reply = self.client.upload(

@@ -4,7 +4,7 @@ The relay is the authority for its robots, whatever the conductor asks:
 
 1. the text is the schedule whose SHA-256 the conductor announced (nothing lost or changed);
 2. it is a valid schedule file (format name, version, every field, every frame decoded:
-   :func:`~xgo_show.compiler.artifact.loads_schedule`);
+   :func:`~xgo_show.compiler.artifact.schedule_from_bytes`);
 3. every performer in it is a robot this relay owns, of the same model;
 4. every performer's frames fit its link: the link is the robot's (same baud rate and bits),
    and each frame starts after the previous one's wire time plus the link's silence gap;
@@ -17,7 +17,7 @@ from __future__ import annotations
 import hashlib
 from collections.abc import Mapping
 
-from xgo_show.compiler.artifact import loads_schedule
+from xgo_show.compiler.artifact import schedule_from_bytes
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.errors import XgoShowError
 from xgo_show.profiles.model import Profile
@@ -78,7 +78,7 @@ def validate_upload(
     if digest != sha256:
         raise UploadRefused(f"schedule text has SHA-256 {digest[:12]}..., not {sha256[:12]}...")
     try:
-        schedule = loads_schedule(text, name="upload")
+        schedule = schedule_from_bytes(text.encode("utf-8"), name="upload")
     except XgoShowError as exc:
         raise UploadRefused(f"not a valid schedule: {exc}") from exc
     if not schedule.performers:
