@@ -84,29 +84,25 @@ class _Seat:
 
     def watch(self) -> None:
         """Poll telemetry with nothing to play."""
-        old = self._stop_writer(rest=False)
+        self.end(rest=False)
         self.routine = None
         self._start(self.idle, linger=_WATCH_FOREVER, rest=False)
-        self._release(old)
 
     def play(self, part: PerformerSchedule, routine: str, play_id: int) -> None:
-        old = self._stop_writer(rest=self.routine is not None)
+        self.end(rest=self.routine is not None)
         self.routine, self.play_id = routine, play_id
         self._start(part, linger=0.0, rest=True)
-        self._release(old)
 
     def end(self, *, rest: bool) -> None:
-        """End the executor writing now; with ``rest``, through the rest posture first."""
+        """End the executor on the port now; with ``rest``, through the rest posture first.
+
+        Its reader is stopped before this returns: two threads reading one port steal each
+        other's bytes (pyserial then reports the port as disconnected), so the next executor
+        starts only once this one is gone (a reader wakes every 50 ms to see it must stop).
+        """
         old = self._stop_writer(rest=rest)
         if old is not None:
             old.close()
-
-    def _release(self, old: PerformerExecutor | None) -> None:
-        """Stop an ended executor's reader without making the next one wait for it (a reply
-        it still reads is published all the same)."""
-        if old is not None:
-            threading.Thread(target=old.close, name=f"xgo-show release {self.name}",
-                             daemon=True).start()
 
     def _stop_writer(self, *, rest: bool) -> PerformerExecutor | None:
         """Stop the writing executor (its writer thread has ended on return); with ``rest``,
