@@ -64,12 +64,12 @@ def test_a_wait_at_a_bar_line_and_one_at_the_start(tmp_path: Path) -> None:
     path = write(
         tmp_path,
         '  - {name: standby, wait: {trigger: go}}\n'
-        '  - {name: b, at: "3.1", wait: {trigger: go, timeout: 2.5, else: stop}}',
+        '  - {name: b, at: "3.1", wait: {trigger: go, timeout: 2.5, else: end}}',
     )
     show = load_show(path)
     assert show.sections == (
         Section("standby", 0.0, Wait("go"), show.sections[0].origin),
-        Section("b", 4.0, Wait("go", 2.5, "stop"), show.sections[1].origin),
+        Section("b", 4.0, Wait("go", 2.5, "end"), show.sections[1].origin),
     )
     assert trigger_names(show.sections) == ("go",)
 

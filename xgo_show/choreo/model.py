@@ -617,7 +617,7 @@ class WaitModel(_Model):
         None,
         alias="else",
         description="After the timeout: a section to jump to, 'continue' (play on, the "
-        "default) or 'stop' (end the show).",
+        "default) or 'end' (skip to the show's end).",
     )
 
     model_config = ConfigDict(populate_by_name=True)

@@ -88,7 +88,7 @@ def resolve_sections(
             if otherwise not in ELSE_KEYWORDS and otherwise not in names:
                 hint = did_you_mean(otherwise, [*names, *ELSE_KEYWORDS])
                 report.error((*loc, "wait", "else"), f"no section named {otherwise!r}{hint} "
-                             f"(else: takes a section name, {CONTINUE} or stop)")
+                             f"(else: takes a section name, {CONTINUE} or end)")
             elif otherwise == model.name:
                 report.error((*loc, "wait", "else"), f"else: {otherwise} comes back to this "
                              "same wait: leave out 'timeout' to wait until the trigger comes")

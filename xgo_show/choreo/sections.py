@@ -6,7 +6,8 @@ section may carry a :class:`Wait`: when the show reaches the section's start, ev
 there (at rest, in the posture the show gives it at that moment) until the trigger named by the
 wait arrives; then the section plays. With a ``timeout``, the wait ends on its own after that
 many seconds and ``otherwise`` says what happens: jump to a named section, ``continue`` (play
-the section as if triggered) or ``stop`` (end the show there).
+the section as if triggered) or ``end`` (skip to the show's end: the robots take its final
+posture and the show completes).
 
 These are plain values shared by the loader (which builds them from ``sections:``), the compiler
 (which stores them in the schedule) and the runtime (which holds and releases the show): no
@@ -25,7 +26,7 @@ from xgo_show.diagnostics import Origin
 __all__ = [
     "CONTINUE",
     "ELSE_KEYWORDS",
-    "STOP",
+    "END",
     "Section",
     "Wait",
     "format_sections",
@@ -35,8 +36,8 @@ __all__ = [
 ]
 
 CONTINUE = "continue"  # after a timeout: play the section as if triggered
-STOP = "stop"  # after a timeout: end the show where it holds
-ELSE_KEYWORDS = (CONTINUE, STOP)
+END = "end"  # after a timeout: skip to the show's end (its final posture; the show completes)
+ELSE_KEYWORDS = (CONTINUE, END)
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,7 @@ class Wait:
 
     trigger: str
     timeout: float | None = None
-    otherwise: str = CONTINUE  # a section name, CONTINUE or STOP
+    otherwise: str = CONTINUE  # a section name, CONTINUE or END
 
 
 @dataclass(frozen=True)

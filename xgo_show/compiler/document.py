@@ -29,7 +29,7 @@ Both file versions (see :mod:`xgo_show.compiler.artifact`) hold the same documen
   stored once, not once per frame; ``null`` means no origin.
 - ``sections`` (optional: absent means none) are the show's named parts in time order; a
   ``wait`` holds the show at the section's start until its trigger (see
-  :mod:`xgo_show.choreo.sections`; ``else`` is a section name, ``continue`` or ``stop``).
+  :mod:`xgo_show.choreo.sections`; ``else`` is a section name, ``continue`` or ``end``).
 - ``frames`` is what the file version makes of them: version 1 lists them in the JSON,
   version 2 counts them and stores them in binary columns after the document.
 

@@ -1,0 +1,103 @@
+"""A short triggered show played on simulated robots (real ptys), with every frame recorded."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pytest
+
+from xgo_show.choreo import load_show
+from xgo_show.compiler import compile_show
+from xgo_show.compiler.schedule import Schedule
+from xgo_show.control.director import Director
+from xgo_show.runtime.clock import Clock, FakeClock, MonotonicClock
+from xgo_show.runtime.events import Event, FrameSent
+from xgo_show.runtime.launch import Launch
+from xgo_show.runtime.show_runner import ShowResult
+from xgo_show.sim.bench import SimBench
+
+# Four sections of 0.6 s: a plays at once; b waits for 'go'; c waits for 'encore' at most
+# 0.3 s, then skips to d.
+ROUTINE = """\
+show: Triggered test
+performers:
+  rex: {model: mini}
+  ivy: {model: lite}
+sections:
+  - {name: a}
+  - {name: b, at: 0.6, wait: {trigger: go}}
+  - {name: c, at: 1.2, wait: {trigger: encore, timeout: 0.3, else: d}}
+  - {name: d, at: 1.8}
+tracks:
+  rex:
+    - {move: {pitch: 6}, duration: 0.5}
+    - {at: 0.6, move: {pitch: 0}, duration: 0.5}
+    - {at: 1.2, move: {pitch: 6}, duration: 0.5}
+    - {at: 1.8, move: {pitch: 0}, duration: 0.5}
+  ivy:
+    - {move: {pitch: -6}, duration: 0.5}
+    - {at: 0.6, move: {pitch: 0}, duration: 0.5}
+    - {at: 1.2, move: {pitch: -6}, duration: 0.5}
+    - {at: 1.8, move: {pitch: 0}, duration: 0.5}
+"""
+
+
+@pytest.fixture(scope="session")
+def triggered_schedule(tmp_path_factory: pytest.TempPathFactory) -> Schedule:
+    path: Path = tmp_path_factory.mktemp("show") / "triggered.yaml"
+    path.write_text(ROUTINE, encoding="utf-8")
+    return compile_show(load_show(path))
+
+
+@dataclass
+class Played:
+    """What a directed run did: its result and every frame written (with write times)."""
+
+    result: ShowResult | None = None
+    frames: list[FrameSent] = field(default_factory=list)
+    events: list[Event] = field(default_factory=list)
+
+    def scheduled(self, performer: str) -> list[FrameSent]:
+        return [f for f in self.frames if f.performer == performer and f.kind == "frame"]
+
+
+@contextmanager
+def directed_show(
+    schedule: Schedule, *, fast: bool = False
+) -> Iterator[tuple[Director, Played, Callable[[], None]]]:
+    """A director over a launch on simulators; call the yielded ``go()`` to run the show in
+    a thread (``played.result`` is set when it ends)."""
+    played = Played()
+    clock: Clock = FakeClock(time.monotonic()) if fast else MonotonicClock()
+    with SimBench(schedule, [p.name for p in schedule.performers]) as sims:
+        with Launch(schedule, sims.urls, clock=clock, telemetry=False) as launch:
+            launch.events.subscribe(played.events.append)
+            launch.events.subscribe(lambda e: played.frames.append(e), FrameSent)  # type: ignore[arg-type]
+            launch.open()
+            launch.preflight()
+            runner = launch.arm()
+            director = Director(runner, clock=clock)
+            thread: list[threading.Thread] = []
+
+            def go() -> None:
+                def play() -> None:
+                    played.result = launch.run(handle_signals=False)
+
+                th = threading.Thread(target=play, name="xgo-show test show")
+                thread.append(th)
+                th.start()
+
+            try:
+                yield director, played, go
+            finally:
+                if thread:
+                    thread[0].join(20.0)
+                    if thread[0].is_alive():
+                        runner.stop("test over")
+                        thread[0].join(5.0)
+                director.close()

@@ -1,0 +1,195 @@
+"""Trigger scripts: a triggered show rehearsed (and tested) without an operator.
+
+A script is a YAML file listing triggers in the order they are fired::
+
+    # yaml-language-server: $schema=../schemas/trigger-script.schema.json
+    triggers:
+      - {trigger: go, after: 1.5}     # 1.5 s after the show starts waiting for 'go'
+      - {trigger: encore, at: 14}     # 14 s after the show's start, waiting or not
+
+``after: S`` fires S seconds after the show begins holding at a wait for that trigger (or, if
+it already holds there when the entry's turn comes, S seconds after the previous entry fired);
+``at: S`` fires S seconds (of the clock, holds
+included) after the show's start, whether the show waits for it or not, so early and unwanted
+triggers can be rehearsed too. Entries fire one after another, each once.
+
+In virtual time (``dry-run --fast``) nothing waits: each trigger fires as soon as the show holds
+for it (``at`` and ``after`` only order the entries); a wait whose trigger is not next in the
+script takes its timeout at once (and, without a timeout, ends the show with a safe stop that
+says which trigger was missing).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
+from pydantic_core import PydanticCustomError
+
+from xgo_show.choreo.source import read_yaml
+from xgo_show.choreo.validation import validate
+from xgo_show.control.director import ControlError, Director, WaitStarted
+from xgo_show.errors import ChoreographyError
+from xgo_show.runtime.events import Event, ShowEnded, ShowStarted
+
+__all__ = ["ScriptCue", "ScriptPlayer", "TriggerScript", "load_script"]
+
+Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$")]
+NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
+
+
+class ScriptCue(BaseModel):
+    """One trigger of a script: its name and when it fires."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    trigger: Name = Field(description="The trigger to fire.")
+    at: NonNegative | None = Field(
+        None, description="Seconds after the show's start (holds included)."
+    )
+    after: NonNegative | None = Field(
+        None, description="Seconds after the show begins waiting for this trigger."
+    )
+
+    @model_validator(mode="after")
+    def _one_time(self) -> ScriptCue:
+        if (self.at is None) == (self.after is None):
+            raise PydanticCustomError(
+                "timing", "give one of 'at' (seconds after the start) or 'after' (seconds "
+                "after the show begins waiting for this trigger)", {}
+            )
+        return self
+
+
+class TriggerScript(BaseModel):
+    """A trigger script file."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    triggers: Annotated[list[ScriptCue], Field(min_length=1)]
+
+
+def load_script(path: str | Path) -> TriggerScript:
+    """Read a trigger script; :class:`ChoreographyError` with every problem at file:line:col."""
+    doc, diags = read_yaml(Path(path), str(path))
+    if not diags:
+        script, diags = validate(TriggerScript, doc, doc.data)
+        if script is not None:
+            return script
+    lines = "\n".join(d.format() for d in diags)
+    raise ChoreographyError(f"{path}: not a trigger script:\n{lines}", tuple(diags))
+
+
+@dataclass(frozen=True)
+class Fired:
+    """One trigger the player fired: when (seconds after the start), and what came of it."""
+
+    trigger: str
+    t: float
+    result: str  # "released bow", "kept for bow", or the refusal
+
+
+class ScriptPlayer:
+    """Fires a script's triggers at ``director``'s show; reports each through ``say``."""
+
+    def __init__(
+        self, script: TriggerScript, director: Director, *, say: Callable[[str], None] = print
+    ) -> None:
+        self.cues = list(script.triggers)
+        self.director = director
+        self.clock = director.clock
+        self.say = say
+        self.fired: list[Fired] = []
+        self._cond = threading.Condition()
+        self._start: float | None = None
+        self._turn = float("-inf")  # clock time the current entry's turn came
+        self._waits: list[tuple[str, float]] = []  # (trigger, clock time) holds not yet used
+        self._ended = False
+        self._closed = False
+        self._sub = director.events.subscribe(self._on_event, ShowStarted, WaitStarted, ShowEnded)
+        self._thread: threading.Thread | None = None
+        if not director.virtual:
+            self._thread = threading.Thread(target=self._loop, name="xgo-show triggers",
+                                            daemon=True)
+            self._thread.start()
+
+    def close(self) -> None:
+        """Stop (the triggers not fired yet are not)."""
+        self._sub.close()
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        if self._thread is not None:
+            self._thread.join(1.0)
+
+    def _on_event(self, event: Event) -> None:
+        if self.director.virtual and isinstance(event, WaitStarted):
+            self._virtual_wait(event)
+            return
+        with self._cond:
+            if isinstance(event, ShowStarted):
+                self._start = event.start_at
+            elif isinstance(event, WaitStarted):
+                self._waits.append((event.trigger, event.t))
+            elif isinstance(event, ShowEnded):
+                self._ended = True
+            self._cond.notify_all()
+
+    def _fire(self, name: str) -> None:
+        start = self._start if self._start is not None else self.clock.now()
+        t = self.clock.now() - start
+        try:
+            outcome = self.director.trigger(name)
+        except ControlError as exc:
+            result = str(exc)
+        else:
+            result = f"{'released' if outcome.held else 'kept for'} section {outcome.section!r}"
+        self.fired.append(Fired(name, t, result))
+        when = "" if self.director.virtual else f" at {t:.3f} s"
+        self.say(f"trigger {name!r}{when}: {result}")
+
+    def _virtual_wait(self, event: WaitStarted) -> None:
+        # Called in a writer thread as the show starts holding: fire or expire from another
+        # thread, so the writer goes on into its hold first.
+        if self.cues and self.cues[0].trigger == event.trigger:
+            cue = self.cues.pop(0)
+            action: Callable[[], None] = lambda: self._fire(cue.trigger)  # noqa: E731
+        else:
+            action = self.director.expire
+        threading.Thread(target=action, name="xgo-show trigger", daemon=True).start()
+
+    def _loop(self) -> None:
+        with self._cond:
+            while not self._closed and not self._ended and self.cues:
+                cue = self.cues[0]
+                due = self._due(cue)
+                now = self.clock.now()
+                if due is None or due > now:
+                    self._cond.wait(None if due is None else due - now)
+                    continue
+                self.cues.pop(0)
+                if cue.after is not None:
+                    self._waits.pop(0)
+                self._cond.release()
+                try:
+                    self._fire(cue.trigger)
+                finally:
+                    self._cond.acquire()
+                self._turn = self.clock.now()
+
+    def _due(self, cue: ScriptCue) -> float | None:
+        if self._start is None:
+            return None
+        if cue.at is not None:
+            return self._start + cue.at
+        # Holds for other triggers are not this entry's: drop them.
+        while self._waits and self._waits[0][0] != cue.trigger:
+            self._waits.pop(0)
+        if not self._waits:
+            return None
+        assert cue.after is not None
+        return max(self._waits[0][1], self._turn) + cue.after
