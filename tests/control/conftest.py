@@ -8,6 +8,7 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -62,6 +63,10 @@ class Played:
     frames: list[FrameSent] = field(default_factory=list)
     events: list[Event] = field(default_factory=list)
 
+    def record(self, event: Event) -> None:
+        assert isinstance(event, FrameSent)
+        self.frames.append(event)
+
     def scheduled(self, performer: str) -> list[FrameSent]:
         return [f for f in self.frames if f.performer == performer and f.kind == "frame"]
 
@@ -74,30 +79,38 @@ def directed_show(
     a thread (``played.result`` is set when it ends)."""
     played = Played()
     clock: Clock = FakeClock(time.monotonic()) if fast else MonotonicClock()
-    with SimBench(schedule, [p.name for p in schedule.performers]) as sims:
-        with Launch(schedule, sims.urls, clock=clock, telemetry=False) as launch:
-            launch.events.subscribe(played.events.append)
-            launch.events.subscribe(lambda e: played.frames.append(e), FrameSent)  # type: ignore[arg-type]
-            launch.open()
-            launch.preflight()
-            runner = launch.arm()
-            director = Director(runner, clock=clock)
-            thread: list[threading.Thread] = []
+    with (
+        SimBench(schedule, [p.name for p in schedule.performers]) as sims,
+        Launch(schedule, sims.urls, clock=clock, telemetry=False) as launch,
+    ):
+        launch.events.subscribe(played.events.append)
+        launch.events.subscribe(played.record, FrameSent)
+        launch.open()
+        launch.preflight()
+        runner = launch.arm()
+        director = Director(runner, clock=clock)
+        thread: list[threading.Thread] = []
 
-            def go() -> None:
-                def play() -> None:
-                    played.result = launch.run(handle_signals=False)
+        def go() -> None:
+            def play() -> None:
+                played.result = launch.run(handle_signals=False)
 
-                th = threading.Thread(target=play, name="xgo-show test show")
-                thread.append(th)
-                th.start()
+            th = threading.Thread(target=play, name="xgo-show test show")
+            thread.append(th)
+            th.start()
 
-            try:
-                yield director, played, go
-            finally:
-                if thread:
-                    thread[0].join(20.0)
-                    if thread[0].is_alive():
-                        runner.stop("test over")
-                        thread[0].join(5.0)
-                director.close()
+        try:
+            yield director, played, go
+        finally:
+            if thread:
+                thread[0].join(20.0)
+                if thread[0].is_alive():
+                    runner.stop("test over")
+                    thread[0].join(5.0)
+            director.close()
+
+@pytest.fixture
+def directed() -> Callable[..., Any]:
+    """:func:`directed_show` as a fixture: ``with directed(schedule) as (director, played,
+    go):``."""
+    return directed_show

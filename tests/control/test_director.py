@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 import pytest
 
-from tests.control.conftest import directed_show
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.director import (
     ControlError,
@@ -25,9 +25,9 @@ def _first_index_at(schedule: Schedule, performer: str, t: float) -> int:
 
 
 def test_the_show_holds_at_a_wait_until_its_trigger_then_plays_on(
-    triggered_schedule: Schedule, wait: Wait
+    triggered_schedule: Schedule, wait: Wait, directed: Callable[..., Any]
 ) -> None:
-    with directed_show(triggered_schedule) as (director, played, go):
+    with directed(triggered_schedule) as (director, played, go):
         go()
         wait(lambda: director.phase == "waiting", timeout=5.0)
         assert director.waiting_for is not None and director.waiting_for.name == "b"
@@ -68,9 +68,9 @@ def test_the_show_holds_at_a_wait_until_its_trigger_then_plays_on(
 
 
 def test_a_trigger_given_before_its_wait_is_kept_and_the_show_goes_through(
-    triggered_schedule: Schedule, wait: Wait
+    triggered_schedule: Schedule, wait: Wait, directed: Callable[..., Any]
 ) -> None:
-    with directed_show(triggered_schedule) as (director, played, go):
+    with directed(triggered_schedule) as (director, played, go):
         go()
         wait(lambda: director.phase == "playing", timeout=5.0)
         outcome = director.trigger("go")
@@ -90,9 +90,9 @@ def test_a_trigger_given_before_its_wait_is_kept_and_the_show_goes_through(
 
 
 def test_triggers_nobody_waits_for_are_refused_with_the_reason(
-    triggered_schedule: Schedule, wait: Wait
+    triggered_schedule: Schedule, wait: Wait, directed: Callable[..., Any]
 ) -> None:
-    with directed_show(triggered_schedule) as (director, played, go):
+    with directed(triggered_schedule) as (director, played, go):
         with pytest.raises(ControlError, match="no show is running"):
             director.trigger("go")
         go()
@@ -104,7 +104,7 @@ def test_triggers_nobody_waits_for_are_refused_with_the_reason(
         with pytest.raises(ControlError, match="waits for trigger 'go'"):
             director.resume()
         director.trigger("go")
-        with pytest.raises(ControlError, match="already given|will wait for 'encore'"):
+        with pytest.raises(ControlError, match=r"already given|will wait for 'encore'"):
             director.trigger("go")
         wait(lambda: played.result is not None, timeout=10.0)
         with pytest.raises(ControlError, match="the show is over"):
@@ -114,9 +114,9 @@ def test_triggers_nobody_waits_for_are_refused_with_the_reason(
 
 
 def test_a_pause_before_a_wait_does_not_lose_it(
-    triggered_schedule: Schedule, wait: Wait
+    triggered_schedule: Schedule, wait: Wait, directed: Callable[..., Any]
 ) -> None:
-    with directed_show(triggered_schedule) as (director, played, go):
+    with directed(triggered_schedule) as (director, played, go):
         go()
         wait(lambda: director.phase == "playing", timeout=5.0)
         time.sleep(0.2)
@@ -135,8 +135,10 @@ def test_a_pause_before_a_wait_does_not_lose_it(
     ]
 
 
-def test_virtual_time_plays_the_waits_in_order(triggered_schedule: Schedule, wait: Wait) -> None:
-    with directed_show(triggered_schedule, fast=True) as (director, played, go):
+def test_virtual_time_plays_the_waits_in_order(
+    triggered_schedule: Schedule, wait: Wait, directed: Callable[..., Any]
+) -> None:
+    with directed(triggered_schedule, fast=True) as (director, played, go):
         seen: list[str] = []
 
         def on_wait(e: object) -> None:

@@ -35,7 +35,9 @@ def add_parser(sub: Any) -> None:
         epilog=(
             "example:\n"
             "  xgo-show dry-run choreographies/hello_mini.yaml\n"
-            "  xgo-show dry-run choreographies/mixed_five.yaml --fast --start-bar 40"
+            "  xgo-show dry-run choreographies/mixed_five.yaml --fast --start-bar 40\n"
+            "  xgo-show dry-run choreographies/curtain_call.yaml --triggers "
+            "rehearsals/curtain_call.yaml"
         ),
     )
     parser.add_argument(

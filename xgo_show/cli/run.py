@@ -23,6 +23,7 @@ from xgo_show.audio.soundtrack import prepare as prepare_music
 from xgo_show.cli.live import LiveView
 from xgo_show.compiler.artifact import is_schedule_file
 from xgo_show.compiler.schedule import Schedule
+from xgo_show.control.rehearsal import check_triggers, directed
 from xgo_show.errors import RuntimeFault, XgoShowError
 from xgo_show.relay.options import (
     ConductorOptions,
@@ -183,6 +184,12 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="TC",
         help="the timecode of show time 0, HH:MM:SS:FF or seconds (default 0)",
     )
+    parser.add_argument(
+        "--triggers",
+        metavar="SCRIPT",
+        help="fire the show's triggers from this script (a timed list, see "
+        "docs/choreography.md): rehearse a show whose sections wait for triggers",
+    )
     from xgo_show.relay.options import add_conductor_arguments
 
     add_conductor_arguments(parser)
@@ -278,6 +285,7 @@ class PlayOptions:
     latency: list[str] = field(default_factory=list)  # NAME=MS, checked by play()
     relays: ConductorOptions | None = None  # how to reach relays (zenoh: performers)
     guard: bool = False  # local ports owned by a relay child (run, unless --in-process)
+    triggers: str | None = None  # a trigger script (shows whose sections wait for triggers)
 
 
 def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> PlayOptions:
@@ -287,6 +295,7 @@ def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> Pl
         battery_floor=args.battery_floor,
         log=args.log,
         allow_unsafe=args.allow_unsafe,
+        triggers=args.triggers,
         telemetry=not args.no_telemetry,
         music=not args.no_music,
         audio_device=args.audio_device,
@@ -303,6 +312,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
     """Run ``schedule`` with ``opts``: the launch stages, printing pre-flight, progress and
     the report (and, on simulators, what each robot did)."""
     out = sys.stdout
+    script = check_triggers(schedule, opts.triggers)  # before anything opens
     sim_names = [p.name for p in schedule.performers if p.name not in opts.maps] if opts.sim else []
     music = prepare_music(schedule, enabled=opts.music, fast=opts.fast, device=opts.audio_device)
     outputs = [p.name for p in schedule.performers] + ([music.name] if music.build else [])
@@ -357,7 +367,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
         launch.open()
         report = launch.preflight(realtime=realtime)
         print(report.table(), file=out, flush=True)
-        launch.arm(force=opts.force)
+        runner = launch.arm(force=opts.force)
         if not report.ok:
             print("warning: pre-flight failed; starting anyway because of --force", file=out)
         offset, start_at = opts.offset, None
@@ -377,10 +387,11 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
             file=out,
             flush=True,
         )
-        result = launch.run(offset=offset, start_at=start_at)
+        say = lambda line: print(line, file=out, flush=True)  # noqa: E731
+        with directed(runner, launch.clock, script, say=say):
+            result = launch.run(offset=offset, start_at=start_at)
         if live is not None:
-            runner = launch.runner
-            live.finish(runner.snapshot() if runner else None, completed=result.completed)
+            live.finish(runner.snapshot(), completed=result.completed)
         printer.finish()
         print(format_report(result), file=out, flush=True)
         if sims is not None:

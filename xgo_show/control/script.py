@@ -21,11 +21,13 @@ says which trigger was missing).
 
 from __future__ import annotations
 
+import json
+import sys
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, StringConstraints, model_validator
 from pydantic_core import PydanticCustomError
@@ -36,7 +38,16 @@ from xgo_show.control.director import ControlError, Director, WaitStarted
 from xgo_show.errors import ChoreographyError
 from xgo_show.runtime.events import Event, ShowEnded, ShowStarted
 
-__all__ = ["ScriptCue", "ScriptPlayer", "TriggerScript", "load_script"]
+__all__ = [
+    "SCRIPT_SCHEMA_ID",
+    "ScriptCue",
+    "ScriptPlayer",
+    "TriggerScript",
+    "load_script",
+    "trigger_script_json_schema",
+]
+
+SCRIPT_SCHEMA_ID = "https://xgo-show.invalid/schemas/trigger-script.schema.json"
 
 Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$")]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
@@ -71,6 +82,15 @@ class TriggerScript(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
 
     triggers: Annotated[list[ScriptCue], Field(min_length=1)]
+
+
+def trigger_script_json_schema() -> dict[str, Any]:
+    """The JSON schema (draft 2020-12) of a trigger script, for editors (see the modeline)."""
+    schema = TriggerScript.model_json_schema()
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["$id"] = SCRIPT_SCHEMA_ID
+    schema["title"] = "xgo-show trigger script"
+    return schema
 
 
 def load_script(path: str | Path) -> TriggerScript:
@@ -193,3 +213,8 @@ class ScriptPlayer:
             return None
         assert cue.after is not None
         return max(self._waits[0][1], self._turn) + cue.after
+
+
+if __name__ == "__main__":  # regenerate: python -m xgo_show.control.script > schemas/...
+    json.dump(trigger_script_json_schema(), sys.stdout, indent=2)
+    sys.stdout.write("\n")
