@@ -227,13 +227,14 @@ class Director:
             self._time_out(w)
 
     def pause(self) -> None:
-        """Pause the show (robots at rest); a no-op while it holds at a wait."""
+        """Pause the show (robots at rest). A no-op while it holds at a wait, and when a wait
+        is due within ``arm_margin`` (the robots are about to hold there anyway)."""
         with self._cond:
             if self._s.phase == "waiting":
                 return
             self._need_running("pause")
-            for tr in self._s.tracks.values():
-                tr.armed = None  # the pause below takes the place of an armed wait
+            if any(tr.armed is not None for tr in self._s.tracks.values()):
+                return
             self.runner.pause()
 
     def resume(self) -> None:
@@ -345,7 +346,6 @@ class Director:
             if tr.done:
                 continue
             p = self._performer(name)
-            tr.armed = None
             tr.anchor = None
 
             def jump(p: Any = p, paused: bool = paused) -> None:
@@ -355,9 +355,15 @@ class Director:
 
             if tr.held or paused:
                 tr.held = False
+                tr.armed = None
+                tr.on_hold = None
                 jump()
+            elif tr.armed is not None:
+                # About to hold at its wait (its pause is already asked for, perhaps already
+                # being applied): jump from there, rather than ask for a second pause.
+                tr.on_hold = jump
             else:
-                # Playing: pause now (this also takes the place of an armed wait), jump, go on.
+                # Playing: pause now, jump, go on.
                 p.pause()
                 jump()
         s.wait = self._wait_from(show_time)
