@@ -5,7 +5,7 @@ from __future__ import annotations
 import queue
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 from pythonosc.osc_bundle_builder import IMMEDIATELY, OscBundleBuilder
 from pythonosc.osc_message_builder import OscMessageBuilder
@@ -70,6 +70,7 @@ def test_a_bundle_gives_its_commands_in_order() -> None:
 
 @settings(max_examples=300, deadline=None)
 @given(st.binary(max_size=96))
+@example(b"/\x80\x00\x00")  # an address that is not UTF-8: pythonosc raised UnicodeDecodeError
 def test_any_datagram_is_commands_or_reasons_never_an_exception(data: bytes) -> None:
     for item in parse_packet(data):
         assert isinstance(item, (Command, str))

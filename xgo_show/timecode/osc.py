@@ -69,7 +69,8 @@ def parse_packet(data: bytes, prefix: str = "") -> list[Command | str]:
     packet_mod = require("pythonosc.osc_packet")
     try:
         packet = packet_mod.OscPacket(data)
-    except packet_mod.ParseError as exc:
+    except (packet_mod.ParseError, UnicodeDecodeError) as exc:
+        # pythonosc lets a non-UTF-8 address escape as UnicodeDecodeError (b"/\x80\0\0").
         return [f"not an OSC packet ({exc})"]
     return [parse_command(m.message.address, list(m.message.params), prefix)
             for m in packet.messages]
