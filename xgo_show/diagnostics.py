@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from xgo_show.text import printable
+
 __all__ = ["Diagnostic", "Origin", "Severity"]
 
 Severity = Literal["error", "warning"]
@@ -34,10 +36,12 @@ class Diagnostic:
     path: str = ""  # field path inside the document, e.g. "tracks.rex[3].to.body_z"
 
     def format(self) -> str:
+        """``file:line:col: severity: path: message``, one printable line (any control
+        character from a file name or quoted text is written as an escape)."""
         o = self.origin
         where = f"{o.file}:{o.line}:{o.column}: " if o else ""
         path = f"{self.path}: " if self.path else ""
-        return f"{where}{self.severity}: {path}{self.message}"
+        return printable(f"{where}{self.severity}: {path}{self.message}")
 
     @property
     def is_error(self) -> bool:

@@ -2,20 +2,56 @@
 
 Every error a user can cause is an :class:`XgoShowError`; its message is written for the user and
 is printed by the CLI as one line (no traceback). Third-party errors are re-raised ``from`` the
-original so the cause stays available to developers.
+original so the cause stays available to developers. Each kind of failure has its own class,
+so that a caller (a relay, a show-control server, a test) can tell them apart::
+
+    XgoShowError
+    ├── UsageError               a command-line option or argument that makes no sense
+    ├── FileAccessError          a file that cannot be read or written (missing, not a regular
+    │                            file, too large, not UTF-8, no permission)
+    ├── ScheduleError            a compiled schedule (.xshow.json) that is malformed or impossible
+    │   └── UnsafeScheduleError  a schedule writing a register no show may touch
+    ├── ProtocolError            bytes that cannot be encoded, a reply that makes no sense
+    │   └── FrameRejected        a well-formed frame a (simulated) robot refuses
+    ├── ProfileError             unknown model, register, action or capability
+    │   └── ValueRangeError      a physical value outside a register's range
+    ├── TransportError           a port or link that cannot be opened, written or read
+    │   └── TransportTimeout     a reply that did not arrive in time
+    ├── ChoreographyError        a routine that does not load or validate (with diagnostics)
+    │   └── CompileError         a valid routine that cannot become a schedule
+    │       └── TrajectoryError  the trajectory planner refused a move's input
+    │           └── InfeasibleMotion  a move shorter than its limits allow
+    ├── SetupError               a show that cannot be set up (a performer without a port, ...)
+    ├── PreflightError           a pre-flight check failed; nothing was moved
+    ├── SimulatorError           a simulator that cannot serve or stopped
+    ├── PlotError                a plot that cannot be drawn (no matplotlib, cannot write)
+    └── RuntimeFault             something went wrong while a show ran; the robots were stopped
 """
 
 from __future__ import annotations
 
+from xgo_show.diagnostics import Diagnostic
+
 __all__ = [
     "ChoreographyError",
     "CompileError",
+    "FileAccessError",
+    "FrameRejected",
+    "InfeasibleMotion",
     "NetworkError",
+    "PlotError",
+    "PreflightError",
     "ProfileError",
     "ProtocolError",
     "RuntimeFault",
+    "ScheduleError",
+    "SetupError",
+    "SimulatorError",
+    "TrajectoryError",
     "TransportError",
     "TransportTimeout",
+    "UnsafeScheduleError",
+    "UsageError",
     "ValueRangeError",
     "XgoShowError",
 ]
@@ -25,8 +61,35 @@ class XgoShowError(Exception):
     """Base of every error this package raises on purpose; the message is user-facing."""
 
 
+class UsageError(XgoShowError):
+    """A command-line option or argument that makes no sense (a negative countdown, ...)."""
+
+
+class FileAccessError(XgoShowError):
+    """A file that cannot be read or written: missing, a directory, a pipe or device, too
+    large, not UTF-8 text, or not permitted. ``line``/``column`` say where in the file the
+    problem is when it is in the content (a byte that is not UTF-8); 1:1 otherwise."""
+
+    def __init__(self, message: str, *, line: int = 1, column: int = 1) -> None:
+        super().__init__(message)
+        self.line = line
+        self.column = column
+
+
+class ScheduleError(XgoShowError):
+    """A compiled schedule file that is malformed or describes something impossible."""
+
+
+class UnsafeScheduleError(ScheduleError):
+    """A schedule writes a register that is never touched during a show."""
+
+
 class ProtocolError(XgoShowError):
     """Bytes that cannot be encoded or a reply that does not make sense."""
+
+
+class FrameRejected(ProtocolError):
+    """A well-formed frame a (simulated) robot refuses; the message is the recorded reason."""
 
 
 class ProfileError(XgoShowError):
@@ -48,9 +111,9 @@ class TransportTimeout(TransportError):
 class ChoreographyError(XgoShowError):
     """A routine that cannot be loaded or validated; carries every diagnostic found."""
 
-    def __init__(self, message: str, diagnostics: tuple[object, ...] = ()) -> None:
+    def __init__(self, message: str, diagnostics: tuple[Diagnostic, ...] = ()) -> None:
         super().__init__(message)
-        self.diagnostics = diagnostics
+        self.diagnostics: tuple[Diagnostic, ...] = diagnostics
 
 
 class CompileError(ChoreographyError):
@@ -59,6 +122,37 @@ class CompileError(ChoreographyError):
 
 class NetworkError(XgoShowError):
     """A Zenoh session that cannot open, a relay that does not answer or refuses a request."""
+
+
+class TrajectoryError(CompileError):
+    """The trajectory planner rejected a move's input (limits it cannot work with)."""
+
+
+class InfeasibleMotion(TrajectoryError):
+    """The requested duration is shorter than the limits allow."""
+
+    def __init__(self, minimum: float, dof: int, requested: float) -> None:
+        super().__init__(f"needs at least {minimum:.2f} s, given {requested:.2f} s")
+        self.minimum = minimum
+        self.dof = dof  # index of the DoF that needs the longest time alone
+        self.requested = requested
+
+
+class SetupError(XgoShowError):
+    """A show that cannot be set up as asked: a performer without a port, two performers on
+    one port, an unknown failure policy."""
+
+
+class PreflightError(XgoShowError):
+    """A pre-flight check failed; nothing was moved."""
+
+
+class SimulatorError(XgoShowError):
+    """A simulator that cannot serve (bad option) or that stopped."""
+
+
+class PlotError(XgoShowError):
+    """A plot that cannot be drawn: matplotlib missing or the image not writable."""
 
 
 class RuntimeFault(XgoShowError):

@@ -169,7 +169,7 @@ def validate_file(path: str | Path) -> list[Diagnostic]:
     try:
         schedule = compile_show(show)
     except CompileError as exc:
-        extra = [d for d in exc.diagnostics if isinstance(d, Diagnostic)]
+        extra = list(exc.diagnostics)
         if not extra:
             extra = [Diagnostic("error", str(exc))]
         return _sorted(diags + extra)

@@ -8,8 +8,9 @@ are left to :mod:`xgo_show.choreo.checks`, which reads the :class:`CueSource` ke
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -572,9 +573,9 @@ class _Resolver:
 
         ``via`` names the first include in the field paths of the file's own errors.
         """
-        try:
-            path = (Path(doc.file).parent / name).resolve()
-        except (OSError, ValueError) as exc:  # a NUL in the name, a symlink loop, ...
+        try:  # realpath: a symlink loop is left for the read to report, not raised here
+            path = Path(os.path.realpath(Path(doc.file).parent / name))
+        except (OSError, ValueError) as exc:  # a NUL in the name, ...
             self.error(doc, loc, f"cannot include {name!r}: {exc}")
             return None
         if path in stack:
@@ -596,6 +597,10 @@ class _Resolver:
         text = read_text(path)
         if isinstance(text, tuple):
             return None, None, text[0]
+        if isinstance(text, Diagnostic):  # a byte that is not UTF-8: at its place
+            assert text.origin is not None
+            self.diags.append(replace(text, origin=replace(text.origin, file=shown)))
+            return None, None, "it has 1 error(s)"
         pdoc, errors = parse_yaml(text, shown)
         model: _Part | None = None
         if not errors:

@@ -17,6 +17,8 @@ from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
 from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.errors import FileAccessError
+from xgo_show.files import MAX_ROUTINE_BYTES, read_text_file
 
 __all__ = [
     "MAX_NODES", "Document", "Link", "Loc", "format_path", "parse_yaml", "read_text", "read_yaml",
@@ -323,26 +325,25 @@ def _too_deep(file: str) -> Diagnostic:
     return Diagnostic("error", "the YAML is nested too deeply", Origin(file, 1, 1))
 
 
-def read_text(path: Path) -> str | tuple[str]:
-    """The file's text, or ``(reason,)`` when it cannot be read (missing, not UTF-8, ...)."""
+def read_text(path: Path) -> str | tuple[str] | Diagnostic:
+    """The file's text; ``(reason,)`` when it cannot be opened or read (missing, a pipe or a
+    device, too large, ...); a diagnostic at the place of a byte that is not UTF-8."""
     try:
-        return path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        return ("no such file",)
-    except IsADirectoryError:
-        return ("is a directory",)
-    except UnicodeDecodeError as exc:
-        return (f"not UTF-8 text (byte {exc.start})",)
-    except OSError as exc:
-        return (f"cannot read: {exc.strerror or exc}",)
-    except ValueError as exc:  # e.g. a NUL character in the path
-        return (f"cannot read: {exc}",)
+        return read_text_file(path, limit=MAX_ROUTINE_BYTES)
+    except FileAccessError as exc:
+        if (exc.line, exc.column) != (1, 1) or str(exc).startswith("not UTF-8"):
+            return Diagnostic("error", str(exc), Origin(str(path), exc.line, exc.column))
+        return (str(exc),)
 
 
 def read_yaml(path: Path, file: str | None = None) -> tuple[Document, list[Diagnostic]]:
     """Read and parse ``path``; an unreadable file is one diagnostic, never an exception."""
     name = file if file is not None else str(path)
     text = read_text(path)
+    if isinstance(text, Diagnostic):
+        assert text.origin is not None
+        origin = Origin(name, text.origin.line, text.origin.column)
+        return Document(name, None), [Diagnostic("error", text.message, origin)]
     if isinstance(text, tuple):
         return Document(name, None), [Diagnostic("error", text[0], Origin(name, 1, 1))]
     return parse_yaml(text, name)

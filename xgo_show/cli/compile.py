@@ -11,7 +11,7 @@ import xgo_show.choreo as choreo  # its loader is imported on first use
 from xgo_show.compiler import compile_show, save_schedule
 from xgo_show.compiler.artifact import SCHEDULE_HINT, is_schedule_file
 from xgo_show.compiler.report import totals_table
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UsageError
 
 __all__ = ["add_parser", "default_output", "run"]
 
@@ -52,7 +52,7 @@ def default_output(show: Path) -> Path:
 def run(args: argparse.Namespace) -> int:
     source = Path(args.show)
     if is_schedule_file(source):
-        raise XgoShowError(f"{source}: {SCHEDULE_HINT}")
+        raise UsageError(f"{source}: {SCHEDULE_HINT}")
     schedule = compile_show(choreo.load_show(source))
     out = Path(args.output) if args.output else default_output(source)
     save_schedule(schedule, out)

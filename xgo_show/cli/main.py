@@ -15,8 +15,8 @@ import sys
 from collections.abc import Sequence
 
 from xgo_show import __version__
-from xgo_show.diagnostics import Diagnostic
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import ChoreographyError, XgoShowError
+from xgo_show.text import printable
 
 __all__ = ["COMMANDS", "build_parser", "main"]
 
@@ -86,16 +86,17 @@ def _log_traffic() -> None:
 
 def _report(exc: XgoShowError) -> None:
     """Every diagnostic the error carries, one per line, then one summary line."""
-    diags = [d for d in getattr(exc, "diagnostics", ()) if isinstance(d, Diagnostic)]
-    if not diags:
-        print(f"xgo-show: error: {exc}", file=sys.stderr)
+    diags = list(exc.diagnostics) if isinstance(exc, ChoreographyError) else []
+    if not diags:  # each line made printable: the message may quote a file's text
+        text = "\n".join(printable(line) for line in str(exc).split("\n"))
+        print(f"xgo-show: error: {text}", file=sys.stderr)
         return
     for d in diags:
         print(d.format(), file=sys.stderr)
     errors = [d for d in diags if d.is_error]
     first = next((d.origin.file for d in errors if d.origin), "")
     where = f"{first}: " if first else ""
-    print(f"xgo-show: error: {where}{len(errors)} error(s)", file=sys.stderr)
+    print(f"xgo-show: error: {printable(where)}{len(errors)} error(s)", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -11,7 +11,7 @@ import argparse
 from typing import Any
 
 from xgo_show.client import DEFAULT_TIMEOUT, open_client
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UsageError
 from xgo_show.families import get_family
 from xgo_show.net.session import add_session_arguments, session_options
 from xgo_show.profiles import MODELS
@@ -58,7 +58,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if not args.timeout > 0:
-        raise XgoShowError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
+        raise UsageError(f"--timeout must be a positive number of seconds, not {args.timeout:g}")
     if args.port.lower().startswith("zenoh:"):
         from xgo_show.relay.conductor import probe_relayed
 

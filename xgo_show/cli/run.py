@@ -24,7 +24,8 @@ from xgo_show.cli.live import LiveView
 from xgo_show.compiler.artifact import is_schedule_file
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.rehearsal import check_triggers, directed
-from xgo_show.errors import RuntimeFault, XgoShowError
+from xgo_show.errors import FileAccessError, RuntimeFault, UsageError, XgoShowError
+from xgo_show.files import file_problem
 from xgo_show.relay.options import (
     ConductorOptions,
     close_session,
@@ -199,10 +200,10 @@ def check_options(args: argparse.Namespace) -> None:
     """Refuse option values that make no sense (a negative countdown, a floor above 100 %)."""
     countdown = getattr(args, "countdown", None)
     if countdown is not None and not (math.isfinite(countdown) and countdown >= 0):
-        raise XgoShowError(f"--countdown {countdown:g}: give a number of seconds >= 0")
+        raise UsageError(f"--countdown {countdown:g}: give a number of seconds >= 0")
     floor = args.battery_floor
     if floor is not None and not 0 <= floor <= 100:
-        raise XgoShowError(f"--battery-floor {floor:g}: give a percentage from 0 to 100")
+        raise UsageError(f"--battery-floor {floor:g}: give a percentage from 0 to 100")
 
 
 def load_schedule_file(path: str | Path) -> Schedule:
@@ -212,8 +213,9 @@ def load_schedule_file(path: str | Path) -> Schedule:
     schedule saved as ``.yaml``); anything else is read as a routine.
     """
     path = Path(path)
-    if not path.is_file():
-        raise XgoShowError(f"{path}: {'is a directory' if path.is_dir() else 'no such file'}")
+    problem = file_problem(path)
+    if problem is not None:
+        raise FileAccessError(f"{path}: {problem}")
     if path.suffix.lower() == ".json" or is_schedule_file(path):
         from xgo_show.compiler import load_schedule
 
@@ -229,14 +231,14 @@ def start_offset(schedule: Schedule, seconds: float | None, bar: int | None) -> 
     if bar is not None:
         tempo = schedule.tempo()
         if tempo is None:
-            raise XgoShowError("--start-bar needs a show with a tempo (bpm); use --start SECONDS")
+            raise UsageError("--start-bar needs a show with a tempo (bpm); use --start SECONDS")
         if bar < 1:
-            raise XgoShowError(f"--start-bar {bar}: bars count from 1")
+            raise UsageError(f"--start-bar {bar}: bars count from 1")
         seconds = tempo.position(bar)  # the tempo map: right across tempo changes
     if seconds is None:
         return 0.0
     if not 0.0 <= seconds < schedule.duration:
-        raise XgoShowError(
+        raise UsageError(
             f"start time {seconds:g} s is outside the show (0 to {schedule.duration:g} s)"
         )
     return seconds
@@ -249,13 +251,13 @@ def parse_maps(schedule: Schedule, maps: Sequence[str]) -> dict[str, str]:
     for item in maps:
         name, eq, port = item.partition("=")
         if not eq or not name or not port:
-            raise XgoShowError(f"--map {item!r}: write NAME=PORT, e.g. rex=/dev/ttyUSB0")
+            raise UsageError(f"--map {item!r}: write NAME=PORT, e.g. rex=/dev/ttyUSB0")
         if name not in names:
-            raise XgoShowError(
+            raise UsageError(
                 f"--map {item!r}: no performer {name!r}; performers: {', '.join(names)}"
             )
         if name in out:
-            raise XgoShowError(
+            raise UsageError(
                 f"--map {item!r}: {name} is already mapped to {out[name]}; map each performer once"
             )
         out[name] = port

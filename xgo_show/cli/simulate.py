@@ -15,7 +15,7 @@ import time
 from types import FrameType
 from typing import Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import SimulatorError
 from xgo_show.families import get_family
 from xgo_show.profiles import MODELS, get_profile
 from xgo_show.sim import PtyServer, create_robot
@@ -81,7 +81,7 @@ def run(args: argparse.Namespace) -> int:
             print(server.path, flush=True)
             while not stop.wait(0.2):
                 if not server.running:
-                    raise XgoShowError(f"the simulator stopped: {server.error}")
+                    raise SimulatorError(f"the simulator stopped: {server.error}")
             snap = server.snapshot()
     finally:
         for sig, handler in previous.items():

@@ -19,6 +19,8 @@ from xgo_show.compiler.artifact import (  # its loader is imported on first use
     is_schedule_file,
 )
 from xgo_show.diagnostics import Diagnostic
+from xgo_show.files import file_problem
+from xgo_show.text import printable
 
 __all__ = ["add_parser", "report", "run"]
 
@@ -50,7 +52,7 @@ def report(path: str, diags: list[Diagnostic], out: TextIO, *, quiet: bool = Fal
         if d.is_error or not quiet:
             print(d.format(), file=out)
     status = "ok" if errors == 0 else "FAILED"
-    print(f"{path}: {status}: {errors} error(s), {warnings} warning(s)", file=out)
+    print(printable(f"{path}: {status}: {errors} error(s), {warnings} warning(s)"), file=out)
     return errors == 0
 
 
@@ -58,13 +60,13 @@ def run(args: argparse.Namespace) -> int:
     ok = True
     for name in args.files:
         path = Path(name)
-        if not path.is_file():
-            reason = "is a directory" if path.is_dir() else "no such file"
-            print(f"{name}: error: {reason}", file=sys.stdout)
+        reason = file_problem(path)
+        if reason is not None:
+            print(printable(f"{name}: error: {reason}"), file=sys.stdout)
             ok = False
             continue
         if is_schedule_file(path):
-            print(f"{name}: error: {SCHEDULE_HINT}", file=sys.stdout)
+            print(printable(f"{name}: error: {SCHEDULE_HINT}"), file=sys.stdout)
             ok = False
             continue
         ok = report(name, choreo.validate_file(path), sys.stdout, quiet=args.quiet) and ok

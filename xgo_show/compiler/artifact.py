@@ -69,7 +69,8 @@ from xgo_show.compiler.schedule import (
 )
 from xgo_show.compiler.state import frame_labels
 from xgo_show.diagnostics import Origin
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import FileAccessError, ScheduleError
+from xgo_show.files import read_bytes_file, read_head
 from xgo_show.profiles.model import Profile
 from xgo_show.wire.xgo import MIN_LENGTH, TAIL
 
@@ -120,7 +121,7 @@ def _performer_columns(p: PerformerSchedule, ref: OriginRef) -> bytes:
     times = [round(f.t * 1_000_000) for f in frames]
     deltas = [b - a for a, b in itertools.pairwise([0, *times])]
     if any(d < 0 for d in deltas):
-        raise XgoShowError(f"performer {p.name}: frames are not in time order")
+        raise ScheduleError(f"performer {p.name}: frames are not in time order")
     origins: list[int] = []
     last: object = None
     index = 0
@@ -178,11 +179,8 @@ def _envelope(body: bytes) -> bytes:
 
 def is_schedule_file(path: str | Path) -> bool:
     """Whether ``path`` starts as JSON carrying the schedule format tag (whatever its name)."""
-    try:
-        with Path(path).open(encoding="utf-8", errors="replace") as f:
-            head = f.read(4096)
-    except OSError:
-        return False  # whoever reads it next says what is wrong with the file
+    # A pipe, a device or an unreadable file is not one: whoever reads it next says why.
+    head = read_head(path, 4096).decode("utf-8", errors="replace")
     return head.lstrip().startswith("{") and re.search(
         rf'"format"\s*:\s*"{re.escape(FORMAT)}"', head
     ) is not None
@@ -194,19 +192,26 @@ def save_schedule(schedule: Schedule, path: str | Path) -> Path:
     try:
         target.write_bytes(schedule_to_bytes(schedule))
     except OSError as exc:
-        raise XgoShowError(f"cannot write schedule {target}: {exc.strerror or exc}") from exc
+        raise FileAccessError(f"cannot write schedule {target}: {exc.strerror or exc}") from exc
     return target
 
 
 def load_schedule(path: str | Path, *, max_bytes: int = MAX_SCHEDULE_BYTES) -> Schedule:
     """Read a schedule file (either version; see the module docstring)."""
     source = Path(path)
-    try:
-        with source.open("rb") as fh:
-            data = fh.read(max_bytes + 1)
-    except OSError as exc:
-        raise XgoShowError(f"cannot read schedule {source}: {exc.strerror or exc}") from exc
+    try:  # a regular file only (a pipe would block, /dev/zero never end), at most max_bytes
+        data = read_bytes_file(source, limit=max_bytes)
+    except FileAccessError as exc:
+        raise FileAccessError(f"cannot read schedule {source}: {exc}") from exc
     return schedule_from_bytes(data, name=str(source), max_bytes=max_bytes)
+
+
+def _whole_number(text: str) -> int:
+    """A JSON integer, refused when it has more digits than any schedule value (a float made
+    from it would overflow, and Python parses thousands of digits slowly)."""
+    if len(text.lstrip("-")) > 18:
+        raise ValueError(f"the number {text[:12]}... has {len(text)} digits: far too large")
+    return int(text)
 
 
 def schedule_from_bytes(
@@ -218,29 +223,31 @@ def schedule_from_bytes(
     the body is inflated.
     """
     if len(data) > max_bytes:
-        raise XgoShowError(f"{name}: larger than {max_bytes:,} bytes: not a schedule this reads")
+        raise ScheduleError(f"{name}: larger than {max_bytes:,} bytes: not a schedule this reads")
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise XgoShowError(f"{name}: not a schedule file (not UTF-8 text: byte {exc.start})"
+        raise ScheduleError(f"{name}: not a schedule file (not UTF-8 text: byte {exc.start})"
                            ) from exc
     try:
-        doc = json.loads(text)
+        doc = json.loads(text, parse_int=_whole_number)
     except json.JSONDecodeError as exc:
-        raise XgoShowError(
+        raise ScheduleError(
             f"{name}: not a schedule file (invalid JSON at line {exc.lineno} column {exc.colno}: "
             f"{exc.msg})"
         ) from exc
     except RecursionError as exc:
-        raise XgoShowError(f"{name}: not a schedule file (JSON nested too deeply)") from exc
+        raise ScheduleError(f"{name}: not a schedule file (JSON nested too deeply)") from exc
+    except ValueError as exc:  # a number of too many digits (_whole_number)
+        raise ScheduleError(f"{name}: not a schedule file ({exc})") from exc
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise XgoShowError(f"{name}: not an xgo-show schedule (no \"format\": \"{FORMAT}\")")
+        raise ScheduleError(f"{name}: not an xgo-show schedule (no \"format\": \"{FORMAT}\")")
     version = doc.get("version")
     r = Reader(name)
     if not isinstance(version, int) or isinstance(version, bool):
         raise r.fail("version", "missing or not an integer")
     if version > SCHEDULE_VERSION:
-        raise XgoShowError(
+        raise ScheduleError(
             f"{name}: schedule format version {version} was written by a newer xgo-show; this "
             f"one reads versions 1 to {SCHEDULE_VERSION}: upgrade xgo-show or compile the show "
             "again"

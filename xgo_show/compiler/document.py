@@ -44,7 +44,6 @@ from typing import Any
 
 from xgo_show.choreo.music import Music
 from xgo_show.choreo.sections import ELSE_KEYWORDS, Section, Wait
-from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.compiler.schedule import (
     SCHEDULE_VERSION,
     PerformerSchedule,
@@ -52,8 +51,9 @@ from xgo_show.compiler.schedule import (
     ScheduledFrame,
     to_us,
 )
+from xgo_show.compiler.schedule_check import check_schedule
 from xgo_show.diagnostics import Diagnostic, Origin
-from xgo_show.errors import ProtocolError, XgoShowError
+from xgo_show.errors import ProtocolError, ScheduleError, XgoShowError
 from xgo_show.families import get_family
 from xgo_show.profiles.model import Link, Profile
 from xgo_show.profiles.registry import get_profile
@@ -156,8 +156,8 @@ class Reader:
     def __init__(self, name: str) -> None:
         self.name = name
 
-    def fail(self, where: str, message: str) -> XgoShowError:
-        return XgoShowError(f"{self.name}: {where}: {message}")
+    def fail(self, where: str, message: str) -> ScheduleError:
+        return ScheduleError(f"{self.name}: {where}: {message}")
 
     def get(self, obj: Mapping[str, Any], key: str, kind: type | tuple[type, ...], where: str,
             *, optional: bool = False) -> Any:
@@ -182,6 +182,8 @@ class Reader:
         value = self.get(obj, key, int, where)
         if value < 0:
             raise self.fail(f"{where}.{key}", "must not be negative")
+        if value > 2**53:  # past any show (and past what a float holds exactly)
+            raise self.fail(f"{where}.{key}", f"{value:.3g} us is far too large")
         return float(value) / 1_000_000
 
 
@@ -199,10 +201,6 @@ def _tempo_map(r: Reader, show: Mapping[str, Any]) -> tuple[tuple[int, float, in
                 or not isinstance(row[2], int)):
             raise r.fail(where, "expected [first bar, bpm, beats_per_bar]")
         out.append((row[0], float(row[1]), row[2]))
-    try:
-        TempoMap([Segment(*row) for row in out]) if out else None
-    except ValueError as exc:
-        raise r.fail("show.tempo_map", str(exc)) from exc
     return tuple(out)
 
 
@@ -355,7 +353,7 @@ def read_document(doc: object, name: str, frames: FramesReader) -> Schedule:
         m = r.obj(show["music"], "show.music")
         music = Music(r.get(m, "file", str, "show.music"), r.get(m, "path", str, "show.music"),
                       float(r.get(m, "offset", (int, float), "show.music")))
-    return Schedule(
+    schedule = Schedule(
         name=r.get(show, "name", str, "show"),
         source=r.get(show, "source", str, "show"),
         performers=tuple(performers),
@@ -370,3 +368,5 @@ def read_document(doc: object, name: str, frames: FramesReader) -> Schedule:
         sections=sections,
         music=music,
     )
+    check_schedule(schedule, name=name)
+    return schedule

@@ -13,7 +13,7 @@ from typing import Any
 from xgo_show.compiler.layout import ACTION_REGISTER
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.compiler.state import describe_frame, format_value
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import PlotError
 from xgo_show.families import get_family
 from xgo_show.profiles.model import Encoding, Profile
 from xgo_show.profiles.registry import get_profile
@@ -28,7 +28,7 @@ def _pyplot() -> Any:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError as exc:
-        raise XgoShowError(
+        raise PlotError(
             "plotting needs matplotlib: pip install 'xgo-show[plot]' (or pip install matplotlib)"
         ) from exc
     return plt
@@ -53,7 +53,7 @@ def plot_schedule(schedule: Schedule, path: str | Path) -> Path:
     try:
         fig.savefig(target, dpi=110)
     except OSError as exc:
-        raise XgoShowError(f"cannot write plot {target}: {exc.strerror or exc}") from exc
+        raise PlotError(f"cannot write plot {target}: {exc.strerror or exc}") from exc
     finally:
         plt.close(fig)
     return target

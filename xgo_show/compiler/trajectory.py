@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 from ruckig import InputParameter, Result, Ruckig, RuckigError, Trajectory
 
+from xgo_show.errors import InfeasibleMotion, TrajectoryError
 from xgo_show.profiles.model import Limits
 
 __all__ = [
@@ -42,20 +43,6 @@ class DofState:
     position: float
     velocity: float = 0.0
     acceleration: float = 0.0
-
-
-class TrajectoryError(Exception):
-    """ruckig rejected the input (e.g. a non-positive limit); message is user-facing."""
-
-
-class InfeasibleMotion(TrajectoryError):
-    """The requested duration is shorter than the limits allow."""
-
-    def __init__(self, minimum: float, dof: int, requested: float) -> None:
-        super().__init__(f"needs at least {minimum:.2f} s, given {requested:.2f} s")
-        self.minimum = minimum
-        self.dof = dof  # index of the DoF that needs the longest time alone
-        self.requested = requested
 
 
 @dataclass(frozen=True, eq=False)

@@ -27,7 +27,7 @@ from typing import Any, Protocol
 
 from xgo_show.closing import Closing
 from xgo_show.compiler.schedule import Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import SetupError
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, FakeClock, MonotonicClock
 from xgo_show.runtime.events import EventBus, PreflightDone
@@ -292,7 +292,7 @@ class Launch(Closing):
         """Give performers ports or URLs (before :meth:`open`), e.g. simulators started after
         the launch refused nothing."""
         if self.endpoints:
-            raise XgoShowError("the launch is already open: map performers before opening it")
+            raise SetupError("the launch is already open: map performers before opening it")
         self.urls.update(urls)
 
     # ------------------------------------------------------------------ stages
@@ -300,7 +300,7 @@ class Launch(Closing):
     def open(self) -> dict[str, str]:
         """Open every endpoint's links; returns the errors by performer (empty: all open)."""
         if self.endpoints:
-            raise XgoShowError("the launch is already open")
+            raise SetupError("the launch is already open")
         self.endpoints = endpoints_for(self.schedule, self.urls)
         errors: dict[str, str] = {}
         for endpoint in self.endpoints:
@@ -367,7 +367,7 @@ class Launch(Closing):
     ) -> ShowResult:
         """Play the armed show from show time ``offset`` (see :meth:`ShowRunner.run`)."""
         if self.runner is None:
-            raise XgoShowError("arm the launch before running it (pre-flight first)")
+            raise SetupError("arm the launch before running it (pre-flight first)")
         return self.runner.run(offset=offset, start_at=start_at, handle_signals=handle_signals)
 
     def close(self) -> None:

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import TextIO
 
 from xgo_show.compiler.schedule import Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import PreflightError, XgoShowError
 from xgo_show.families import get_family
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, MonotonicClock
@@ -36,10 +36,6 @@ __all__ = [
 ]
 
 Opener = Callable[..., Transport]
-
-
-class PreflightError(XgoShowError):
-    """A pre-flight check failed; nothing was moved."""
 
 
 @dataclass

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import IO, Any
 
 from xgo_show.closing import Closing
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import FileAccessError
 from xgo_show.runtime.events import (
     Event,
     EventBus,
@@ -66,7 +66,7 @@ class RunLog(Closing):
             try:
                 self._file = self.path.open("w", encoding="utf-8")
             except OSError as exc:
-                raise XgoShowError(f"cannot write the run log {self.path}: {exc}") from exc
+                raise FileAccessError(f"cannot write the run log {self.path}: {exc}") from exc
 
     def write(self, kind: str, *, flush: bool = False, **fields: Any) -> None:
         """Append one record."""

@@ -8,7 +8,7 @@ to neutral, then the reset action (restore the default posture); an xArm gets Gr
 from __future__ import annotations
 
 from xgo_show.compiler.schedule import Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UnsafeScheduleError
 from xgo_show.families import get_family
 from xgo_show.families.values import StopFrame
 from xgo_show.profiles.model import Profile
@@ -20,10 +20,6 @@ __all__ = [
     "rest_frames",
     "stop_frames",
 ]
-
-
-class UnsafeScheduleError(XgoShowError):
-    """A schedule writes a register that is never touched during a show."""
 
 
 def rest_frames(profile: Profile) -> list[StopFrame]:

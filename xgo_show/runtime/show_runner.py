@@ -31,7 +31,7 @@ from types import FrameType
 from typing import Any
 
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import SetupError, UsageError
 from xgo_show.profiles.model import Profile
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.runtime.events import (
@@ -124,11 +124,11 @@ class ShowRunner:
     ) -> None:
         missing = [p.name for p in schedule.performers if p.name not in performers]
         if missing:
-            raise XgoShowError(f"no port for performer(s) {', '.join(missing)}")
+            raise SetupError(f"no port for performer(s) {', '.join(missing)}")
         self.schedule = schedule
         self.on_failure = on_failure or schedule.on_failure
         if self.on_failure not in FAILURE_POLICIES:
-            raise XgoShowError(
+            raise SetupError(
                 f"unknown failure policy {self.on_failure!r}; one of {', '.join(FAILURE_POLICIES)}"
             )
         self.battery_floor = schedule.battery_floor if battery_floor is None else battery_floor
@@ -191,7 +191,7 @@ class ShowRunner:
     def seek(self, show_time: float, *, at: float | None = None) -> None:
         """Jump every performer to ``show_time``, together at clock time ``at``."""
         if not 0.0 <= show_time < self.schedule.duration:
-            raise XgoShowError(
+            raise UsageError(
                 f"seek to {show_time:g} s: outside the show (0 to {self.schedule.duration:g} s)"
             )
         when = self._when(at)

@@ -12,6 +12,7 @@ import abc
 from dataclasses import dataclass
 from typing import Any, Generic, Protocol, TypeVar
 
+from xgo_show.errors import FrameRejected
 from xgo_show.wire.stream import StreamDecoder
 
 __all__ = ["FrameRobot", "ReceivedFrame", "Rejected", "SimulatedRobot"]
@@ -59,8 +60,7 @@ class SimulatedRobot(abc.ABC):
         """A JSON-able summary of the robot's state (registers by name, actions run, …)."""
 
 
-class Rejected(Exception):
-    """A well-formed frame the robot refuses; the message is the recorded reason."""
+Rejected = FrameRejected  # the simulators' short name for it
 
 
 class _Encodable(Protocol):

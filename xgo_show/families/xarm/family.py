@@ -10,7 +10,7 @@ from collections.abc import Callable, Mapping, Sequence
 from functools import partial
 from typing import TYPE_CHECKING, Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UsageError
 from xgo_show.families.base import Remerge, RobotFamily
 from xgo_show.families.values import StopFrame, TelemetryItem
 from xgo_show.families.xarm import runtime
@@ -108,7 +108,7 @@ class XarmFamily(RobotFamily):
 
     def simulate_options(self, *, seed: int, battery: float | None) -> dict[str, Any]:
         if battery is not None:
-            raise XgoShowError(
+            raise UsageError(
                 "--battery is a percentage for XGO robots; the xArm reports millivolts "
                 "(its simulator starts at 7600 mV)"
             )
