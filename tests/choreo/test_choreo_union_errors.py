@@ -12,9 +12,9 @@ from .conftest import WriteFn
 @pytest.mark.parametrize(("cue", "message"), [
     ("{action: 99999}", "input should be less than or equal to 255, not 99999"),
     ("{action: ''}", "string should have at least 1 character"),
-    ("{move: {pitch: .nan}, duration: 1}", "input should be a finite number"),
-    ("{move: {pitch: .inf}, duration: 1}", "input should be a finite number"),
-    ("{move: {pitch: [1, .nan]}, duration: 1}", "input should be a finite number"),
+    ("{move: {pitch: .nan}, duration: 1}", ".nan is not a number: give a finite number"),
+    ("{move: {pitch: .inf}, duration: 1}", ".inf is infinite: give a finite number"),
+    ("{move: {pitch: [1, .nan]}, duration: 1}", ".nan is not a number: give a finite number"),
 ])
 def test_one_error_for_one_mistake(write: WriteFn, cue: str, message: str) -> None:
     path = write(f"""

@@ -69,6 +69,8 @@ __all__ = [
 Number = Annotated[float, Field(allow_inf_nan=False)]
 NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
 Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+# A trajectory limit: what the planner handles (xgo_show.profiles.model.LIMIT_RANGE).
+LimitValue = Annotated[float, Field(ge=1e-3, le=1e7, allow_inf_nan=False)]
 Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$")]
 Scalar = Union[float, str, bool]  # noqa: UP007  (a runtime union for pydantic)
 
@@ -340,9 +342,9 @@ class ActionCueModel(_Timing):
 class LimitsOverride(_Model):
     """Per-register trajectory limits that replace the profile's (any subset)."""
 
-    velocity: Positive | None = None
-    acceleration: Positive | None = None
-    jerk: Positive | None = None
+    velocity: LimitValue | None = None
+    acceleration: LimitValue | None = None
+    jerk: LimitValue | None = None
 
 
 class MoveCueModel(_Timing):

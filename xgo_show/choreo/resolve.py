@@ -432,6 +432,15 @@ class _Resolver:
     def dispatch(
         self, perf: _Performer, kind: str, cue: object, start: float, block: _Block, loc: Loc
     ) -> float | None:
+        # Every cue played counts, whatever its kind: nested repeats of zero-length rests
+        # (or of empty phrases) take no time and emit nothing, but still cost their expansion.
+        self.count += 1
+        if self.count > MAX_CUES:
+            self.too_many = True
+            self.error(block.doc, loc, f"the show expands to more than {MAX_CUES:,} cues "
+                       "(rests, repeats, phrases and includes counted at each play); check "
+                       "the repeat counts")
+            return None
         if isinstance(cue, RestCueModel):
             return start + (self.length(cue.rest, start, block.doc, (*loc, "rest")) or 0.0)
         if isinstance(cue, RepeatCueModel):
@@ -447,12 +456,6 @@ class _Resolver:
             return self.phrase(perf, cue, start, block, loc)
         if isinstance(cue, IncludeCueModel):
             return self.include(perf, cue, start, block, loc)
-        self.count += 1
-        if self.count > MAX_CUES:
-            self.too_many = True
-            self.error(block.doc, loc, f"the show expands to more than {MAX_CUES} cues; "
-                       "check the repeat counts")
-            return None
         origin = block.doc.origin(loc, _describe(perf.name, kind, cue, block.context))
         emit = _Emitter(self, perf, kind, block, loc, origin)
         return emit.cue(cue, start)

@@ -8,6 +8,8 @@ and a duplicate key is an error. Only the safe YAML subset is understood (no Pyt
 
 from __future__ import annotations
 
+import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -19,6 +21,7 @@ from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import FileAccessError
 from xgo_show.files import MAX_ROUTINE_BYTES, read_text_file
+from xgo_show.text import control_characters, printable
 
 __all__ = [
     "MAX_NODES", "Document", "Link", "Loc", "format_path", "parse_yaml", "read_text", "read_yaml",
@@ -31,6 +34,37 @@ Loc = tuple[str | int, ...]
 MAX_NODES = 1_000_000
 
 _MERGE_TAG = "tag:yaml.org,2002:merge"
+_INT_TAG = "tag:yaml.org,2002:int"
+_FLOAT_TAG = "tag:yaml.org,2002:float"
+_STR_TAG = "tag:yaml.org,2002:str"
+_SEQ_TAG = "tag:yaml.org,2002:seq"
+
+#: Deepest nesting of lists and mappings: a routine with ten nested repeats is some 25 levels.
+MAX_DEPTH = 64
+#: Largest whole number a routine may hold (a float holds every integer up to 2^53 exactly).
+MAX_INT = 2**53
+#: Numbers are read as YAML 1.2 (core schema), not PyYAML's YAML 1.1: ``1e3`` is a number,
+#: ``0o17``/``0x1F`` are octal/hex, and ``1_000``, ``1:30`` or ``2024-01-01`` stay text. A
+#: leading zero (``0500``) is refused: YAML 1.1 tools read it as octal (320), 1.2 as 500.
+_INT_12 = re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$")
+_FLOAT_12 = re.compile(
+    r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+    r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
+)
+
+
+class _Loader(yaml.SafeLoader):
+    """The safe loader with YAML 1.2 numbers (see :data:`_INT_12`); booleans and nulls as
+    before."""
+
+
+_Loader.yaml_implicit_resolvers = {
+    first: [(tag, rx) for tag, rx in resolvers
+            if tag not in (_INT_TAG, _FLOAT_TAG, "tag:yaml.org,2002:timestamp")]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+_Loader.add_implicit_resolver(_INT_TAG, _INT_12, list("-+0123456789"))
+_Loader.add_implicit_resolver(_FLOAT_TAG, _FLOAT_12, list("-+0123456789."))
 
 
 @dataclass(frozen=True)
@@ -145,11 +179,9 @@ class _Builder:
             self.error(node, loc, "recursive YAML alias")
             return None
         if isinstance(node, ScalarNode):
-            try:
-                return self.constructor.construct_object(node, deep=True)
-            except yaml.YAMLError as exc:
-                self.error(node, loc, _problem(exc))
-                return None
+            return self.scalar(node, loc)
+        if isinstance(node, SequenceNode) and node.tag != _SEQ_TAG:
+            self.error(node, loc, f"unsupported YAML tag {node.tag}")
         self._active.add(id(node))
         try:
             if isinstance(node, SequenceNode):
@@ -200,12 +232,66 @@ class _Builder:
                     out.setdefault(key, value)
         return out
 
-    def build_key(self, node: ScalarNode, loc: Loc) -> str | int | None:
+    def scalar(self, node: ScalarNode, loc: Loc) -> object:
+        """A plain value: numbers as YAML 1.2 (and within range), text without control
+        characters; an error (and None) otherwise."""
+        if node.tag == _INT_TAG:
+            return self.integer(node, loc)
         try:
-            key = self.constructor.construct_object(node, deep=True)
+            value = self.constructor.construct_object(node, deep=True)
         except yaml.YAMLError as exc:
             self.error(node, loc, _problem(exc))
             return None
+        except ValueError:  # an explicit tag on a value it does not fit (!!float abc)
+            self.error(node, loc, f"{printable(node.value)!r} is not a {node.tag.rsplit(':')[-1]}")
+            return None
+        if value is not None and not isinstance(value, (str, int, float)):  # !!binary, ...
+            self.error(node, loc, f"unsupported YAML tag {printable(node.tag)}")
+            return None
+        if isinstance(value, float) and not math.isfinite(value):
+            what = "infinite" if math.isinf(value) else "not a number"
+            self.error(node, loc, f"{node.value} is {what}: give a finite number")
+            return None
+        if isinstance(value, float) and abs(value) > MAX_INT:
+            self.error(node, loc, f"{node.value} is too large (at most about 9e15)")
+            return None
+        if isinstance(value, str):
+            bad = control_characters(value)
+            if bad is not None:
+                self.error(node, loc, f"the text holds the control character {bad}: "
+                           "write plain text")
+                return None
+        return value
+
+    def integer(self, node: ScalarNode, loc: Loc) -> int | None:
+        text = node.value
+        if not _INT_12.match(text):  # an explicit !!int on something else
+            self.error(node, loc, f"{printable(text)!r} is not a whole number")
+            return None
+        sign = -1 if text.startswith("-") else 1
+        digits = text.lstrip("+-")
+        if digits.startswith(("0x", "0o")):
+            value = int(digits[2:], 16 if digits[1] == "x" else 8)
+        elif len(digits) > 1 and digits.startswith("0"):
+            self.error(node, loc, f"{node.value}: a number with a leading zero is ambiguous "
+                       f"(YAML 1.1 reads it as octal); write {int(digits)}")
+            return None
+        elif len(digits) > 16:
+            self.error(node, loc, f"{digits[:8]}... ({len(digits)} digits) is too large "
+                       "(at most about 9e15)")
+            return None
+        else:
+            value = int(digits)
+        if value > MAX_INT:
+            self.error(node, loc, f"{node.value} is too large (at most about 9e15)")
+            return None
+        return sign * value
+
+    def build_key(self, node: ScalarNode, loc: Loc) -> str | int | None:
+        key = self.scalar(node, loc)
+        if key is None and self.errors and self.errors[-1].origin == Origin(
+                self.doc.file, node.start_mark.line + 1, node.start_mark.column + 1):
+            return None  # reported
         if isinstance(key, bool) or not isinstance(key, (str, int)):
             # Booleans as keys ("on:", "yes:") are a classic YAML trap; make them explicit.
             self.error(node, loc, f"key {node.value!r} must be a name or a whole number")
@@ -225,37 +311,46 @@ def parse_yaml(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
     try:
         nodes = _compose(text)
     except RecursionError:
-        return doc, [_too_deep(file)]
+        return doc, [_too_deep(text, file)]
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
         msg = f"YAML syntax: {_problem(exc)}"
         return doc, [Diagnostic("error", msg, Origin(file, line, col))]
-    except yaml.YAMLError as exc:  # e.g. a reader error on a control character
-        return doc, [Diagnostic("error", f"YAML: {exc}", Origin(file, 1, 1))]
+    except yaml.reader.ReaderError as exc:  # a control character, at its place
+        line, col = _line_col(text, exc.position)
+        char = exc.character if isinstance(exc.character, str) else chr(exc.character)
+        msg = (f"the control character {printable(char)} is not allowed in YAML "
+               "(a stray byte? write it as an escape in a double-quoted string if meant)")
+        return doc, [Diagnostic("error", msg, Origin(file, line, col))]
+    except yaml.YAMLError as exc:
+        return doc, [Diagnostic("error", f"YAML: {printable(str(exc))}", Origin(file, 1, 1))]
     if not nodes:
         return doc, [Diagnostic("error", "the file is empty", Origin(file, 1, 1))]
     if len(nodes) > 1:
         mark = nodes[1].start_mark
         origin = Origin(file, mark.line + 1, mark.column + 1)
         return doc, [Diagnostic("error", "one YAML document per file, found several", origin)]
-    try:
-        too_big = _expanded_size(nodes[0], {}, set()) > MAX_NODES
-    except RecursionError:  # libyaml composes any depth; Python code walking it cannot
-        return doc, [_too_deep(file)]
-    if too_big:
+    deep = _deepest(nodes[0])
+    if deep is not None:
+        return doc, [_too_deep_at(deep, file)]
+    if _expanded_size(nodes[0], {}, set()) > MAX_NODES:
         return doc, [_too_big(text, file)]
     builder = _Builder(doc)
-    try:
-        doc.data = builder.build(nodes[0], ())
-    except RecursionError:
-        return Document(file, None), [_too_deep(file)]
+    doc.data = builder.build(nodes[0], ())
     return doc, builder.errors
 
 
 # libyaml's parser when PyYAML has it: the same nodes and marks, five times faster than the
 # pure-Python one (0.7 s -> 0.14 s for benchmarks/compile_speed.py's routine of 290 kB).
-_FAST_LOADER: type[yaml.SafeLoader] | None = getattr(yaml, "CSafeLoader", None)
+_C_LOADER: type[yaml.SafeLoader] | None = getattr(yaml, "CSafeLoader", None)
+_FAST_LOADER: type[yaml.SafeLoader] | None = None
+if _C_LOADER is not None:
+    class _CLoader(_C_LOADER):  # type: ignore[valid-type,misc]
+        """libyaml's parser with the same YAML 1.2 number resolvers as :class:`_Loader`."""
+
+    _CLoader.yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
+    _FAST_LOADER = _CLoader
 
 
 def _compose(text: str) -> list[Node]:
@@ -266,7 +361,40 @@ def _compose(text: str) -> list[Node]:
             return list(yaml.compose_all(text, Loader=_FAST_LOADER))
         except yaml.YAMLError:
             pass  # said again below, in the pure-Python parser's words
-    return list(yaml.compose_all(text, Loader=yaml.SafeLoader))
+    return list(yaml.compose_all(text, Loader=_Loader))
+
+
+def _line_col(text: str, position: int) -> tuple[int, int]:
+    """1-based line and column of character ``position`` (YAML's line breaks)."""
+    head = text[:position]
+    lines = re.split("\r\n|[\n\r\x85\u2028\u2029]", head)
+    return len(lines), len(lines[-1]) + 1
+
+
+def _deepest(root: Node) -> Node | None:
+    """The first node nested deeper than :data:`MAX_DEPTH` (aliases followed once), or None."""
+    stack: list[tuple[Node, int]] = [(root, 1)]
+    seen: set[int] = set()
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            return node
+        if id(node) in seen or isinstance(node, ScalarNode):
+            continue
+        seen.add(id(node))
+        if isinstance(node, SequenceNode):
+            stack.extend((item, depth + 1) for item in reversed(node.value))
+        elif isinstance(node, MappingNode):
+            for key, value in reversed(node.value):
+                stack.append((value, depth + 1))
+                stack.append((key, depth + 1))
+    return None
+
+
+def _too_deep_at(node: Node, file: str) -> Diagnostic:
+    mark = node.start_mark
+    return Diagnostic("error", f"the YAML is nested more than {MAX_DEPTH} levels deep here",
+                      Origin(file, mark.line + 1, mark.column + 1))
 
 
 def _expanded_size(node: Node, sizes: dict[int, int], active: set[int]) -> int:
@@ -321,8 +449,25 @@ def _too_big(text: str, file: str) -> Diagnostic:
                       "(aliases of aliases?): a routine is far smaller", Origin(file, line, col))
 
 
-def _too_deep(file: str) -> Diagnostic:
-    return Diagnostic("error", "the YAML is nested too deeply", Origin(file, 1, 1))
+def _too_deep(text: str, file: str) -> Diagnostic:
+    """The error for nesting too deep for the YAML composer, at the collection that passed
+    :data:`MAX_DEPTH` (found from the parser's events, which do not recurse)."""
+    depth = 0
+    line = col = 1
+    try:
+        for event in yaml.parse(text, Loader=_Loader):
+            if isinstance(event, yaml.CollectionStartEvent):
+                depth += 1
+                if depth > MAX_DEPTH:
+                    mark = event.start_mark
+                    line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
+                    break
+            elif isinstance(event, yaml.CollectionEndEvent):
+                depth -= 1
+    except yaml.YAMLError:
+        pass
+    return Diagnostic("error", f"the YAML is nested more than {MAX_DEPTH} levels deep here",
+                      Origin(file, line, col))
 
 
 def read_text(path: Path) -> str | tuple[str] | Diagnostic:

@@ -162,23 +162,33 @@ def _plain_message(err: Any, root: type[BaseModel]) -> str:
     if kind.startswith(("position", "length", "timing")):
         return msg
     msg = msg[:1].lower() + msg[1:]
+    if kind == "string_pattern_mismatch":
+        pattern = str((err.get("ctx") or {}).get("pattern", ""))
+        what = _PATTERNS.get(pattern, "a value in the expected form")
+        return f"should be {what}, not {_describe(err['input'])}"
     if kind in ("literal_error", "enum", "greater_than", "greater_than_equal", "less_than",
-                "less_than_equal", "too_short", "too_long", "string_pattern_mismatch"):
+                "less_than_equal", "too_short", "too_long"):
         return f"{msg}, not {_describe(err['input'])}"
     if kind.endswith("_type") or kind.endswith("_parsing"):
         hint = ""
         if isinstance(err["input"], str) and _looks_numeric(err["input"]):
-            hint = " (YAML reads 1e3 as text: write 1.0e+3 or 1000)"
+            hint = " (in quotes it is text: write the number without quotes)"
         return f"{msg}, not {_describe(err['input'])}{hint}"
     return msg
 
 
+_NUMBER = re.compile(r"^\s*[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?\s*$")
+# What the model's string patterns mean, in words (a regex is not a message).
+_PATTERNS = {
+    r"^[A-Za-z_][A-Za-z0-9_-]*$": (
+        "a name of letters, digits, '_' and '-', starting with a letter or '_'"
+    ),
+}
+
+
 def _looks_numeric(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
+    """Whether ``text`` would be a number unquoted (YAML 1.2: ``1e3``, ``.5``, ``-2``)."""
+    return _NUMBER.match(text) is not None
 
 
 _COMMON_FIELDS = frozenset(
@@ -264,11 +274,14 @@ def validate(
         if wrap is not None:
             loc = loc[1:]
         msg = _message(err, cls)
+        if loc and loc[-1] == "[key]":  # a mapping key that is not allowed: the key's place
+            loc = loc[:-1]
         full = (*base, *loc)
         if (full, msg) in seen:
             continue
         seen.add((full, msg))
-        key = err["type"] == "extra_forbidden"
+        # An unknown field, or a mapping key that is not allowed: point at the key itself.
+        key = err["type"] == "extra_forbidden" or "[key]" in err["loc"]
         origin = doc.origin(full, key=key)
         diags.append(Diagnostic("error", msg, origin, doc.path(full)))
     return None, diags

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from ruckig import InputParameter, Result, Ruckig, RuckigError, Trajectory
 
 from xgo_show.errors import InfeasibleMotion, TrajectoryError
-from xgo_show.profiles.model import Limits
+from xgo_show.profiles.model import LIMIT_RANGE, Limits
 
 __all__ = [
     "DofState",
@@ -34,6 +34,8 @@ __all__ = [
 # Durations within this many seconds of the requested one count as meeting it (ruckig's own
 # numerical tolerance is far below a control tick).
 DURATION_TOLERANCE = 1e-6
+_NO_TRAJECTORY = ("the trajectory planner found no move for these limits and values (a limit "
+                  "far smaller or larger than the robot's own?)")
 
 
 @dataclass(frozen=True)
@@ -90,6 +92,13 @@ def plan_motion(
     :class:`TrajectoryError` when ruckig rejects the input.
     """
     dofs = len(names)
+    low, high = LIMIT_RANGE
+    for name, lim in zip(names, limits, strict=True):
+        for kind, value in (("velocity", lim.velocity), ("acceleration", lim.acceleration),
+                            ("jerk", lim.jerk)):
+            if not low <= value <= high:  # NaN included
+                raise TrajectoryError(f"{name}: {kind} limit {value:g} is outside what the "
+                                      f"planner handles ({low:g} to {high:g})")
     inp = InputParameter(dofs)
     inp.current_position = [s.position for s in current]
     inp.current_velocity = [s.velocity for s in current]
@@ -105,10 +114,10 @@ def plan_motion(
     traj = Trajectory(dofs)
     try:
         result = Ruckig(dofs).calculate(inp, traj)
-    except RuckigError as exc:
-        raise TrajectoryError(str(exc).strip().replace("[ruckig] ", "")) from exc
+    except RuckigError as exc:  # its message is a multi-line dump of the input: not for users
+        raise TrajectoryError(_NO_TRAJECTORY) from exc
     if result not in (Result.Working, Result.Finished):
-        raise TrajectoryError(f"no trajectory found ({result.name})")
+        raise TrajectoryError(f"{_NO_TRAJECTORY} ({result.name})")
     if duration is not None and traj.duration > duration + DURATION_TOLERANCE:
         alone = list(traj.independent_min_durations)
         worst = max(range(dofs), key=lambda i: (alone[i], -i))

@@ -56,6 +56,12 @@ class Encoding(enum.Enum):
     BLOCK = "block"  # opaque fixed-size block (e.g. the 24-byte IMU block at 0x65)
 
 
+#: The range of a velocity, acceleration or jerk limit the trajectory planner is given: below
+#: 1e-3 (units/s^n) a move of a few units takes hours, above 1e7 the planner's numerics break
+#: down; every profile's own limits lie well inside.
+LIMIT_RANGE = (1e-3, 1e7)
+
+
 @dataclass(frozen=True)
 class Limits:
     """Kinematic limits for trajectories, in the register's physical unit per second^n."""

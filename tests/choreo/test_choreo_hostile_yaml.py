@@ -1,0 +1,135 @@
+"""Hostile YAML: numbers read as written (YAML 1.2), within range, text printable, every error
+at its own line:col, nesting bounded; random input never raises."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from xgo_show.choreo.source import MAX_DEPTH, parse_yaml
+
+
+def _one_error(text: str) -> tuple[int, int, str]:
+    _, errors = parse_yaml(text, "f.yaml")
+    assert len(errors) == 1, [e.format() for e in errors]
+    o = errors[0].origin
+    assert o is not None
+    return o.line, o.column, errors[0].message
+
+
+@pytest.mark.parametrize(("text", "value"), [
+    ("v: 1e3", 1000.0), ("v: 1E-2", 0.01), ("v: -2.5e+1", -25.0), ("v: .5", 0.5),
+    ("v: 500", 500), ("v: -7", -7), ("v: 0", 0), ("v: 0x1F", 31), ("v: 0o17", 15),
+    ("v: 1_000", "1_000"), ("v: 1:30", "1:30"), ("v: 2024-01-01", "2024-01-01"),
+    ("v: '0500'", "0500"), ("v: '1e3'", "1e3"), ("v: true", True), ("v: ~", None),
+])
+def test_numbers_are_read_as_yaml_1_2(text: str, value: object) -> None:
+    doc, errors = parse_yaml(text, "f.yaml")
+    assert errors == []
+    assert isinstance(doc.data, dict)
+    assert doc.data["v"] == value and type(doc.data["v"]) is type(value)
+
+
+@pytest.mark.parametrize("text", ["pose: {1: 0500}", "pose: {1: 00}", "v: -012", "v: +0500",
+                                  "{0500: 1}"])
+def test_a_leading_zero_is_refused_at_its_place(text: str) -> None:
+    line, col, message = _one_error(text)
+    assert line == 1 and "leading zero" in message and "octal" in message
+
+
+@pytest.mark.parametrize(("text", "col"), [
+    ("at: 1" + "0" * 400, 5), ("v: [1, 2, " + "9" * 17 + "]", 11), ("v: 1e300", 4),
+    ("v: -1e16", 4), ("v: .inf", 4), ("v: -.Inf", 4), ("v: .nan", 4), ("v: 9007199254740993", 4),
+])
+def test_numbers_out_of_range_are_refused_at_their_place(text: str, col: int) -> None:
+    line, column, message = _one_error(text)
+    assert (line, column) == (1, col)
+    assert "too large" in message or "finite" in message
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.one_of(st.integers(), st.floats(allow_nan=True, allow_infinity=True)))
+def test_any_number_loads_or_is_one_located_error(number: float) -> None:
+    doc, errors = parse_yaml(f"v: {number!r}".replace("inf", ".inf").replace("nan", ".nan"),
+                             "f.yaml")
+    if errors:
+        assert len(errors) == 1 and errors[0].origin is not None
+        assert (errors[0].origin.line, errors[0].origin.column) == (1, 4)
+        return
+    assert isinstance(doc.data, dict)
+    value = doc.data["v"]
+    assert isinstance(value, (int, float)) and math.isfinite(value) and abs(value) <= 2**53
+    assert value == number
+
+
+@pytest.mark.parametrize(("text", "where"), [
+    ('name: "a\\e[2Jb"', (1, 7)), ("x: 1\nname: \"\\x07\"", (2, 7)), ('n: "\\u202e"', (1, 4)),
+    ('{"\\e[31m": 1}', (1, 2)), ('v: ["ok", "\\0"]', (1, 11)),
+])
+def test_text_with_control_characters_is_refused(text: str, where: tuple[int, int]) -> None:
+    line, col, message = _one_error(text)
+    assert (line, col) == where and "control character" in message
+    assert "\x1b" not in message and "\x07" not in message
+
+
+@pytest.mark.parametrize(("text", "where"), [
+    ("a: 1\nb: 2\nc: \x01\n", (3, 4)), ("a: 1\n\x1b[2J\n", (2, 1)), ("x: [1,\n  2, \x7f]", (2, 6)),
+    ("# ok\n# ok\nv: 1\x00", (3, 5)),
+])
+def test_control_characters_in_the_file_are_located(text: str, where: tuple[int, int]) -> None:
+    line, col, message = _one_error(text)
+    assert (line, col) == where and "control character" in message
+    assert "\x1b" not in message and "\x00" not in message
+
+
+@pytest.mark.parametrize("depth", [MAX_DEPTH + 1, 200, 1000])
+@pytest.mark.parametrize("kind", ["flow", "block"])
+def test_deep_nesting_is_refused_at_its_line(depth: int, kind: str) -> None:
+    if kind == "flow":
+        text = "a: 1\nb: 2\nv: " + "[" * depth + "]" * depth + "\n"
+        line = 3
+    else:
+        text = "a: 1\nb:\n" + "".join("  " * i + "-\n" for i in range(depth))
+        line = 2 + MAX_DEPTH
+    found_line, _, message = _one_error(text)
+    assert "nested more than" in message
+    assert found_line == line if kind == "flow" else found_line >= 2
+
+
+def test_nesting_at_the_limit_is_fine() -> None:
+    depth = MAX_DEPTH - 1
+    _, errors = parse_yaml("v: " + "[" * depth + "]" * depth, "f.yaml")
+    assert errors == []
+
+
+@pytest.mark.parametrize("text", [
+    "v: !!python/tuple [1, 2]", "v: !!python/object:os.system {}", "v: !!python/name:os.system ''",
+    "v: !custom [1]", "v: !!binary aGVsbG8=", "v: !!set {a, b}", "v: !!int abc",
+    "v: !!float abc",
+])
+def test_tags_outside_the_safe_subset_are_refused(text: str) -> None:
+    _, errors = parse_yaml(text, "f.yaml")
+    assert errors and all(e.origin is not None and e.origin.line == 1 for e in errors)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.binary(max_size=200))
+def test_random_bytes_never_raise(data: bytes) -> None:
+    text = data.decode("utf-8", errors="replace")
+    doc, errors = parse_yaml(text, "f.yaml")
+    for e in errors:
+        assert e.origin is not None and e.origin.line >= 1 and e.origin.column >= 1
+        assert "\n" not in e.format()
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.recursive(st.one_of(st.integers(), st.text(max_size=4), st.floats()),
+                    lambda inner: st.lists(inner, max_size=3)
+                    | st.dictionaries(st.text(max_size=3), inner, max_size=3), max_leaves=40))
+def test_random_nesting_never_raises(value: object) -> None:
+    import json
+    doc, errors = parse_yaml("v: " + json.dumps(value), "f.yaml")
+    assert all(e.origin is not None for e in errors)
