@@ -515,15 +515,15 @@ tracks:
     assert any("control character \\x00" in d.message for d in errors(path))
 
 
-def test_cue_after_the_explicit_end_warns(write: WriteFn) -> None:
+def test_cue_after_the_explicit_end_is_an_error(write: WriteFn) -> None:
+    # Its frames would be sent after the end: an error (it was a warning, and they were sent).
     path = write(MINI + """
 settings: {end: 2}
 tracks:
   rex: [{action: stand_up}]
 """)
-    show = load_show(path)
-    assert show.end == 2.0
-    assert any("after the show's end" in w.message for w in show.warnings)
+    found = [d for d in errors(path) if "after the show's end" in d.message]
+    assert found and found[0].origin is not None and found[0].origin.line == 7
 
 
 def test_part_files_get_a_structural_check_only(write: WriteFn) -> None:

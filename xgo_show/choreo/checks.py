@@ -48,6 +48,7 @@ class _Write:
     end: float
     cue: Cue
     source: CueSource
+    key: str = ""  # the value's key in the cue (an xArm servo id), when not the register name
 
 
 def _fmt(t: float) -> str:
@@ -198,6 +199,10 @@ class _Checker:
                     yield _Write(name, cue.start, end, cue, src)
             elif isinstance(cue, FadeCue):
                 yield _Write(cue.register, cue.start, cue.start + cue.duration, cue, src)
+            elif isinstance(cue, ArmCue):  # a servo moving is driven as a dog register is
+                for sid in cue.positions:
+                    yield _Write(f"servo {sid}", cue.start, cue.start + cue.duration, cue, src,
+                                 str(sid))
 
     def check_conflicts(self, cues: tuple[Cue, ...], profile: Profile) -> None:
         writes_all = list(self.writes(cues))
@@ -221,7 +226,8 @@ class _Checker:
                         f"{_fmt(longest.end)}); this cue starts at {_fmt(w.start)}: two cues "
                         "cannot drive one register at once (add 'interrupt: true' to cut the "
                         "earlier move on purpose)",
-                        w.source.values.get(name, w.source.origin), w.source, name,
+                        w.source.values.get(w.key or name, w.source.origin), w.source,
+                        w.key or name,
                     )
                 if longest is None or w.end > longest.end:
                     longest = w

@@ -585,7 +585,7 @@ class SettingsModel(_Model):
     control_rate: Annotated[float, Field(gt=0, le=1000)] = Field(
         50.0, description="Trajectory samples per second (Hz)."
     )
-    gap_ms: Annotated[float, Field(ge=0, le=1000)] | None = Field(
+    gap_ms: Annotated[float, Field(ge=1, le=1000)] | None = Field(
         None, description="Silence between frames in ms (default: the robot's own)."
     )
     decimate: bool = Field(

@@ -63,6 +63,7 @@ from xgo_show.choreo.validation import did_you_mean, validate
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProfileError, ValueRangeError
 from xgo_show.families import get_family
+from xgo_show.limits import MAX_PERFORMERS, MAX_SHOW_SECONDS
 from xgo_show.profiles import Encoding, Limits, Profile, get_profile
 from xgo_show.profiles.xarm import degrees_to_position
 
@@ -72,7 +73,7 @@ if TYPE_CHECKING:
 __all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "resolve_show"]
 
 MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
-MAX_SECONDS = 3600.0  # a show longer than an hour is a typo (or needs splitting)
+MAX_SECONDS = MAX_SHOW_SECONDS  # a show longer than an hour is a typo (or needs splitting)
 
 
 @dataclass(frozen=True)
@@ -226,7 +227,17 @@ class _Resolver:
         self.tempo = self.build_tempo()
         phrases = self.collect_phrases()
         performers: dict[str, _Performer] = {}
+        if len(show.performers) > MAX_PERFORMERS:
+            self.error(doc, ("performers",), f"{len(show.performers)} performers: a show drives "
+                       f"at most {MAX_PERFORMERS}", key=True)
+        ports: dict[str, str] = {}
         for name, perf in show.performers.items():
+            if perf.port is not None and perf.port in ports:
+                self.error(doc, ("performers", name, "port"),
+                           f"{name} and {ports[perf.port]} are both on port {perf.port!r}: one "
+                           "robot per port")
+            elif perf.port is not None:
+                ports[perf.port] = name
             profile = get_profile(perf.model)
             if perf.arm and not profile.supports("arm"):
                 self.error(doc, ("performers", name, "arm"),
@@ -234,6 +245,9 @@ class _Resolver:
                            "has no arm accessory")
             performers[name] = _Performer(name, perf, profile, _initial_state(profile))
         for name, cues in show.tracks.items():
+            if not cues and name in performers:
+                self.warning(doc, ("tracks", name), f"the track of {name} is empty: "
+                             f"{name} does nothing in this show")
             if name not in performers:
                 hint = did_you_mean(name, list(performers))
                 self.error(doc, ("tracks", name),
@@ -259,11 +273,12 @@ class _Resolver:
                 if player.name in untimed:
                     continue
                 late = [c for c in player.cues if self.sources[id(c)].end > end + 1e-9]
-                if late:
+                if late:  # its frames would go out after the end: say so, do not cut them
                     src = self.sources[id(late[0])]
                     self.diags.append(Diagnostic(
-                        "warning", f"{player.name}: this cue ends at {src.end:.3f} s, after the "
-                        f"show's end at {end:.3f} s (settings.end)", src.origin, src.path))
+                        "error", f"{player.name}: this cue ends at {src.end:.3f} s, after the "
+                        f"show's end at {end:.3f} s (settings.end): move the end or the cue",
+                        src.origin, src.path))
         show_end = end
         if show_end is None and not untimed:
             show_end = max((src.end for src in self.sources.values()), default=0.0)
@@ -910,7 +925,7 @@ class _Emitter:
 
     def pose(
         self, positions: dict[int, int], origins: dict[int, Loc], start: float,
-        length: float | None,
+        length: float | None, interrupts: bool = False,
     ) -> float | None:
         if self.refused():
             return None
@@ -922,13 +937,13 @@ class _Emitter:
             self.error(f"an xArm move lasts at most 65.535 s, not {length:g} s", self.kind,
                        key=True)
             return None
-        self.add(ArmCue(start, self.origin, positions, length), start + length,
+        self.add(ArmCue(start, self.origin, positions, length, interrupts), start + length,
                  {str(k): v for k, v in origins.items()})
         return start + length
 
     def on_pose(self, cue: PoseCueModel, start: float, length: float | None) -> float | None:
         origins = {sid: self.at("pose", sid) for sid in cue.pose}
-        return self.pose(dict(cue.pose), origins, start, length)
+        return self.pose(dict(cue.pose), origins, start, length, cue.interrupt)
 
     def on_pose_deg(
         self, cue: PoseDegCueModel, start: float, length: float | None
@@ -944,7 +959,7 @@ class _Emitter:
         # The servos whose angle converted are still checked (servo ids): every problem of
         # the cue in one run. An error was reported, so the show is not played anyway.
         origins = {sid: self.at("pose_deg", sid) for sid in positions}
-        return self.pose(positions, origins, start, length)
+        return self.pose(positions, origins, start, length, cue.interrupt)
 
 
 def resolve_show(show: ShowFile, doc: Document, salvage: Salvage | None = None) -> Resolution:

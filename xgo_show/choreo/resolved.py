@@ -93,6 +93,7 @@ class ArmCue:
     origin: Origin
     positions: Mapping[int, int]
     duration: float
+    interrupts: bool = False  # may cut a move of the same servo still under way, on purpose
 
 
 Cue = ActionCue | MotionCue | SetCue | FadeCue | ArmCue

@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.errors import ScheduleError
+from xgo_show.limits import MAX_PERFORMERS, MAX_SHOW_SECONDS
 from xgo_show.text import control_characters
 
 __all__ = [
@@ -29,11 +30,6 @@ __all__ = [
     "schedule_problems",
 ]
 
-#: Performers one show may run. Each needs its own port and a few threads; the largest rigs
-#: xgo-show is made for have a handful of robots, and a dry-run opens one pseudo-terminal each.
-MAX_PERFORMERS = 64
-#: The longest show (seconds); the routine loader has the same limit. An end past it is a typo.
-MAX_SHOW_SECONDS = 3600.0
 #: Samples per second, as for a routine's ``settings.control_rate``.
 MAX_CONTROL_RATE = 1000.0
 #: The fastest serial link any profile uses is 115200 baud; 10 Mbaud leaves room for others.

@@ -20,7 +20,6 @@ import errno
 import fcntl
 import json
 import os
-import select
 import struct
 import termios
 import threading
@@ -31,6 +30,7 @@ from typing import IO, Any
 
 from xgo_show.closing import Closing
 from xgo_show.errors import TransportError
+from xgo_show.fdwait import ReadableWaiter
 from xgo_show.sim.base import SimulatedRobot
 
 __all__ = ["PtyServer"]
@@ -153,8 +153,9 @@ class PtyServer(Closing):
     # ------------------------------------------------------------------ thread
     def _serve(self) -> None:
         try:
+            waiter = ReadableWaiter(self._master)  # poll: no FD_SETSIZE limit, unlike select
             while not self._stop.is_set():
-                ready, _, _ = select.select([self._master], [], [], _POLL_INTERVAL)
+                ready = waiter.wait(_POLL_INTERVAL)
                 data = b""
                 if ready:
                     try:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import select
 import sys
 import time
 from typing import Any
@@ -18,6 +17,7 @@ from typing import Any
 import serial
 
 from xgo_show.errors import TransportError, TransportTimeout
+from xgo_show.fdwait import ReadableWaiter
 from xgo_show.transports.base import Transport
 
 __all__ = ["DEFAULT_WRITE_TIMEOUT", "SerialTransport", "describe_error", "open_serial"]
@@ -87,7 +87,7 @@ class SerialTransport(Transport):
             raise TransportTimeout(
                 f"write to {self.url} blocked for more than {self.write_timeout:g} s"
             ) from exc
-        except (serial.SerialException, OSError) as exc:
+        except (serial.SerialException, OSError, ValueError) as exc:  # ValueError: fd past select()
             raise TransportError(f"write to {self.url} failed: {describe_error(exc)}") from exc
 
     def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
@@ -108,11 +108,11 @@ class SerialTransport(Transport):
                     time.sleep(min(left, _POLL_INTERVAL))
                 else:
                     # Readable also when the device is gone: the read below then raises.
-                    select.select([fd], [], [], left)
+                    ReadableWaiter(fd).wait(left)
                 data = port.read(size)
                 if data:
                     return data
-        except (serial.SerialException, OSError) as exc:
+        except (serial.SerialException, OSError, ValueError) as exc:  # ValueError: fd past select()
             raise TransportError(f"read from {self.url} failed: {describe_error(exc)}") from exc
 
     @staticmethod
