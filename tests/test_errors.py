@@ -57,6 +57,8 @@ def test_exception_classes_live_in_errors_py() -> None:
     ("xgo_show.compiler.trajectory", "TrajectoryError", errors.TrajectoryError),
     ("xgo_show.compiler.trajectory", "InfeasibleMotion", errors.InfeasibleMotion),
     ("xgo_show.sim.base", "Rejected", errors.FrameRejected),
+    ("xgo_show.net.timesync", "TimeSyncError", errors.TimeSyncError),
+    ("xgo_show.audio.sink", "NoAudioDevice", errors.NoAudioDevice),
 ])
 def test_old_names_stay_importable(module: str, name: str, target: type) -> None:
     mod = __import__(module, fromlist=[name])

@@ -24,6 +24,10 @@ so that a caller (a relay, a show-control server, a test) can tell them apart::
     ├── SetupError               a show that cannot be set up (a performer without a port, ...)
     ├── PreflightError           a pre-flight check failed; nothing was moved
     ├── SimulatorError           a simulator that cannot serve or stopped
+    ├── AudioError               a soundtrack that cannot be decoded or played
+    │   └── NoAudioDevice        no sound card or sound server to play on
+    ├── TimeSyncError            a relay that does not answer time-sync pings
+    ├── TimecodeError            a timecode/OSC input that cannot be opened or never starts
     ├── PlotError                a plot that cannot be drawn (no matplotlib, cannot write)
     └── RuntimeFault             something went wrong while a show ran; the robots were stopped
 """
@@ -33,12 +37,14 @@ from __future__ import annotations
 from xgo_show.diagnostics import Diagnostic
 
 __all__ = [
+    "AudioError",
     "ChoreographyError",
     "CompileError",
     "FileAccessError",
     "FrameRejected",
     "InfeasibleMotion",
     "NetworkError",
+    "NoAudioDevice",
     "PlotError",
     "PreflightError",
     "ProfileError",
@@ -47,6 +53,8 @@ __all__ = [
     "ScheduleError",
     "SetupError",
     "SimulatorError",
+    "TimeSyncError",
+    "TimecodeError",
     "TrajectoryError",
     "TransportError",
     "TransportTimeout",
@@ -149,6 +157,23 @@ class PreflightError(XgoShowError):
 
 class SimulatorError(XgoShowError):
     """A simulator that cannot serve (bad option) or that stopped."""
+
+
+class AudioError(XgoShowError):
+    """A soundtrack that cannot be decoded or played (audio modules missing, a file that is
+    not sound, an output that does not exist)."""
+
+
+class NoAudioDevice(AudioError):
+    """No sound card or sound server to play on."""
+
+
+class TimeSyncError(XgoShowError):
+    """A relay that does not answer time-sync pings, or refuses a timebase."""
+
+
+class TimecodeError(XgoShowError):
+    """A timecode or OSC input that cannot be opened, or that never started the show."""
 
 
 class PlotError(XgoShowError):

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import AudioError, FileAccessError
+from xgo_show.files import file_problem
 
 if TYPE_CHECKING:
     import numpy as np
@@ -30,7 +31,7 @@ def require(module: str) -> Any:
     try:
         return importlib.import_module(module)
     except ImportError as exc:
-        raise XgoShowError(f"{module} is not installed: {AUDIO_EXTRA_HINT}") from exc
+        raise AudioError(f"{module} is not installed: {AUDIO_EXTRA_HINT}") from exc
 
 
 @dataclass(frozen=True)
@@ -61,8 +62,9 @@ def decode(
     np = require("numpy")
     miniaudio = require("miniaudio")
     name = str(path)
-    if not Path(name).is_file():
-        raise XgoShowError(f"{name}: no such sound file")
+    problem = file_problem(name)  # a pipe or a device is refused, not read
+    if problem is not None:
+        raise FileAccessError(f"{name}: {problem}")
     try:
         info = miniaudio.get_file_info(name)
         nch = channels or info.nchannels
@@ -71,7 +73,7 @@ def decode(
             name, output_format=miniaudio.SampleFormat.FLOAT32, nchannels=nch, sample_rate=rate
         )
     except (miniaudio.MiniaudioError, OSError) as exc:
-        raise XgoShowError(
+        raise AudioError(
             f"{name}: cannot decode it as WAV, FLAC, MP3 or OGG Vorbis ({exc})"
         ) from exc
     data = np.frombuffer(sound.samples, dtype=np.float32).reshape(-1, nch)

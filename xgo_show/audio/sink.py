@@ -13,7 +13,7 @@ from collections.abc import Callable, Generator, Iterator
 from typing import TYPE_CHECKING, Any, Literal
 
 from xgo_show.audio.decode import require
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import NoAudioDevice
 
 if TYPE_CHECKING:
     import numpy as np
@@ -27,10 +27,6 @@ DEVICES = ("default", "null")
 RATE = 48000
 CHANNELS = 2
 BUFFER_MS = 20
-
-
-class NoAudioDevice(XgoShowError):
-    """No sound card or sound server to play on."""
 
 
 @contextlib.contextmanager

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from xgo_show.compiler.schedule import Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UsageError, XgoShowError
 
 __all__ = ["Prepared", "parse_latency", "prepare"]
 
@@ -87,11 +87,11 @@ def parse_latency(items: Sequence[str], names: Sequence[str]) -> dict[str, float
         except ValueError:
             ms = float("nan")
         if not eq or not name or not (-1000.0 <= ms <= 1000.0):
-            raise XgoShowError(
+            raise UsageError(
                 f"--latency {item!r}: write NAME=MS with MS from -1000 to 1000, e.g. music=40"
             )
         if name not in names:
-            raise XgoShowError(f"--latency {item!r}: no output {name!r}; outputs: "
+            raise UsageError(f"--latency {item!r}: no output {name!r}; outputs: "
                                f"{', '.join(names)}")
         out[name] = ms / 1000.0
     return out

@@ -367,6 +367,9 @@ class _Resolver:
         if isinstance(text, tuple):
             self.error(self.doc, loc, f"cannot read the tempo map {name!r}: {text[0]}")
             return None
+        if isinstance(text, Diagnostic):  # a byte that is not UTF-8, at its place
+            self.diags.append(text)
+            return None
         tdoc, errors = parse_yaml(text, str(path))
         model = None
         if not errors:

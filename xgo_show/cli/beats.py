@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import AudioError, FileAccessError, UsageError
 
 __all__ = ["add_parser", "render", "run"]
 
@@ -82,15 +82,15 @@ def run(args: argparse.Namespace) -> int:
     from xgo_show.audio.decode import decode
 
     if not 1 <= args.beats_per_bar <= 64:
-        raise XgoShowError(f"--beats-per-bar must be 1..64, not {args.beats_per_bar}")
+        raise UsageError(f"--beats-per-bar must be 1..64, not {args.beats_per_bar}")
     if not args.tolerance_ms > 0:
-        raise XgoShowError(f"--tolerance-ms must be positive, not {args.tolerance_ms:g}")
+        raise UsageError(f"--tolerance-ms must be positive, not {args.tolerance_ms:g}")
     audio = decode(args.song)
     try:
         analysis = analyse(audio.mono(), audio.sample_rate, args.beats_per_bar, args.first_bar_at)
         entries = tempo_map(analysis, args.tolerance_ms / 1000.0)
     except ValueError as exc:
-        raise XgoShowError(f"{args.song}: {exc}") from exc
+        raise AudioError(f"{args.song}: {exc}") from exc
     song = args.song
     map_name = args.output or f"{Path(song).stem}.tempo.yaml"
     if args.output:
@@ -105,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             Path(args.output).write_text(text, encoding="utf-8")
         except OSError as exc:
-            raise XgoShowError(f"cannot write {args.output}: {exc.strerror or exc}") from exc
+            raise FileAccessError(f"cannot write {args.output}: {exc.strerror or exc}") from exc
         notes = text.split("\ntempo:", 1)[0].splitlines()
         print("\n".join(line.removeprefix("# ") for line in notes), file=sys.stderr)
         print(f"wrote {args.output} ({len(entries)} tempo entries)", file=sys.stderr)

@@ -352,7 +352,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
         follow = None
         if opts.follow:
             if opts.fast:
-                raise XgoShowError("--follow needs real time: leave out --fast")
+                raise UsageError("--follow needs real time: leave out --fast")
             follow = Follow(opts.follow, schedule, clock=launch.clock, out=out,
                             offset=opts.offset,
                             policy="stop" if opts.chase_policy == "stop" else "hold",

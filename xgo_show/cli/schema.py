@@ -14,7 +14,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import FileAccessError
 
 __all__ = ["add_parser", "run"]
 
@@ -62,6 +62,6 @@ def run(args: argparse.Namespace) -> int:
             (folder / name).write_text(_text(kind), encoding="utf-8")
     except OSError as exc:
         why = exc.strerror or exc
-        raise XgoShowError(f"cannot write the schemas into {folder}: {why}") from exc
+        raise FileAccessError(f"cannot write the schemas into {folder}: {why}") from exc
     print(f"wrote {', '.join(str(folder / n) for n in NAMES.values())}")
     return 0

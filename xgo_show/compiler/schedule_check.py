@@ -143,6 +143,12 @@ def schedule_problems(schedule: Schedule) -> list[str]:
                        f"performers[{seen[p.name]}]): one entry per performer")
         seen.setdefault(p.name, i)
         out += _performer(i, p)
+    if s.music is not None:
+        out += _text("show.music.file", s.music.file)
+        out += _text("show.music.path", s.music.path)
+        if not _finite(s.music.offset, -MAX_SHOW_SECONDS, MAX_SHOW_SECONDS):
+            out.append(f"show.music.offset: {s.music.offset!r} s is outside "
+                       f"-{MAX_SHOW_SECONDS:.0f}..{MAX_SHOW_SECONDS:.0f} s")
     for k, sec in enumerate(s.sections):
         out += _text(f"show.sections[{k}].name", sec.name)
         if not _finite(sec.start, 0.0, MAX_SHOW_SECONDS):

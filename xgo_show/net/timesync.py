@@ -47,7 +47,7 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import TimeSyncError, XgoShowError
 from xgo_show.net.offset import DriftFit, Exchange, OffsetEstimate, Timebase, estimate_offset
 from xgo_show.net.testhooks import DelayInjector
 from xgo_show.runtime.clock import Clock, MonotonicClock
@@ -68,10 +68,6 @@ __all__ = [
 
 SYNC_VERSION = 1
 MAX_PAYLOAD = 1024
-
-
-class TimeSyncError(XgoShowError):
-    """A relay that does not answer time-sync pings, or refuses a timebase."""
 
 
 # ---------------------------------------------------------------------------- payloads

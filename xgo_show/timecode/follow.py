@@ -13,7 +13,7 @@ from collections.abc import Callable
 from typing import Any, TextIO
 
 from xgo_show.compiler.schedule import Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import TimecodeError, UsageError
 from xgo_show.runtime.clock import Clock
 from xgo_show.timecode.chase import Chaser, ChaseSettings, Policy
 from xgo_show.timecode.osc import Command, OscServer
@@ -36,7 +36,7 @@ def parse_timecode(text: str) -> float:
             return float(text)
     except ValueError:
         pass
-    raise XgoShowError(f"--timecode-origin {text!r}: give HH:MM:SS:FF or seconds")
+    raise UsageError(f"--timecode-origin {text!r}: give HH:MM:SS:FF or seconds")
 
 
 class Follow:
@@ -70,7 +70,7 @@ class Follow:
             except ValueError:
                 number = -1
             if not 0 <= number <= 65535:
-                raise XgoShowError(f"--follow {spec!r}: write osc:[HOST:]PORT, e.g. osc:9000")
+                raise UsageError(f"--follow {spec!r}: write osc:[HOST:]PORT, e.g. osc:9000")
             server = OscServer(self._on_osc, host or "127.0.0.1", number)
             self._closers.append(server.close)
             self.note = f"listening for OSC cues on {server.host}:{server.port} (/go starts)"
@@ -80,7 +80,7 @@ class Follow:
             self._open_mtc(where)
             self.note = f"chasing MTC on MIDI input {where!r} ({policy} on a jump or dropout)"
         else:
-            raise XgoShowError(f"--follow {spec!r}: write osc:[HOST:]PORT or mtc:MIDI-PORT")
+            raise UsageError(f"--follow {spec!r}: write osc:[HOST:]PORT or mtc:MIDI-PORT")
 
     # ------------------------------------------------------------------ inputs
 
@@ -99,7 +99,7 @@ class Follow:
         try:
             midi_in = mido.open_input(port, callback=on_message)
         except (ImportError, OSError, RuntimeError) as exc:
-            raise XgoShowError(f"cannot open MIDI input {port!r} for MTC ({exc}); MIDI ports "
+            raise TimecodeError(f"cannot open MIDI input {port!r} for MTC ({exc}); MIDI ports "
                                "need python-rtmidi: pip install python-rtmidi") from exc
         ticking = threading.Event()
 
@@ -174,7 +174,7 @@ class Follow:
         while not self._started.wait(0.1):
             pass
         if self._stopped is not None or self._start is None:
-            raise XgoShowError(f"the show never started: {self._stopped}")
+            raise TimecodeError(f"the show never started: {self._stopped}")
         return self._start
 
     def close(self) -> None:

@@ -102,9 +102,9 @@ class OscServer:
         try:
             self._server = socketserver.UDPServer((host, port), Handler)
         except OSError as exc:
-            from xgo_show.errors import XgoShowError
+            from xgo_show.errors import TimecodeError
 
-            raise XgoShowError(f"cannot listen for OSC on {host}:{port}: {exc.strerror}") from exc
+            raise TimecodeError(f"cannot listen for OSC on {host}:{port}: {exc.strerror}") from exc
         address = self._server.server_address
         self.host: str = str(address[0])
         self.port: int = int(address[1])
