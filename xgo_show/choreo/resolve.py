@@ -72,6 +72,7 @@ if TYPE_CHECKING:
 
 __all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "resolve_show"]
 
+_STAND_IN_TEMPO = TempoMap.constant(120.0, 4)  # times of a show that forgot its tempo
 MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
 MAX_SECONDS = MAX_SHOW_SECONDS  # a show longer than an hour is a typo (or needs splitting)
 
@@ -160,6 +161,7 @@ class _Resolver:
         self.parts: dict[Path, tuple[Document | None, _Part | None, str]] = {}
         self.count = 0
         self.too_many = False
+        self.no_tempo = False  # bars or beats were used without a tempo (see need_tempo)
         self.phrase_stack: list[str] = []
         self.played: set[tuple[str, str]] = set()  # (file, phrase) actually played
 
@@ -174,8 +176,13 @@ class _Resolver:
     # -- time -----------------------------------------------------------------------------
 
     def need_tempo(self, doc: Document, loc: Loc, what: str) -> TempoMap | None:
+        """The show's tempo; without one, an error here and a stand-in tempo, so that the rest
+        of the cue (its values, its kind) is still checked: one error hides no other. Times
+        are then guesses, so the timing checks are skipped (every performer is untimed)."""
         if self.tempo is None and not (self.salvage and self.salvage.tempo_broken):
             self.error(doc, loc, f"{what} need a tempo: add e.g. 'tempo: {{bpm: 120}}' to the show")
+            self.no_tempo = True
+            return _STAND_IN_TEMPO
         return self.tempo
 
     def position(self, pos: Position, block: _Block, loc: Loc) -> float | None:
@@ -264,6 +271,8 @@ class _Resolver:
             if name not in show.tracks and salvage is None:
                 self.warning(doc, ("performers", name), f"performer {name!r} has no track")
         untimed = frozenset(salvage.untimed if salvage else ())
+        if self.no_tempo:
+            untimed |= frozenset(performers)
         end = None
         if show.settings.end is not None:
             top = _Block(doc, ("settings",), 0.0, True, phrases, ())
@@ -343,9 +352,13 @@ class _Resolver:
         if isinstance(tempo, list):
             segments: list[Segment] = []
             per_bar = 4
-            for entry in tempo:
+            for i, entry in enumerate(tempo):
                 per_bar = entry.beats_per_bar or per_bar
                 segments.append(Segment(entry.bar, entry.bpm, per_bar))
+                if i and entry.bar <= tempo[i - 1].bar:  # at the entry that repeats a bar
+                    self.error(doc, (*loc, i, "bar"), "tempo map bars must increase: bar "
+                               f"{entry.bar} after bar {tempo[i - 1].bar}")
+                    return None
         else:
             segments = [Segment(1, tempo.bpm, tempo.beats_per_bar)]
         try:

@@ -283,16 +283,39 @@ class XgoPlanner:
         t0, duration = cue.start, cue.duration
         (r0, g0, b0), (r1, g1, b1) = fade.start, cue.to
         dr, dg, db = r1 - r0, g1 - g0, b1 - b0
-        k = first_tick(t0, rate)
-        # tick_us(k, rate) and fade.colour_at, inlined: this runs for every tick of every fade
-        while duration > 0 and (t_us := round(k * 1_000_000 / rate)) < stop_us:
+        def colour(k: int) -> bytes:  # fade.colour_at at tick k, inlined
             frac = min(max((k / rate - t0) / duration, 0.0), 1.0)
-            sample = bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac)))
+            return bytes((round(r0 + dr * frac), round(g0 + dg * frac), round(b0 + db * frac)))
+
+        # Only the ticks where the colour changes (a tick repeating the colour sends nothing):
+        # the cost follows the frames (at most 766 for 0..255 on three channels), not the
+        # fade's length times the control rate. Each channel is monotone in time, so the
+        # ticks holding one colour are a run, and its end is found by bisection.
+        k = first_tick(t0, rate)
+        end = k  # the first tick at or after the stop
+        step = 1
+        while duration > 0 and round(end * 1_000_000 / rate) < stop_us:
+            end += step
+            step *= 2
+        while step > 1:  # back to the first tick at or after the stop
+            step //= 2
+            if round((end - step) * 1_000_000 / rate) >= stop_us and end - step >= k:
+                end -= step
+        while k < end:
+            sample = colour(k)
+            t_us = round(k * 1_000_000 / rate)
             if t_us in ticks:
                 emit(t_us, src, sample)
             else:
                 ticks[t_us] = (src, sample)  # emit's common case, inlined
-            k += 1
+            lo, hi = k, end  # colour(lo) == sample; hi: the run's end (or the stop)
+            while hi - lo > 1:
+                mid = (lo + hi) // 2
+                if colour(mid) == sample:
+                    lo = mid
+                else:
+                    hi = mid
+            k = hi
         if fade.cut is None:
             emit(stop_us, src, bytes(cue.to))
 
