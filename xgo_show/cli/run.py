@@ -24,7 +24,7 @@ from xgo_show.cli.live import LiveView
 from xgo_show.compiler.artifact import is_schedule_file
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.rehearsal import check_triggers, directed
-from xgo_show.errors import FileAccessError, RuntimeFault, UsageError, XgoShowError
+from xgo_show.errors import FileAccessError, RuntimeFault, UsageError
 from xgo_show.files import file_problem
 from xgo_show.relay.options import (
     ConductorOptions,
