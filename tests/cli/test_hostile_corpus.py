@@ -50,12 +50,6 @@ def _perf(s: Schedule, **changes: Any) -> Schedule:
     return dataclasses.replace(s, performers=(dataclasses.replace(s.performers[0], **changes),))
 
 
-def _label(s: Schedule, text: str) -> Schedule:
-    frames = list(s.performers[0].frames)
-    frames[0] = dataclasses.replace(frames[0], label=text)
-    return _perf(s, frames=tuple(frames))
-
-
 SCHEDULES: dict[str, Callable[[Schedule], Schedule]] = {
     "negative_tempo": lambda s: dataclasses.replace(s, bpm=-120.0),
     "zero_tempo": lambda s: dataclasses.replace(s, bpm=0.0),
@@ -63,7 +57,6 @@ SCHEDULES: dict[str, Callable[[Schedule], Schedule]] = {
     "nan_rate": lambda s: dataclasses.replace(s, control_rate=math.nan),
     "end_before_frames": lambda s: _perf(s, end=0.25),
     "duplicate_performer": lambda s: dataclasses.replace(s, performers=s.performers * 2),
-    "escape_in_label": lambda s: _label(s, "\x1b[2J\x1b]0;pwned\x07"),
     "escape_in_name": lambda s: dataclasses.replace(s, name="\x1b[31mshow"),
     "repeated_tempo_bar": lambda s: dataclasses.replace(
         s, tempo_map=((1, 120.0, 4), (1, 90.0, 4))),

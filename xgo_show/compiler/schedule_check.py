@@ -111,10 +111,6 @@ def _performer(i: int, p: PerformerSchedule) -> Iterator[str]:
         if not 1 <= len(f.data) <= MAX_FRAME_BYTES:
             yield f"{fw}.hex: {len(f.data)} bytes (a frame is 1 to {MAX_FRAME_BYTES} bytes)"
             return
-        problem = next(_text(f"{fw}.label", f.label), None)
-        if problem is not None:
-            yield problem
-            return
 
 
 def schedule_problems(schedule: Schedule) -> list[str]:
