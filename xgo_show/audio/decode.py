@@ -64,7 +64,8 @@ def decode(
     name = str(path)
     problem = file_problem(name)  # a pipe or a device is refused, not read
     if problem is not None:
-        raise FileAccessError(f"{name}: {problem}")
+        what = "no such sound file" if problem == "no such file" else problem
+        raise FileAccessError(f"{name}: {what}")
     try:
         info = miniaudio.get_file_info(name)
         nch = channels or info.nchannels
