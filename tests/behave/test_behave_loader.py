@@ -74,7 +74,7 @@ CASES = [
     ("tilt_zero", "rules:\n  - name: a\n    when: [{tilt_beyond: 0}, {trigger: visitor}]\n"
      "    do: [{play: sit}]\n", "10:26", "greater than 0"),
     ("bad_clock", "rules:\n  - name: a\n    when: [{at: '25:00'}, {trigger: visitor}]\n"
-     "    do: [{play: sit}]\n", "10:17", "should match pattern"),
+     "    do: [{play: sit}]\n", "10:17", "not '25:00'"),
     ("every_negative", "rules:\n  - name: a\n    when: [{every: -3}, {trigger: visitor}]\n"
      "    do: [{play: sit}]\n", "10:20", "greater than 0"),
     ("routine_ended_missing", "rules:\n  - name: a\n    when: [{routine_ended: bow}, "
