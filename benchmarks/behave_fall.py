@@ -2,27 +2,35 @@
 the fallen rule plays.
 
 A simulated Rider on a real pseudo-terminal; ``xgo-show``'s behaviour runner polls its
-telemetry (battery, status, attitude in turn) over pyserial and runs one safety rule,
-``tilt_beyond: 60 -> play get_up``. Each round the benchmark makes the robot fall (its status
-register reads "fallen" from that instant), takes the time, and waits for the first frame of
-``get_up`` to be written to the port (the runtime's FrameSent event: the write call); then it
-stands the robot up and waits for the rule to re-arm. The same rounds run at the default
-telemetry interval (0.25 s per item, the show runtime's) and at a fast one (0.02 s), side by
-side. Prints figures only (no asserts)::
+telemetry over pyserial and runs one safety rule, ``tilt_beyond: 60 -> play get_up``. Each
+round the benchmark makes the robot fall (its status register reads "fallen" from that
+instant), takes the time, and waits for the first frame of ``get_up`` to be written to the
+port (the runtime's FrameSent event: the write call); then it stands the robot up and waits
+for the rule to re-arm. Side by side, the same rounds with:
+
+- the default: status and attitude read every 20 ms (``WATCH_INTERVAL``), battery in rotation
+  every 0.25 s; one reader per port across executors (a hand-over waits for no reader);
+- the default with the behaviour's threads real-time (``behave --realtime``: SCHED_FIFO where
+  permitted), which keeps the tail short on a busy machine;
+- the naive polling (last session's): the three items in rotation, one every 0.25 s, so the
+  status register is read once per 0.75 s cycle;
+- the naive polling at a fast rotation (one item every 0.02 s).
+
+Prints figures only (no asserts)::
 
     python benchmarks/behave_fall.py [--rounds 40]
 
-What limits it: the status register is read once per cycle of the telemetry items, so the
-fall is seen on average half a cycle after it happens (a cycle is 3 items x the interval);
-then the watcher polling telemetry is ended (its reader wakes every 50 ms to see it must
-stop: one reader per port) and the routine's executor started. A fall with no reaction within
-5 s is counted and shown with the events before it.
+What limits it: the fall is seen at the next status read (uniform over the 20 ms watch
+period, plus the ~2 ms request/reply on the wire); then the engine thread wakes, the watcher's
+writer is stopped and joined, and the routine's writer thread starts and writes. A fall with
+no reaction within 5 s is counted and shown with the events before it.
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import os
 import tempfile
 import textwrap
 import threading
@@ -31,8 +39,9 @@ from pathlib import Path
 
 from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote
-from xgo_show.behave.ports import BehaviourRunner
+from xgo_show.behave.ports import WATCH_INTERVAL, BehaviourRunner
 from xgo_show.runtime.events import Event, EventBus, FrameSent, TelemetryRead
+from xgo_show.runtime.preflight import request_realtime
 from xgo_show.runtime.stats import percentile
 from xgo_show.sim import create_robot
 from xgo_show.sim.pty_server import PtyServer
@@ -54,10 +63,12 @@ rules:
 
 
 def measure(
-    folder: Path, interval: float, rounds: int, misses: list[str]
-) -> list[float]:
-    """Seconds from each fall to the first frame of the reacting routine; a fall with no
-    reaction within 5 s is added to ``misses``."""
+    folder: Path, interval: float, watch: float | None, rounds: int, misses: list[str],
+    realtime: bool = False,
+) -> dict[str, list[float]]:
+    """Seconds from each fall to the first frame of the reacting routine (``total``) and its
+    stages: the fallen status read back (``read``), the rule fired (``rule``), the first frame
+    written (``start``). A fall with no reaction within 5 s is added to ``misses``."""
     behaviour = load_behaviour(folder / "behaviour.yaml")
     bus = EventBus()
     first: list[float] = []
@@ -72,31 +83,48 @@ def measure(
     last: dict[str, tuple[float, float]] = {}  # telemetry name -> (time read, value)
 
     recent: collections.deque[str] = collections.deque(maxlen=30)
+    marks: dict[str, float] = {}  # this round: when the fall was read back, the rule fired
 
     def on_reading(event: Event) -> None:
         if isinstance(event, TelemetryRead):
             last[event.name] = (event.t, event.value)
+            if event.name == "status" and event.value == 0:
+                marks.setdefault("read", event.t)
+        elif isinstance(event, BehaviourNote) and event.kind == "fired":
+            # the note carries the reading's time: take the time the engine decided
+            marks.setdefault("rule", time.monotonic())
         text = event.text if isinstance(event, BehaviourNote) else getattr(event, "name", "")
         recent.append(f"{event.t:.3f} {type(event).__name__} {text} {getattr(event, 'value', '')}")
 
     bus.subscribe(on_reading, TelemetryRead, BehaviourNote)
-    out: list[float] = []
+    out: dict[str, list[float]] = {"total": [], "read": [], "rule": [], "start": []}
     with PtyServer(create_robot("rider", seed=1)) as server:
         transport = open_transport(server.path)
         transport.open()
         runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus,
-                                 telemetry_interval=interval)
-        thread = threading.Thread(target=runner.run)
+                                 telemetry_interval=interval, watch_interval=watch)
+
+        def run() -> None:
+            if realtime:  # this thread and those it starts; the simulator's keep theirs
+                request_realtime()
+            runner.run()
+
+        thread = threading.Thread(target=run)
         thread.start()
         try:
             time.sleep(0.5)
             for _ in range(rounds):
                 got.clear()
+                marks.clear()
                 with server.lock:
                     fell = time.monotonic()
                     server.robot.fall()  # type: ignore[attr-defined]
                 if got.wait(5.0):
-                    out.append(first[-1] - fell)
+                    out["total"].append(first[-1] - fell)
+                    read, rule = marks.get("read", fell), marks.get("rule", fell)
+                    out["read"].append(read - fell)
+                    out["rule"].append(rule - read)
+                    out["start"].append(first[-1] - rule)
                 else:  # counted and shown: the last events before it
                     misses.append(f"fall at {fell:.3f}: " + " | ".join(recent))
                 with server.lock:
@@ -124,7 +152,7 @@ def measure(
 def row(name: str, values: list[float]) -> str:
     ms = sorted(v * 1000 for v in values) or [float("nan")]
     p = [percentile(ms, q) for q in (0.5, 0.99, 0.999)]
-    return (f"{name:<34} {p[0]:8.1f} {p[1]:8.1f} {p[2]:8.1f} {ms[-1]:8.1f}  ({len(ms)} falls)")
+    return (f"{name:<40} {p[0]:8.1f} {p[1]:8.1f} {p[2]:8.1f} {ms[-1]:8.1f}  ({len(ms)} falls)")
 
 
 def main() -> None:
@@ -136,17 +164,30 @@ def main() -> None:
         (folder / "get_up.yaml").write_text(textwrap.dedent(ROUTINE))
         (folder / "behaviour.yaml").write_text(textwrap.dedent(BEHAVIOUR))
         misses: list[str] = []
-        default = measure(folder, 0.25, args.rounds, misses)
-        fast = measure(folder, 0.02, args.rounds, misses)
-    print("fall on the wire -> first frame of the reacting routine, ms")
-    print(f"{'':<34} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}")
-    print(row("telemetry every 0.25 s (default)", default))
-    print(row("telemetry every 0.02 s", fast))
+        default = measure(folder, 0.25, WATCH_INTERVAL, args.rounds, misses)
+        fifo = measure(folder, 0.25, WATCH_INTERVAL, args.rounds, misses, realtime=True)
+        naive = measure(folder, 0.25, None, args.rounds, misses)
+        naive_fast = measure(folder, 0.02, None, args.rounds, misses)
+    print(f"fall on the wire -> first frame of the reacting routine, ms (load {load()})")
+    print(f"{'':<40} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}")
+    print(row(f"default: status every {WATCH_INTERVAL:g} s", default["total"]))
+    print(row("  fall -> fallen status read back", default["read"]))
+    print(row("  read -> rule fired", default["rule"]))
+    print(row("  fired -> first frame written", default["start"]))
+    print(row("default, --realtime threads", fifo["total"]))
+    print(row("  fall -> fallen status read back", fifo["read"]))
+    print(row("  fired -> first frame written", fifo["start"]))
+    print(row("naive: 3 items in turn, one per 0.25 s", naive["total"]))
+    print(row("  fall -> fallen status read back", naive["read"]))
+    print(row("naive: 3 items in turn, one per 0.02 s", naive_fast["total"]))
     print(f"falls with no reaction within 5 s: {len(misses)}")
     for miss in misses:
         print("  " + miss)
-    print("(p99.9 of a few dozen falls is the max; the status register is read once per "
-          "cycle of 3 telemetry items)")
+    print("(p99.9 of a few dozen falls is the max)")
+
+
+def load() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
 
 
 if __name__ == "__main__":

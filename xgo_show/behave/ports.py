@@ -4,8 +4,10 @@
 seat per performer, and on each seat at most one
 :class:`~xgo_show.runtime.executor.PerformerExecutor` at a time, so there is never a second
 writer on a port. Between routines a seat runs a watcher (an executor with no frames) that
-polls telemetry; a routine's executor polls it while it plays. A routine pre-empted by another
-is paused first (the executor rests the robot: speeds to neutral), then ended, then the next
+polls telemetry; a routine's executor polls it while it plays. The seat alone reads the port
+(one reader, across executors), and the items a fall or tilt shows in are read every
+:data:`WATCH_INTERVAL` seconds, the rest in rotation. A routine pre-empted by another is
+paused first (the executor rests the robot: speeds to neutral), then ended, then the next
 one starts.
 
 :class:`BehaviourRunner` owns the engine in one thread: every input (triggers, runtime events
@@ -23,6 +25,7 @@ from dataclasses import replace
 from xgo_show.behave.engine import BehaviourNote, Engine
 from xgo_show.behave.loader import Behaviour
 from xgo_show.compiler.schedule import PerformerSchedule
+from xgo_show.errors import TransportError
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.runtime.events import (
@@ -37,14 +40,25 @@ from xgo_show.runtime.show_runner import default_reach
 from xgo_show.runtime.telemetry import TelemetryPoller
 from xgo_show.transports.base import Transport
 
-__all__ = ["BehaviourRunner", "PortStage"]
+__all__ = ["WATCH_INTERVAL", "BehaviourRunner", "PortStage"]
 
 _WATCH_FOREVER = 1e9  # seconds of show time a watcher lingers (until it is ended)
 _HANDOVER_TIMEOUT = 0.5  # seconds allowed for a pre-empted routine to rest the robot
+#: seconds between reads of the items a fall or tilt shows in, by default: each read is a
+#: ~20-byte exchange (~2 ms at 115200 baud, 10% of the link), and sets the reaction time
+WATCH_INTERVAL = 0.02
+_WATCHED = ("status", "attitude")  # the telemetry items falls and tilts are read from
 
 
 class _Seat:
-    """One performer's port and the executor writing on it now."""
+    """One performer's port, its one reader, and the executor writing on it now.
+
+    The seat reads the port itself for as long as it is open and hands the bytes to the
+    latest executor (:meth:`PerformerExecutor.received`): executors come and go without a
+    reader of their own, so a hand-over never waits for one to stop and there is never a
+    second reader on the port. One :class:`TelemetryPoller` serves them all, so the cadence
+    of reads carries on across hand-overs.
+    """
 
     def __init__(
         self, name: str, model: str, transport: Transport, stage: PortStage
@@ -56,6 +70,14 @@ class _Seat:
         self.executor: PerformerExecutor | None = None
         self.play_id = 0
         self.routine: str | None = None
+        self.poller = TelemetryPoller(
+            self.profile, interval=stage.telemetry_interval, detect_falls=False,
+            watch={item: stage.watch_interval for item in _WATCHED}
+            if stage.watch_interval is not None else None,
+        )
+        self._feed: PerformerExecutor | None = None  # the latest executor (reads go to it)
+        self._reader: threading.Thread | None = None
+        self._reader_stop = threading.Event()
         link = next(iter(stage.behaviour.routines.values())).performers[0].link
         for schedule in stage.behaviour.routines.values():
             for part in schedule.performers:
@@ -70,17 +92,32 @@ class _Seat:
             self.transport,
             clock=st.clock,
             profile=self.profile,
-            telemetry=TelemetryPoller(
-                self.profile, interval=st.telemetry_interval, detect_falls=False
-            ),
+            telemetry=self.poller,
             reach=default_reach(part, self.profile),
             linger_until=linger,
             events=st.events,
             rest_at_end=rest,
+            read_port=False,
         )
-        self.executor = executor
+        self.executor = self._feed = executor
+        if self._reader is None and self.poller.enabled:
+            self._reader = threading.Thread(target=self._read_loop, daemon=True,
+                                            name=f"xgo-show behave reader {self.name}")
+            self._reader.start()
         # Now: the writer waits for the link itself, and nothing precedes the first frame.
         executor.start(st.clock.now())
+
+    def _read_loop(self) -> None:
+        while not self._reader_stop.is_set():
+            try:
+                chunk = self.transport.read(256, timeout=0.05)
+            except (TransportError, OSError) as exc:
+                if not self._reader_stop.is_set() and self._feed is not None:
+                    self._feed.port_failed(f"port {self.transport.url}: {exc}")
+                return
+            executor = self._feed
+            if chunk and executor is not None:
+                executor.received(chunk, self.stage.clock.now())
 
     def watch(self) -> None:
         """Poll telemetry with nothing to play."""
@@ -94,22 +131,11 @@ class _Seat:
         self._start(part, linger=0.0, rest=True)
 
     def end(self, *, rest: bool) -> None:
-        """End the executor on the port now; with ``rest``, through the rest posture first.
-
-        Its reader is stopped before this returns: two threads reading one port steal each
-        other's bytes (pyserial then reports the port as disconnected), so the next executor
-        starts only once this one is gone (a reader wakes every 50 ms to see it must stop).
-        """
-        old = self._stop_writer(rest=rest)
-        if old is not None:
-            old.close()
-
-    def _stop_writer(self, *, rest: bool) -> PerformerExecutor | None:
-        """Stop the writing executor (its writer thread has ended on return); with ``rest``,
-        through the rest posture first. Returns it, still reading, or None."""
+        """Stop the executor writing on the port (its writer thread has ended on return);
+        with ``rest``, through the rest posture first."""
         executor, self.executor = self.executor, None
         if executor is None:
-            return None
+            return
         if rest and not executor.done:
             executor.pause()
             deadline = self.stage.clock.now() + _HANDOVER_TIMEOUT
@@ -119,7 +145,13 @@ class _Seat:
                 self.stage.clock.sleep_until(self.stage.clock.now() + 0.001)
         executor.abort()
         executor.join(1.0)
-        return executor
+
+    def close(self) -> None:
+        """End the executor and stop reading the port."""
+        self.end(rest=False)
+        self._reader_stop.set()
+        if self._reader is not None:
+            self._reader.join(1.0)
 
     def safe_stop(self, reason: str) -> None:
         if self.executor is not None:
@@ -138,8 +170,10 @@ class PortStage:
         clock: Clock,
         events: EventBus,
         telemetry_interval: float = 0.25,
+        watch_interval: float | None = WATCH_INTERVAL,
     ) -> None:
         self.behaviour = behaviour
+        self.watch_interval = watch_interval
         self.clock = clock
         self.events = events
         self.telemetry_interval = telemetry_interval
@@ -178,7 +212,7 @@ class PortStage:
 
     def close(self) -> None:
         for seat in self.seats.values():
-            seat.end(rest=False)
+            seat.close()
 
 
 class BehaviourRunner:
@@ -197,12 +231,14 @@ class BehaviourRunner:
         events: EventBus | None = None,
         say: Callable[[float, str], None] | None = None,
         telemetry_interval: float = 0.25,
+        watch_interval: float | None = WATCH_INTERVAL,
     ) -> None:
         self.clock: Clock = clock if clock is not None else MonotonicClock()
         self.events = events if events is not None else EventBus()
         self.say = say
         self.stage = PortStage(behaviour, transports, clock=self.clock, events=self.events,
-                               telemetry_interval=telemetry_interval)
+                               telemetry_interval=telemetry_interval,
+                               watch_interval=watch_interval)
         self.engine = Engine(behaviour, self.stage, emit=self._emit, wall=self._wall)
         self._inbox: queue.SimpleQueue[tuple[str, object]] = queue.SimpleQueue()
         self._sub = self.events.subscribe(self._on_event, TelemetryRead, FaultRaised, StateChanged)

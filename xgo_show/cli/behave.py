@@ -51,6 +51,11 @@ def add_parser(sub: Any) -> None:
                         help="on simulated robots (one pseudo-terminal each)")
     parser.add_argument("--fast", action="store_true",
                         help="rehearse the script on virtual time, without waiting")
+    parser.add_argument(
+        "--realtime", action="store_true",
+        help="run the behaviour's threads under SCHED_FIFO where permitted (else nice -10): "
+             "reactions stay quick although other programs keep the CPUs busy",
+    )
     parser.add_argument("--map", action="append", default=[], metavar="NAME=PORT",
                         help="a performer's port (repeatable; default: port: in the file)")
     parser.set_defaults(func=run)
@@ -121,6 +126,10 @@ def _run_live(args: argparse.Namespace, behaviour: Any, script: Any) -> int:
             transport = open_transport(port)
             transport.open()
             transports[name] = transport
+        if args.realtime:  # after the simulators started: their threads keep normal priority
+            from xgo_show.runtime.preflight import request_realtime
+
+            print(f"real-time: {request_realtime()}")
         start = time.monotonic()
         runner = BehaviourRunner(
             behaviour, transports, say=lambda t, line: print(f"{t - start:9.2f}  {line}")

@@ -136,7 +136,10 @@ class PerformerExecutor:
       resume after pause, seek); None: start from the first frame at or after the offset as is;
     - ``linger_until``: show time to keep polling telemetry after the last frame (the whole
       show's end, so a performer that finished early is still watched);
-    - ``events``: the :class:`EventBus` to publish on (default: a bus of its own, ``.events``).
+    - ``events``: the :class:`EventBus` to publish on (default: a bus of its own, ``.events``);
+    - ``read_port``: False when the port's owner reads it and hands the bytes to
+      :meth:`received` (a behaviour keeps one reader per port across the executors it runs
+      one after another: a hand-over then waits for no reader to stop).
     """
 
     def __init__(
@@ -151,6 +154,7 @@ class PerformerExecutor:
         linger_until: float | None = None,
         events: EventBus | None = None,
         rest_at_end: bool = True,
+        read_port: bool = True,
     ) -> None:
         if profile is None:
             from xgo_show.profiles import get_profile
@@ -165,6 +169,7 @@ class PerformerExecutor:
         self.linger_until = max(schedule.end, linger_until or 0.0)
         self.events = events if events is not None else EventBus()
         self.rest_at_end = rest_at_end
+        self.read_port = read_port
         # What a pause and the normal end send: the same frames every time.
         self._rest = [(f.data, f.label) for f in rest_frames(profile)]
         self.fault: str | None = None
@@ -587,7 +592,7 @@ class PerformerExecutor:
     # ------------------------------------------------------------------ reader and faults
 
     def _start_reader(self) -> None:
-        if self.telemetry is None or self._reader is not None:
+        if self.telemetry is None or self._reader is not None or not self.read_port:
             return
         self._reader = threading.Thread(target=self._read_loop, name=f"xgo-show reader {self.name}")
         self._reader.daemon = True
@@ -602,14 +607,25 @@ class PerformerExecutor:
                 if not self._reader_stop.is_set() and not self.done:
                     self._report_fault(f"port {self.transport.url}: {exc}")
                 return
-            if not chunk:
-                continue
-            now = self.clock.now()
-            for sample in self.telemetry.feed(chunk, now):
-                self.events.publish(TelemetryRead(sample.t, self.name, sample.name, sample.value))
-            if self.telemetry.fault is not None and not self.done:
-                self._report_fault(self.telemetry.fault)
+            if chunk and not self.received(chunk, self.clock.now()):
                 return
+
+    def received(self, chunk: bytes, now: float) -> bool:
+        """Bytes read from the port at ``now``: publish the readings they complete; a fault
+        they show stops the robot. Returns False once faulted (stop reading for it)."""
+        if self.telemetry is None:
+            return True
+        for sample in self.telemetry.feed(chunk, now):
+            self.events.publish(TelemetryRead(sample.t, self.name, sample.name, sample.value))
+        if self.telemetry.fault is not None and not self.done:
+            self._report_fault(self.telemetry.fault)
+            return False
+        return True
+
+    def port_failed(self, reason: str) -> None:
+        """The port's owner could not read it: a fault (a safe stop) unless already done."""
+        if not self.done:
+            self._report_fault(reason)
 
     def _report_fault(self, reason: str) -> None:
         with self._state_lock:

@@ -9,6 +9,10 @@ and ``telemetry_values``): an XGO robot's registers through the one XGO codec, l
 room for its reply (:attr:`TelemetryItem.reply_bytes`). Frames nobody asked for (a Rider's
 auto-feedback, line noise) are counted and ignored.
 
+Items named in ``watch`` are read on their own, faster cadence, each every ``watch[name]``
+seconds, ahead of the rotation (a behaviour reacting to a fall reads the status register every
+20 ms instead of once per 3-item cycle); the rest rotate, one every ``interval``.
+
 Faults: what a reading shows by itself (:meth:`RobotFamily.telemetry_fault
 <xgo_show.families.RobotFamily.telemetry_fault>`: a Rider reporting status 0x00, fallen), or a
 battery below the floor (:meth:`~xgo_show.families.RobotFamily.battery_low`) on two readings in
@@ -17,6 +21,7 @@ a row (one low reading under a load spike is not a flat battery).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from xgo_show.families import get_family
@@ -46,6 +51,7 @@ class TelemetryPoller:
         battery_floor: float | None = None,
         low_readings: int = 2,
         detect_falls: bool = True,
+        watch: Mapping[str, float] | None = None,
     ) -> None:
         self.profile = profile
         #: a fallen status is a fault (a show); False leaves it to a listener (a behaviour)
@@ -55,6 +61,13 @@ class TelemetryPoller:
         self.low_readings = low_readings
         self._family = get_family(profile)
         self.items = self._family.telemetry_items(profile)
+        watch = watch or {}
+        #: item name -> its own period (items this model has); the rest rotate
+        self.watch = {i.name: watch[i.name] for i in self.items if i.name in watch}
+        self._rotation = tuple(i for i in self.items if i.name not in self.watch)
+        self._watched = tuple(i for i in self.items if i.name in self.watch)
+        self._watch_due = {name: float("-inf") for name in self.watch}
+        self._pending: TelemetryItem | None = None
         self.last: dict[str, float] = {}
         self.samples = 0
         self.unsolicited = 0
@@ -72,18 +85,29 @@ class TelemetryPoller:
     @property
     def next_due(self) -> float:
         """Monotonic time the next request is due (``-inf``: now)."""
-        return self._due if self.items else float("inf")
+        rotation = self._due if self._rotation else float("inf")
+        return min([rotation, *self._watch_due.values()])
 
     def due(self, now: float) -> TelemetryItem | None:
-        """The request to send now, if one is due."""
-        if not self.items or now < self._due:
-            return None
-        return self.items[self._next]
+        """The request to send now, if one is due (a watched item first)."""
+        item: TelemetryItem | None = None
+        if self._watched:
+            first = min(self._watched, key=lambda i: self._watch_due[i.name])
+            if self._watch_due[first.name] <= now:
+                item = first
+        if item is None and self._rotation and now >= self._due:
+            item = self._rotation[self._next]
+        self._pending = item
+        return item
 
     def sent(self, now: float) -> None:
-        """The due request went out at ``now``: rotate to the next one."""
-        self._next = (self._next + 1) % len(self.items)
-        self._due = now + self.interval
+        """The request :meth:`due` returned went out at ``now``: schedule its next read."""
+        item, self._pending = self._pending, None
+        if item is not None and item.name in self.watch:
+            self._watch_due[item.name] = now + self.watch[item.name]
+        elif self._rotation:
+            self._next = (self._next + 1) % len(self._rotation)
+            self._due = now + self.interval
 
     def feed(self, chunk: bytes, now: float) -> list[TelemetrySample]:
         """Parse received bytes; return the samples they complete and update ``fault``."""
