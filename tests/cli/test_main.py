@@ -247,3 +247,30 @@ def test_inspect_reads_a_schedule_by_its_content_whatever_its_name(
     # run and dry-run read it the same way (one loader), not as a routine.
     assert main(["dry-run", str(schedule), "--fast"]) == 0
     assert "error" not in capsys.readouterr().err
+
+
+def test_a_named_command_imports_only_its_own_module() -> None:
+    # A fresh interpreter: which xgo_show.cli modules did 'validate --help' import?
+    code = (
+        "import sys\n"
+        "from xgo_show.cli.main import main\n"
+        "try:\n    main(['validate', '--help'])\nexcept SystemExit:\n    pass\n"
+        "print(sorted(m for m in sys.modules if m.startswith('xgo_show.cli.')))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    loaded = out.strip().splitlines()[-1]
+    assert "'xgo_show.cli.validate'" in loaded
+    assert "'xgo_show.cli.run'" not in loaded and "'xgo_show.cli.inspect'" not in loaded
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["dry_run"], ["nonsense"]])
+def test_without_a_command_every_command_is_registered(argv: list[str]) -> None:
+    parser = build_parser(argv)
+    subparsers = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    assert len(subparsers.choices) == len(COMMANDS)
+
+
+def test_a_named_command_parses_as_with_every_command_registered() -> None:
+    argv = ["dry-run", "choreographies/hello_mini.yaml", "--fast"]
+    assert vars(build_parser(argv).parse_args(argv)) == vars(build_parser().parse_args(argv))

@@ -290,7 +290,9 @@ class XgoPlanner:
         # Only the ticks where the colour changes (a tick repeating the colour sends nothing):
         # the cost follows the frames (at most 766 for 0..255 on three channels), not the
         # fade's length times the control rate. Each channel is monotone in time, so the
-        # ticks holding one colour are a run, and its end is found by bisection.
+        # ticks holding one colour are a run; its end is found by galloping then bisection,
+        # which costs one colour per tick when the colour changes every tick (a short fade)
+        # and a logarithm of the run when it holds for long (a slow one).
         k = first_tick(t0, rate)
         end = k  # the first tick at or after the stop
         step = 1
@@ -301,21 +303,28 @@ class XgoPlanner:
             step //= 2
             if round((end - step) * 1_000_000 / rate) >= stop_us and end - step >= k:
                 end -= step
+        sample = colour(k) if k < end else b""
         while k < end:
-            sample = colour(k)
             t_us = round(k * 1_000_000 / rate)
             if t_us in ticks:
                 emit(t_us, src, sample)
             else:
                 ticks[t_us] = (src, sample)  # emit's common case, inlined
-            lo, hi = k, end  # colour(lo) == sample; hi: the run's end (or the stop)
+            # colour(lo) == sample; hi is the stop or a tick of another colour, nxt its colour
+            lo, hi, step, nxt = k, k + 1, 1, b""
+            while hi < end and (nxt := colour(hi)) == sample:
+                lo, step = hi, step * 2
+                hi = lo + step
+            if hi >= end:
+                hi, nxt = end, b""
             while hi - lo > 1:
                 mid = (lo + hi) // 2
-                if colour(mid) == sample:
+                there = colour(mid)
+                if there == sample:
                     lo = mid
                 else:
-                    hi = mid
-            k = hi
+                    hi, nxt = mid, there
+            k, sample = hi, nxt
         if fade.cut is None:
             emit(stop_us, src, bytes(cue.to))
 
