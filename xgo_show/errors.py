@@ -21,6 +21,9 @@ so that a caller (a relay, a show-control server, a test) can tell them apart::
     │   └── CompileError         a valid routine that cannot become a schedule
     │       └── TrajectoryError  the trajectory planner refused a move's input
     │           └── InfeasibleMotion  a move shorter than its limits allow
+    ├── NetworkError             a Zenoh session that cannot open, a relay that refuses
+    │   └── ControlFailed        a show-control server refused a command, or none answered
+    ├── ControlError             a show-control command or trigger that cannot be carried out now
     ├── SetupError               a show that cannot be set up (a performer without a port, ...)
     ├── PreflightError           a pre-flight check failed; nothing was moved
     ├── SimulatorError           a simulator that cannot serve or stopped
@@ -40,6 +43,8 @@ __all__ = [
     "AudioError",
     "ChoreographyError",
     "CompileError",
+    "ControlError",
+    "ControlFailed",
     "FileAccessError",
     "FrameRejected",
     "InfeasibleMotion",
@@ -130,6 +135,31 @@ class CompileError(ChoreographyError):
 
 class NetworkError(XgoShowError):
     """A Zenoh session that cannot open, a relay that does not answer or refuses a request."""
+
+
+class ControlFailed(NetworkError):
+    """A show-control server (``xgo-show serve``) refused a command, or none answered.
+
+    ``code`` is the server's error code (``no_reply`` when nobody answered; see
+    docs/zenoh-api.md) and ``reply`` its whole error reply.
+    """
+
+    def __init__(
+        self, message: str, code: str = "no_reply", reply: dict[str, object] | None = None
+    ) -> None:
+        super().__init__(message)
+        self.code = code
+        self.reply = dict(reply or {})
+
+
+class ControlError(XgoShowError):
+    """A show-control request that is malformed or cannot be carried out now (no show running,
+    nobody waits for that trigger, ...): the message says why, ``code`` names the kind for
+    programs (``refused``, ``bad_request``, ...: the error replies of docs/zenoh-api.md)."""
+
+    def __init__(self, message: str, code: str = "refused") -> None:
+        super().__init__(message)
+        self.code = code
 
 
 class TrajectoryError(CompileError):

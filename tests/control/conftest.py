@@ -49,10 +49,16 @@ tracks:
 
 
 @pytest.fixture(scope="session")
-def triggered_schedule(tmp_path_factory: pytest.TempPathFactory) -> Schedule:
+def triggered_path(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The routine above, as a file."""
     path: Path = tmp_path_factory.mktemp("show") / "triggered.yaml"
     path.write_text(ROUTINE, encoding="utf-8")
-    return compile_show(load_show(path))
+    return path
+
+
+@pytest.fixture(scope="session")
+def triggered_schedule(triggered_path: Path) -> Schedule:
+    return compile_show(load_show(triggered_path))
 
 
 @dataclass

@@ -111,6 +111,12 @@ def test_the_lite_mirrors_the_mini_in_the_duet() -> None:
 # Script -> (arguments, text its output must contain); "{tmp}" is a fresh directory.
 # Short runs: a few seconds each.
 EXAMPLES: dict[str, tuple[list[str], str]] = {
+    # Only zenoh: loads, starts, fires 'go' at a serve --sim it starts as a separate process.
+    "zenoh_control.py": (
+        ["--serve", "--namespace", "test-example", "--show",
+         str(ROUTINES_DIR / "curtain_call.yaml")],
+        "trigger 'go': released section 'bow'",
+    ),
     "load_and_validate.py": (
         [str(ROUTINES_DIR / "rider_led_show.yaml")], "0 error(s), 5 warning(s)"
     ),

@@ -34,6 +34,9 @@ COMMANDS: tuple[str, ...] = (
     "schema",
     "relay",
     "relays",
+    "serve",
+    "ctl",
+    "trigger",
 )
 
 

@@ -40,7 +40,7 @@ from xgo_show.choreo.sections import (
     section_named,
     trigger_names,
 )
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import ControlError
 from xgo_show.runtime.clock import Clock, FakeClock
 from xgo_show.runtime.events import (
     Event,
@@ -63,10 +63,9 @@ __all__ = [
 ]
 
 _EPS = 1e-6
-
-
-class ControlError(XgoShowError):
-    """A control command that cannot be carried out now (the message says why)."""
+#: Seconds a performer's reported timeline may be off what the director knows: a relayed
+#: performer's state comes from heartbeat answers, stamped on arrival.
+_SLACK = 0.05
 
 
 @dataclass(frozen=True, slots=True)
@@ -379,6 +378,10 @@ class Director:
             elif isinstance(event, ShowStarted):
                 s.phase = "playing"
                 s.wait = self._wait_from(event.offset)
+                # Every performer's timeline until it says otherwise: exact, where a relayed
+                # performer's RUNNING comes from a heartbeat, stamped when it arrived.
+                for tr in s.tracks.values():
+                    tr.anchor = (event.start_at, event.offset)
             elif isinstance(event, ShowPaused):
                 if s.phase == "playing":
                     s.phase = "paused"
@@ -396,7 +399,10 @@ class Director:
             return
         state = event.state
         if state is ExecutorState.RUNNING:
-            tr.anchor = (event.t, event.show_time)
+            if tr.anchor is None or abs(
+                tr.anchor[1] + (event.t - tr.anchor[0]) - event.show_time
+            ) > _SLACK:
+                tr.anchor = (event.t, event.show_time)
             tr.held = False
             if self.virtual:
                 self._arm(event.performer, tr, self.clock.now())
@@ -404,8 +410,8 @@ class Director:
         tr.anchor = None
         if state is ExecutorState.PAUSED:
             armed, tr.armed = tr.armed, None  # any hold uses up the performer's pause request
-            if armed is None or abs(event.show_time - armed.start) > 1e-3:
-                return  # an operator's pause
+            if armed is None or abs(event.show_time - armed.start) > _SLACK:
+                return  # not this wait's hold (pause() is a no-op while a wait is armed)
             action, tr.on_hold = tr.on_hold, None
             if action is not None:
                 action()  # released (or sent elsewhere) before it got here

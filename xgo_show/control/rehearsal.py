@@ -16,7 +16,7 @@ from xgo_show.choreo.sections import trigger_names
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.director import Director
 from xgo_show.control.script import ScriptPlayer, TriggerScript, load_script
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UsageError
 from xgo_show.runtime.clock import Clock
 from xgo_show.runtime.show_runner import ShowRunner
 
@@ -32,7 +32,7 @@ def check_triggers(schedule: Schedule, script: str | Path | None) -> TriggerScri
     names = trigger_names(schedule.sections)
     if script is None:
         if names:
-            raise XgoShowError(
+            raise UsageError(
                 f"this show waits for trigger(s) {', '.join(names)}: rehearse it with "
                 "--triggers SCRIPT.yaml (see docs/choreography.md), or serve it with "
                 "'xgo-show serve' and fire them with 'xgo-show trigger NAME'"
@@ -40,10 +40,10 @@ def check_triggers(schedule: Schedule, script: str | Path | None) -> TriggerScri
         return None
     loaded = load_script(script)
     if not names:
-        raise XgoShowError(f"--triggers {script}: no section of this show waits for a trigger")
+        raise UsageError(f"--triggers {script}: no section of this show waits for a trigger")
     unknown = sorted({c.trigger for c in loaded.triggers} - set(names))
     if unknown:
-        raise XgoShowError(
+        raise UsageError(
             f"--triggers {script}: the show waits for no trigger named {', '.join(unknown)}; "
             f"its triggers: {', '.join(names)}"
         )

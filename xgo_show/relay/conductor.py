@@ -62,9 +62,13 @@ _conductor: msg.Conductor | None = None
 _lock = threading.Lock()
 
 
-def configure(options: ConductorOptions) -> None:
-    """Use ``options`` for the ``zenoh:`` performers of this process; registers the scheme."""
-    global _options
+def configure(options: ConductorOptions, *, session: zenoh.Session | None = None) -> None:
+    """Use ``options`` for the ``zenoh:`` performers of this process; registers the scheme.
+
+    ``session``: a session of the caller's to reach relays through (``xgo-show serve`` has
+    one open already) instead of one opened from ``options`` on first use.
+    """
+    global _options, _session, _conductor
     if options.link_loss not in msg.LINK_LOSS_POLICIES:
         raise XgoShowError(
             f"link-loss policy {options.link_loss!r}: one of {', '.join(msg.LINK_LOSS_POLICIES)}"
@@ -72,6 +76,9 @@ def configure(options: ConductorOptions) -> None:
     if not 0.05 <= options.watchdog <= 60:
         raise XgoShowError(f"watchdog {options.watchdog:g} s: give 0.05 to 60 seconds")
     _options = options
+    if session is not None:
+        with _lock:
+            _session, _conductor = session, new_conductor(options.name)
     register_endpoint(SCHEME, _endpoints)
 
 

@@ -1,0 +1,105 @@
+"""``xgo-show serve`` driving robots behind an ``xgo-show relay``: three OS processes.
+
+The relay owns the simulated robots (real ptys); serve reaches it through its own Zenoh session
+(``--map NAME=zenoh:RELAY/ROBOT``); this test process is the operator. A triggered show plays
+to its end on the relay's robots, held at its wait until the operator's trigger.
+
+One wait only: a relayed performer sends one ``resume`` per show (RelayShow.once keeps one
+command per (op, at, value)), so a second release would never reach the relay.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.relay.conftest import Relays, free_port
+from xgo_show.control.client import ControlClient
+from xgo_show.errors import ControlFailed
+from xgo_show.net.session import SessionOptions, open_session
+
+NS = f"test-serve-relayed-{os.getpid()}"
+ONE_WAIT = """\
+show: One wait
+performers:
+  rex: {model: mini}
+  ivy: {model: lite}
+sections:
+  - {name: a}
+  - {name: b, at: 0.6, wait: {trigger: go}}
+tracks:
+  rex:
+    - {move: {pitch: 6}, duration: 0.5}
+    - {at: 0.6, move: {pitch: 0}, duration: 0.5}
+  ivy:
+    - {move: {pitch: -6}, duration: 0.5}
+    - {at: 0.6, move: {pitch: 0}, duration: 0.5}
+"""
+
+
+@pytest.fixture
+def relays() -> Iterator[Relays]:
+    r = Relays()
+    try:
+        yield r
+    finally:
+        r.close()
+
+
+def _until_status(client: ControlClient, states: tuple[str, ...], timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    while client.status()["state"] not in states:
+        assert time.monotonic() < deadline, f"never {states}: {client.status()}"
+        time.sleep(0.02)
+
+
+def test_serve_plays_a_triggered_show_on_relayed_robots(relays: Relays, tmp_path: Path) -> None:
+    show = tmp_path / "one_wait.yaml"
+    show.write_text(ONE_WAIT, encoding="utf-8")
+    relay = relays.start("stage", {"rex": "mini", "ivy": "lite"}, "--namespace", NS)
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    serve = subprocess.Popen(
+        [sys.executable, "-m", "xgo_show", "serve", "--map", "rex=zenoh:stage/rex",
+         "--map", "ivy=zenoh:stage", "--no-telemetry", "--load", str(show),
+         "--listen", endpoint, "--connect", relay.endpoint, "--namespace", NS,
+         "--watchdog-ms", "3000"],  # the shared machine can be loaded (14 seen)
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    session = open_session(SessionOptions(connect=(endpoint,), namespace=NS))
+    try:
+        client = ControlClient(session, NS, timeout=1.0)
+        deadline = time.monotonic() + 20.0
+        while True:  # the handshake: a query answered means serve is up
+            try:
+                client.status()
+                break
+            except ControlFailed:
+                assert time.monotonic() < deadline and serve.poll() is None
+        client.timeout = 10.0
+        reply = client.command("start")
+        assert [r["performer"] for r in reply["preflight"]["rows"]] == ["rex", "ivy"]
+        _until_status(client, ("waiting",), 10.0)
+        held = len(relay.received("rex"))
+        time.sleep(0.3)  # held at the wait: nothing new reaches the relay's robot
+        assert len(relay.received("rex")) == held
+        assert client.trigger("go")["held"] is True
+        try:
+            _until_status(client, ("loaded",), 10.0)
+        except AssertionError:
+            serve.terminate()
+            raise AssertionError(serve.communicate(timeout=10)[0]) from None
+        last = client.status()["last_result"]
+        assert last["completed"] is True, last
+        assert len(relay.received("rex")) > held and len(relay.received("ivy")) > held / 2
+    finally:
+        session.close()
+        serve.terminate()
+        out, _ = serve.communicate(timeout=10)
+    assert serve.returncode == 0, out
+    assert "Traceback" not in out

@@ -1,0 +1,255 @@
+"""``xgo-show serve`` in its own process, driven by Zenoh clients on loopback (no mocks).
+
+The server runs simulated robots on real ptys; this process talks to it through a real Zenoh
+session (multicast scouting off, explicit endpoints), and some tests use the ``ctl`` and
+``trigger`` commands as separate processes, as an operator on another host would.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zenoh
+
+from xgo_show.control.client import ControlClient, ControlFailed
+from xgo_show.control.keys import control_key, event_key, trigger_key
+
+ROOT = Path(__file__).resolve().parents[2]
+NS = f"test-serve-{os.getpid()}"
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def _config(connect: str) -> zenoh.Config:
+    config = zenoh.Config()
+    config.insert_json5("mode", '"peer"')
+    config.insert_json5("scouting/multicast/enabled", "false")
+    config.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
+    config.insert_json5("connect/endpoints", json.dumps([connect]))
+    return config
+
+
+@pytest.fixture(scope="module")
+def server(triggered_path: Path) -> Iterator[str]:
+    """A serve process with simulated robots and the short triggered show loaded; yields its
+    endpoint."""
+    show = triggered_path
+    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "xgo_show", "serve", "--sim", "--no-telemetry", "--load",
+         str(show), "--listen", endpoint, "--namespace", NS],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    try:
+        yield endpoint
+    finally:
+        proc.terminate()
+        out, _ = proc.communicate(timeout=10)
+        assert proc.returncode == 0, out
+        assert "serve stopped" in out
+
+
+@pytest.fixture(scope="module")
+def session(server: str) -> Iterator[zenoh.Session]:
+    s = zenoh.open(_config(server))
+    try:
+        client = ControlClient(s, NS, timeout=1.0)
+        deadline = time.monotonic() + 20.0
+        while True:  # the handshake: a query answered means the server is up
+            try:
+                client.status()
+                break
+            except ControlFailed:
+                if time.monotonic() > deadline:
+                    raise
+        yield s
+    finally:
+        s.close()
+
+
+@pytest.fixture
+def client(session: zenoh.Session) -> Iterator[ControlClient]:
+    c = ControlClient(session, NS, timeout=5.0)
+    yield c
+    # Leave no show running for the next test.
+    if c.status()["state"] not in ("idle", "loaded"):
+        c.command("stop", reason="test over")
+
+
+def _until(predicate: Callable[[], bool], timeout: float = 5.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        assert time.monotonic() < deadline, "the condition did not hold in time"
+        time.sleep(0.02)
+
+
+def _get_err(session: zenoh.Session, key: str, payload: bytes | None) -> dict[str, Any]:
+    """A query that must get an error reply; returns its JSON."""
+    replies = list(session.get(key, payload=payload, timeout=5.0,
+                               congestion_control=zenoh.CongestionControl.BLOCK))
+    assert len(replies) == 1
+    assert replies[0].err is not None, replies[0].ok and replies[0].ok.payload.to_string()
+    body: dict[str, Any] = json.loads(replies[0].err.payload.to_bytes())
+    assert body["v"] == 1 and body["ok"] is False
+    return body
+
+
+def test_status_says_what_is_loaded(client: ControlClient) -> None:
+    status = client.status()
+    assert status["v"] == 1 and status["ok"] is True and status["state"] == "loaded"
+    assert status["show"]["triggers"] == ["go", "encore"]
+    assert [s["name"] for s in status["show"]["sections"]] == ["a", "b", "c", "d"]
+
+
+def test_a_triggered_show_from_start_to_end(
+    client: ControlClient, session: zenoh.Session
+) -> None:
+    events: list[dict[str, Any]] = []
+    sub = session.declare_subscriber(
+        event_key(NS), lambda s: events.append(json.loads(s.payload.to_bytes()))
+    )
+    try:
+        client.status()  # handshake: the subscriber is declared before anything is published
+        with pytest.raises(ControlFailed, match="no show is running") as refused:
+            client.trigger("go")
+        assert refused.value.code == "refused"
+        reply = client.command("start")
+        assert reply["ok"] and reply["offset"] == 0.0 and reply["preflight"]["ok"]
+        _until(lambda: client.status()["state"] == "waiting")
+        status = client.status()  # a late joiner learns everything from one query
+        assert status["waiting_for"] == {"section": "b", "trigger": "go", "timeout": None}
+        assert status["section"] == "a" or status["show_time"] == pytest.approx(0.6, abs=0.01)
+        assert set(status["robots"]) == {"rex", "ivy"}
+        with pytest.raises(ControlFailed, match=r"the show waits for 'go' \(section 'b'\)"):
+            client.trigger("encore")
+        out = client.trigger("go", source="test")
+        assert out["section"] == "b" and out["held"] is True
+        _until(lambda: client.status()["state"] in ("loaded", "idle"), timeout=10.0)
+        last = client.status()["last_result"]
+        assert last["completed"] is True and last["reason"] == "completed"
+    finally:
+        sub.undeclare()
+    kinds = {(e["event"], e.get("state")) for e in events}
+    assert ("state", "playing") in kinds and ("state", "ended") in kinds
+    assert ("wait", "waiting") in kinds and ("wait", "released") in kinds
+    assert any(e["event"] == "cue" and e["robot"] == "rex" for e in events)
+    accepted = [e for e in events if e["event"] == "trigger" and e["accepted"]]
+    assert [(e["trigger"], e["source"]) for e in accepted] == [("go", "test")]
+    assert all(e["v"] == 1 and isinstance(e["time"], float) for e in events)
+
+
+def test_bad_requests_get_clear_error_replies(session: zenoh.Session) -> None:
+    cases = [
+        (control_key(NS, "dance"), b"{}", "unknown_command", "unknown command 'dance'"),
+        (control_key(NS, "start"), b"{not json", "bad_request", "payload is not JSON"),
+        (control_key(NS, "start"), b"[1, 2]", "bad_request", "must be a JSON object"),
+        (control_key(NS, "start"), b'{"v": 2}', "version", "version 2 is not supported"),
+        (control_key(NS, "start"), b'{"bar": 0}', "bad_request", "bar"),
+        (control_key(NS, "start"), b'{"section": "nope"}', "not_found", "no section named"),
+        (control_key(NS, "seek"), b"{}", "bad_request", "give time, bar or section"),
+        (control_key(NS, "load"), b'{"path": "/no/such.yaml"}', "failed", "no such file"),
+        (control_key(NS, "stop"), b'{"reason": 5}', "bad_request", "reason"),
+        (control_key(NS, "resume"), b"{}", "refused", "no show is running"),
+        (control_key(NS, "start"), b" " * (4 * 1024 * 1024 + 1), "too_large", "over the limit"),
+        (trigger_key(NS, "go"), b'{"data": 1, "x": 2}', "bad_request", "x"),
+    ]
+    for key, payload, code, message in cases:
+        body = _get_err(session, key, payload)
+        assert body["error"] == code, (key, body)
+        assert message in body["message"], (key, body)
+
+
+def test_panic_is_always_accepted_and_stops_every_robot(client: ControlClient) -> None:
+    idle = client.command("panic")
+    assert idle["ok"] and idle["state"] == "idle"
+    client.command("start", section="b")
+    _until(lambda: client.status()["state"] == "waiting")
+    reply = client.command("panic")
+    assert reply["state"] == "ended" and reply["reason"] == "panic"
+    assert set(reply["stops"]) == {"rex", "ivy"}
+    assert all(s["ok"] for s in reply["stops"].values())
+    last = client.status()["last_result"]
+    assert last["completed"] is False and last["reason"] == "panic"
+
+
+def test_the_command_line_clients_from_other_processes(
+    server: str, client: ControlClient
+) -> None:
+    def xgo(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            [sys.executable, "-m", "xgo_show", *args, "--connect", server, "--namespace", NS],
+            capture_output=True, text=True, timeout=30,
+        )
+
+    started = xgo("ctl", "start")
+    assert started.returncode == 0, started.stderr
+    assert "starting 'Triggered test' from 0 s" in started.stdout
+    _until(lambda: client.status()["state"] == "waiting")
+    wrong = xgo("trigger", "encore")
+    assert wrong.returncode == 2
+    assert "refused: the show waits for 'go' (section 'b')" in wrong.stderr
+    assert "Traceback" not in wrong.stderr
+    status = xgo("ctl", "status")
+    assert status.returncode == 0 and "show 'Triggered test'" in status.stdout
+    assert "waiting for trigger 'go' (section b)" in status.stdout
+    stopped = xgo("ctl", "stop")  # the show holds at b for ever: stop it
+    assert stopped.returncode == 0, stopped.stderr
+    client.command("start")
+    _until(lambda: client.status()["state"] == "waiting")
+    fired = xgo("trigger", "go")
+    assert fired.returncode == 0, fired.stderr
+    assert fired.stdout.strip() == "trigger 'go': released section 'b'"
+
+
+def test_a_trigger_flood_is_absorbed_and_the_real_one_still_counts(
+    client: ControlClient, session: zenoh.Session
+) -> None:
+    client.command("start")
+    _until(lambda: client.status()["state"] == "waiting")
+    flood_key = trigger_key(NS, "lights")
+    stop = threading.Event()
+
+    def flood() -> None:
+        payload = b'{"v": 1}'
+        while not stop.is_set():
+            for _ in range(100):
+                session.put(flood_key, payload)
+            time.sleep(0.05)
+
+    th = threading.Thread(target=flood, name="xgo-show test flood")
+    th.start()
+    try:
+        time.sleep(0.5)
+        assert client.status()["state"] == "waiting"  # still answering, still holding
+        assert client.trigger("go")["held"] is True
+    finally:
+        stop.set()
+        th.join()
+    _until(lambda: client.status()["state"] in ("loaded", "idle"), timeout=10.0)
+    assert client.status()["last_result"]["completed"] is True
+
+
+def test_the_zenoh_only_example_imports_nothing_of_ours() -> None:
+    import ast
+
+    tree = ast.parse((ROOT / "examples" / "zenoh_control.py").read_text(encoding="utf-8"))
+    modules = {alias.name.split(".")[0] for node in ast.walk(tree)
+               if isinstance(node, ast.Import) for alias in node.names}
+    modules |= {(node.module or "").split(".")[0] for node in ast.walk(tree)
+                if isinstance(node, ast.ImportFrom)}
+    assert "xgo_show" not in modules
+    assert "zenoh" in modules

@@ -1,0 +1,499 @@
+"""``xgo-show serve``: take show-control commands and triggers from any Zenoh client.
+
+The server owns the robots it was given (``--map NAME=PORT``, simulators with ``--sim``, robots
+behind an ``xgo-show relay`` with ``--map NAME=zenoh:RELAY/ROBOT``, reached through the
+server's own session) and
+answers the API of docs/zenoh-api.md: queryables ``NS/control/COMMAND`` and ``NS/status``,
+triggers on ``NS/trigger/NAME`` (put or get), events on ``NS/event/...``. A show runs through
+the runtime's launch stages (open, pre-flight, arm, run) with a
+:class:`~xgo_show.control.director.Director` holding it at its waits; nothing of the
+orchestration is copied here.
+
+Threads. Zenoh calls the handlers on its own threads: status, triggers and ``panic`` are
+answered there at once (each takes a lock for microseconds, or sends stop frames); the other
+commands queue for one control thread (bounded: a full queue is answered "busy"), so a long
+compile never delays a panic or a trigger. A show runs in a thread of its own.
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from xgo_show.compiler.schedule import Schedule
+from xgo_show.control.director import ControlError, Director
+from xgo_show.control.keys import control_key, status_key, trigger_key
+from xgo_show.control.protocol import (
+    PROTOCOL_VERSION,
+    LoadRequest,
+    SeekRequest,
+    StartRequest,
+    StopRequest,
+    TriggerRequest,
+    error_payload,
+    ok_payload,
+    parse_request,
+)
+from xgo_show.control.publisher import EventPublisher
+from xgo_show.control.status import place, robots_status, show_summary, wall_time
+from xgo_show.errors import XgoShowError
+from xgo_show.relay.options import ConductorOptions, use_relays
+from xgo_show.runtime.clock import MonotonicClock
+from xgo_show.runtime.events import EventBus
+from xgo_show.runtime.launch import Launch
+from xgo_show.runtime.preflight import PreflightError
+from xgo_show.runtime.show_runner import ShowResult, ShowRunner
+from xgo_show.sim.bench import SimBench
+
+if TYPE_CHECKING:
+    import zenoh
+
+__all__ = ["ServeOptions", "ShowServer"]
+
+_QUEUE = 64  # control commands waiting for the control thread
+
+
+@dataclass(frozen=True)
+class ServeOptions:
+    """What ``serve`` owns and how it runs shows."""
+
+    namespace: str = "xgo-show"
+    maps: dict[str, str] = field(default_factory=dict)  # performer -> port or URL
+    #: how to reach relays (performers mapped to ``zenoh:RELAY/ROBOT``) and their link-loss
+    #: policy; the server's own session carries them
+    conductor: ConductorOptions = field(default_factory=ConductorOptions)
+    sim: bool = False  # performers not mapped get a simulated robot on a pty
+    telemetry: bool = True
+    arm_margin: float = 0.1
+    allow_unsafe: bool = False
+
+
+@dataclass
+class _Run:
+    """One show being played."""
+
+    schedule: Schedule
+    launch: Launch
+    runner: ShowRunner
+    director: Director
+    sims: SimBench | None
+    thread: threading.Thread | None = None
+    result: ShowResult | None = None
+    faults: dict[str, str] = field(default_factory=dict)
+
+
+class ShowServer:
+    """Serves the control API on ``session`` (see the module docstring); :meth:`close` ends it
+    (a show still running is safe-stopped first). ``load``: a show to load before the first
+    query is answered (a bad one raises, and nothing is served)."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        opts: ServeOptions,
+        *,
+        say: Callable[[str], None] = print,
+        load: LoadRequest | None = None,
+    ) -> None:
+        import zenoh
+
+        self._zenoh = zenoh
+        self.session = session
+        self.opts = opts
+        self.ns = opts.namespace
+        self.say = say
+        self.clock = MonotonicClock()
+        self._lock = threading.RLock()
+        self._loaded: tuple[Schedule, str] | None = None
+        self._run: _Run | None = None
+        self._last: dict[str, Any] | None = None
+        self._queue: collections.deque[tuple[str, Any, Any]] = collections.deque()
+        self._cond = threading.Condition()
+        self._closed = False
+        self.triggers_received = 0
+        self.bad_triggers = 0
+        self.publisher = EventPublisher(self.ns, self._put, clock=self.clock)
+        if any(_relayed(url) for url in opts.maps.values()):
+            from xgo_show.relay.conductor import configure
+
+            configure(opts.conductor, session=session)
+        if load is not None:  # before answering anyone: a client never sees it unloaded
+            self._cmd_load(load)
+        self._worker = threading.Thread(target=self._work, name="xgo-show control", daemon=True)
+        self._worker.start()
+        self._decls: list[Any] = [
+            session.declare_queryable(control_key(self.ns), self._on_control),
+            session.declare_queryable(status_key(self.ns), self._on_status),
+            session.declare_queryable(trigger_key(self.ns), self._on_trigger_query),
+            session.declare_subscriber(trigger_key(self.ns), self._on_trigger_put),
+        ]
+
+    # ------------------------------------------------------------------ Zenoh handlers
+
+    def _on_control(self, query: Any) -> None:
+        command = str(query.key_expr).rsplit("/", 1)[-1]
+        try:
+            request = parse_request(command, _payload(query))
+        except ControlError as exc:
+            self._reply_err(query, command, exc.code, str(exc))
+            return
+        if command == "panic":
+            self._reply(query, command, self._panic("panic"))
+            return
+        with self._cond:
+            if len(self._queue) >= _QUEUE:
+                self._reply_err(query, command, "busy",
+                                f"{_QUEUE} commands are already waiting; try again")
+                return
+            self._queue.append((command, request, query))
+            self._cond.notify()
+
+    def _on_status(self, query: Any) -> None:
+        self._reply(query, "status", self.status())
+
+    def _on_trigger_put(self, sample: Any) -> None:
+        name = str(sample.key_expr).rsplit("/", 1)[-1]
+        try:
+            request = parse_request("trigger", sample.payload.to_bytes())
+        except ControlError as exc:
+            self.bad_triggers += 1
+            self.publisher.publish("warning", message=f"trigger {name!r} dropped: {exc}")
+            return
+        # A refusal is said in the trigger event (rate-limited): a put has no one to answer.
+        with contextlib.suppress(ControlError):
+            self._trigger(name, request)  # type: ignore[arg-type]
+
+    def _on_trigger_query(self, query: Any) -> None:
+        name = str(query.key_expr).rsplit("/", 1)[-1]
+        try:
+            request = parse_request("trigger", _payload(query))
+            fields = self._trigger(name, request)  # type: ignore[arg-type]
+        except ControlError as exc:
+            self._reply_err(query, "trigger", exc.code, str(exc))
+        else:
+            self._reply(query, "trigger", fields)
+
+    def _reply(self, query: Any, command: str, fields: dict[str, Any]) -> None:
+        try:
+            query.reply(query.key_expr, ok_payload(command, **fields))
+        finally:
+            query.drop()
+
+    def _reply_err(self, query: Any, command: str, code: str, message: str) -> None:
+        try:
+            query.reply_err(error_payload(command, code, message))
+        finally:
+            query.drop()
+
+    def _put(self, key: str, payload: dict[str, Any]) -> None:
+        import json
+
+        self.session.put(
+            key,
+            json.dumps(payload, separators=(",", ":"), allow_nan=False).encode(),
+            congestion_control=self._zenoh.CongestionControl.DROP,
+        )
+
+    # ------------------------------------------------------------------ commands
+
+    def _work(self) -> None:
+        while True:
+            with self._cond:
+                while not self._queue and not self._closed:
+                    self._cond.wait()
+                if self._closed:
+                    for _, _, query in self._queue:
+                        self._reply_err(query, "control", "closing", "the server is closing")
+                    self._queue.clear()
+                    return
+                command, request, query = self._queue.popleft()
+            try:
+                fields = getattr(self, f"_cmd_{command}")(request)
+            except ControlError as exc:
+                self._reply_err(query, command, exc.code, str(exc))
+            except PreflightError as exc:
+                self._reply_err(query, command, "refused", str(exc))
+            except XgoShowError as exc:
+                self._reply_err(query, command, "failed", str(exc))
+            except Exception as exc:  # never let a bug kill the control thread
+                self._reply_err(query, command, "internal", f"internal error: {exc!r}")
+            else:
+                self._reply(query, command, fields)
+
+    def _cmd_load(self, req: LoadRequest) -> dict[str, Any]:
+        with self._lock:
+            if self._run is not None:
+                raise ControlError("a show is running: stop it before loading another")
+        schedule, source = _load(req)
+        with self._lock:
+            self._loaded = (schedule, source)
+        summary = show_summary(schedule, source)
+        self.say(f"loaded {schedule.name!r} ({source}); triggers: "
+                 f"{', '.join(summary['triggers']) or 'none'}")
+        self.publisher.publish("state", state="loaded", show=schedule.name)
+        return {"show": summary, "warnings": [d.format() for d in schedule.warnings]}
+
+    def _cmd_start(self, req: StartRequest) -> dict[str, Any]:
+        with self._lock:
+            if self._run is not None:
+                raise ControlError("a show is running already (stop it first)")
+            if self._loaded is None:
+                raise ControlError("no show is loaded: send load first")
+            schedule, source = self._loaded
+        offset = _show_time(schedule, req)
+        if not 0.0 <= offset < schedule.duration:
+            raise ControlError(f"start at {offset:g} s: outside the show (0 to "
+                               f"{schedule.duration:g} s)", code="bad_request")
+        run = self._arm(schedule, force=req.force)
+        now_wall, now = time.time(), self.clock.now()
+        start_at: float | None = None
+        if req.at is not None:
+            start_at = now + (req.at - now_wall)
+        elif req.in_ is not None:
+            start_at = now + req.in_
+        if start_at is not None and start_at < now - 0.5:
+            run.launch.close()
+            if run.sims is not None:
+                run.sims.close()
+            raise ControlError(
+                f"start time is {now - start_at:.3f} s in the past", code="bad_request"
+            )
+        thread = threading.Thread(target=self._play, args=(run, offset, start_at),
+                                  name="xgo-show show", daemon=True)
+        run.thread = thread
+        with self._lock:
+            self._run = run
+        thread.start()
+        report = run.launch.report
+        when = start_at if start_at is not None else now
+        self.say(f"starting {schedule.name!r} from {offset:g} s ({source})")
+        return {
+            "show": schedule.name,
+            "offset": round(offset, 6),
+            "start_time": round(now_wall + (when - now), 6),
+            "preflight": report.as_record() if report is not None else None,
+        }
+
+    def _arm(self, schedule: Schedule, *, force: bool) -> _Run:
+        """Open, pre-flight and arm a launch (with simulators under ``--sim``)."""
+        urls = {k: v for k, v in self.opts.maps.items()
+                if k in {p.name for p in schedule.performers}}
+        sim_names = [p.name for p in schedule.performers if p.name not in urls] if self.opts.sim \
+            else []
+        missing = [p.name for p in schedule.performers
+                   if p.name not in urls and p.name not in sim_names and not p.port]
+        if missing:
+            raise ControlError(f"no robot for performer(s) {', '.join(missing)}: start serve "
+                               "with --map NAME=PORT (or --sim)")
+        relayed = use_relays(urls, self.opts.conductor, fast=False)
+        sims = SimBench(schedule, sim_names) if sim_names else None
+        bus = EventBus()
+        bus.subscribe(self.publisher.listen(schedule))
+        try:
+            if sims is not None:
+                urls.update(sims.urls)
+            launch = Launch(schedule, urls, clock=self.clock, events=bus,
+                            telemetry=self.opts.telemetry, allow_unsafe=self.opts.allow_unsafe,
+                            **relayed)
+            try:
+                launch.open()
+                report = launch.preflight()
+                self.publisher.publish("state", state="preflight", **report.as_record())
+                runner = launch.arm(force=force)
+            except BaseException:
+                launch.close()
+                raise
+        except BaseException:
+            if sims is not None:
+                sims.close()
+            raise
+        director = Director(runner, clock=self.clock, arm_margin=self.opts.arm_margin)
+        return _Run(schedule, launch, runner, director, sims)
+
+    def _play(self, run: _Run, offset: float, start_at: float | None) -> None:
+        try:
+            run.result = run.launch.run(offset=offset, start_at=start_at, handle_signals=False)
+        except BaseException as exc:  # the runner safe-stopped every robot before raising
+            run.result = ShowResult(False, f"exception: {exc!r}")
+        finally:
+            run.director.close()
+            run.launch.close()
+            if run.sims is not None:
+                run.sims.close()
+            result = run.result
+            assert result is not None
+            with self._lock:
+                self._last = {"show": run.schedule.name, "completed": result.completed,
+                              "reason": result.reason, "faults": dict(result.faults),
+                              "time": wall_time()}
+                self._run = None
+            self.say(f"show {run.schedule.name!r} ended: {result.reason}")
+
+    def _cmd_stop(self, req: StopRequest) -> dict[str, Any]:
+        run = self._current("stop")
+        run.director.stop(req.reason)
+        return self._ended(run)
+
+    def _cmd_pause(self, req: object) -> dict[str, Any]:
+        run = self._current("pause")
+        run.director.pause()
+        return {"state": run.director.phase}
+
+    def _cmd_resume(self, req: object) -> dict[str, Any]:
+        run = self._current("resume")
+        run.director.resume()
+        return {"state": run.director.phase}
+
+    def _cmd_seek(self, req: SeekRequest) -> dict[str, Any]:
+        run = self._current("seek")
+        target = _show_time(run.schedule, req)
+        run.director.seek(target)
+        return place(run.schedule, target)
+
+    def _current(self, what: str) -> _Run:
+        with self._lock:
+            run = self._run
+        if run is None:
+            raise ControlError(f"cannot {what}: no show is running")
+        return run
+
+    def _ended(self, run: _Run, timeout: float = 2.0) -> dict[str, Any]:
+        if run.thread is not None:
+            run.thread.join(timeout)
+        result = run.result
+        if result is None:
+            return {"state": "stopping"}
+        return {"state": "ended", "reason": result.reason,
+                "stops": {n: {"ok": s.ok, "error": s.error} for n, s in result.stops.items()}}
+
+    def _panic(self, reason: str) -> dict[str, Any]:
+        """Safe stop everything now: the running show, or (between shows) the robots of the
+        loaded show. Always accepted."""
+        with self._lock:
+            run = self._run
+        if run is not None:
+            run.runner.stop(reason)
+            self.publisher.publish("state", state="panic")
+            return self._ended(run, timeout=1.0)
+        return {"state": "idle", "note": "no show is running: nothing is moving"}
+
+    def _trigger(self, name: str, req: TriggerRequest) -> dict[str, Any]:
+        self.triggers_received += 1
+        with self._lock:
+            run = self._run
+        if run is None:
+            raise ControlError(f"trigger {name!r} refused: no show is running")
+        outcome = run.director.trigger(name)
+        self.publisher.publish("trigger", trigger=name, accepted=True, section=outcome.section,
+                               held=outcome.held, source=req.source, data=req.data)
+        return {"trigger": name, "section": outcome.section, "held": outcome.held}
+
+    # ------------------------------------------------------------------ status
+
+    def status(self) -> dict[str, Any]:
+        """The status reply: what is loaded, the show's state and place, every robot."""
+        with self._lock:
+            run, loaded, last = self._run, self._loaded, self._last
+        out: dict[str, Any] = {
+            "state": "idle" if loaded is None else "loaded",
+            "show": None if loaded is None else show_summary(*loaded),
+            "last_result": last,
+            "namespace": self.ns,
+            "version": PROTOCOL_VERSION,
+        }
+        if run is not None:
+            director = run.director
+            progress = run.runner.snapshot()
+            phase = director.phase
+            out["state"] = "starting" if phase == "idle" else phase
+            out.update(place(run.schedule, progress.show_time))
+            out["duration"] = round(run.schedule.duration, 6)
+            held, ahead = director.waiting_for, director.wait_ahead
+            out["waiting_for"] = None if held is None or held.wait is None else {
+                "section": held.name, "trigger": held.wait.trigger,
+                "timeout": held.wait.timeout}
+            out["next_wait"] = None if ahead is None or ahead.wait is None else {
+                "section": ahead.name, "trigger": ahead.wait.trigger}
+            faults = {p.performer: run.runner.performers[p.performer].fault or ""
+                      for p in progress.performers if run.runner.performers[p.performer].fault}
+            out["robots"] = robots_status(progress, faults)
+            out["faults"] = faults
+        return out
+
+    # ------------------------------------------------------------------ life
+
+    def close(self) -> None:
+        """Safe-stop a running show, stop answering, close the publisher."""
+        with self._lock:
+            run = self._run
+        if run is not None:
+            run.runner.stop("serve is closing")
+            if run.thread is not None:
+                run.thread.join(3.0)
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        self._worker.join(2.0)
+        for decl in self._decls:
+            decl.undeclare()
+        self._decls = []
+        self.publisher.close()
+
+
+def _relayed(url: str) -> bool:
+    return url.strip().lower().startswith("zenoh:")
+
+
+def _payload(query: Any) -> bytes | None:
+    payload = query.payload
+    return None if payload is None else bytes(payload.to_bytes())
+
+
+def _load(req: LoadRequest) -> tuple[Schedule, str]:
+    """The schedule a load request names, compiled if it is a routine."""
+    from xgo_show.compiler import compile_show
+    from xgo_show.compiler.artifact import schedule_from_bytes
+
+    if req.path is not None:
+        from xgo_show.cli.run import load_schedule_file
+
+        return load_schedule_file(Path(req.path)), req.path
+    if req.schedule is not None:
+        return schedule_from_bytes(req.schedule.encode(), name="<schedule>"), "<schedule>"
+    assert req.routine is not None
+    import tempfile
+
+    from xgo_show.choreo import load_show
+
+    with tempfile.TemporaryDirectory(prefix="xgo-show-load-") as tmp:
+        path = Path(tmp) / "routine.yaml"
+        path.write_text(req.routine, encoding="utf-8")
+        return compile_show(load_show(path)), "<routine>"
+
+
+def _show_time(schedule: Schedule, req: Any) -> float:
+    """The show time a start or seek request names (0 when it names none)."""
+    if req.section is not None:
+        from xgo_show.choreo.sections import section_named
+
+        section = section_named(schedule.sections, req.section)
+        if section is None:
+            names = ", ".join(s.name for s in schedule.sections) or "none"
+            raise ControlError(f"no section named {req.section!r}; sections: "
+                               f"{names}", code="not_found")
+        return section.start
+    if req.bar is not None:
+        tempo = schedule.tempo()
+        if tempo is None:
+            raise ControlError("this show has no tempo: give time, not bar", code="bad_request")
+        try:
+            return tempo.position(req.bar, req.beat or 1.0)
+        except ValueError as exc:
+            raise ControlError(str(exc), code="bad_request") from exc
+    return float(req.time or 0.0)
