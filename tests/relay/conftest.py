@@ -67,6 +67,12 @@ class RelayProcess:
         with server.lock:
             return [f.data for f in server.robot.received]
 
+    def time_of(self, robot: str, data: bytes) -> float:
+        """When the simulator received ``data`` first (this machine's monotonic clock)."""
+        server = self.servers[robot]
+        with server.lock:
+            return next(f.t for f in server.robot.received if f.data == data)
+
     def kill(self, sig: int = signal.SIGKILL) -> None:
         if self.proc.poll() is None:
             os.kill(self.proc.pid, sig)
@@ -79,6 +85,24 @@ class Relays:
         self.started: list[RelayProcess] = []
 
     def start(
+        self,
+        name: str,
+        robots: dict[str, str],
+        *extra: str,
+        env: dict[str, str] | None = None,
+    ) -> RelayProcess:
+        relay = self.spawn(name, robots, *extra, env=env)
+        self.ready(relay)
+        return relay
+
+    def start_many(self, specs: dict[str, dict[str, str]], *extra: str) -> list[RelayProcess]:
+        """Start one relay per ``{name: robots}`` together (their start-ups overlap)."""
+        started = [self.spawn(name, robots, *extra) for name, robots in specs.items()]
+        for relay in started:  # they share the CPUs while starting: give each its share
+            self.ready(relay, READY_TIMEOUT * max(1, len(started) // 2))
+        return started
+
+    def spawn(
         self,
         name: str,
         robots: dict[str, str],
@@ -100,15 +124,20 @@ class Relays:
         )
         relay = RelayProcess(name, port, proc, servers)
         self.started.append(relay)
-        ready, _, _ = select.select([proc.stdout], [], [], READY_TIMEOUT)
+        return relay
+
+    @staticmethod
+    def ready(relay: RelayProcess, timeout: float = READY_TIMEOUT) -> None:
+        """Wait for the relay's banner (it announces itself on Zenoh then)."""
+        proc = relay.proc
+        ready, _, _ = select.select([proc.stdout], [], [], timeout)
         assert proc.stdout is not None
         relay.banner = proc.stdout.readline() if ready else ""
         if "ready" not in relay.banner:
             proc.kill()
             raise AssertionError(
-                f"relay {name} did not start: {proc.stderr.read() if proc.stderr else ''}"
+                f"relay {relay.name} did not start: {proc.stderr.read() if proc.stderr else ''}"
             )
-        return relay
 
     def close(self) -> None:
         for relay in self.started:

@@ -205,3 +205,33 @@ def test_relays_with_skewed_clocks_start_together(relays, walk, tmp_path: Path) 
         with relay.servers[name].lock:
             firsts.append(next(f.t for f in relay.servers[name].robot.received if f.data == first))
     assert abs(firsts[0] - firsts[1]) < 0.005  # a loaded CI machine; the benchmark measures it
+
+
+def test_eight_relays_start_together_on_a_lead_from_measured_round_trips(
+    relays, walk, tmp_path: Path
+) -> None:
+    # Start commands go out together (one round trip for all), so the lead is the slowest
+    # relay's, not the sum: sent one after another, eight starts on a busy machine miss it.
+    names = [f"r{i}" for i in range(8)]
+    started = relays.start_many({f"host{i}": {n: "mini"} for i, n in enumerate(names)})
+    show = walk(0.4, **dict.fromkeys(names, "mini"))
+    save_schedule(show, tmp_path / "s.xshow.json")
+    log = tmp_path / "run.jsonl"
+    cmd = [sys.executable, "-m", "xgo_show", "dry-run", str(tmp_path / "s.xshow.json")]
+    for i, name in enumerate(names):
+        cmd += ["--map", f"{name}=zenoh:host{i}"]  # the robot is named like the performer
+    for relay in started:
+        cmd += ["--connect", relay.endpoint]
+    out = subprocess.run(cmd + ["--log", str(log)], capture_output=True, text=True, timeout=90)
+    assert out.returncode == 0, out.stdout + out.stderr
+    from xgo_show.runtime.runlog import read_log
+
+    begun = next(r for r in read_log(log) if r.get("event") == "start")
+    lead = begun["start_at"] - begun["mono"]
+    assert lead < 0.5, f"lead {lead:.3f} s"  # eight relays' worth of round trips would not fit
+    firsts = []
+    for relay, name in zip(started, names, strict=True):
+        sent = [f.data for f in show.performer(name).frames]
+        assert [d for d in relay.received(name) if d in sent] == sent
+        firsts.append(relay.time_of(name, sent[0]))
+    assert max(firsts) - min(firsts) < 0.020  # 8 processes on a shared, busy 2-CPU machine

@@ -98,6 +98,26 @@ def test_a_schedule_with_an_unsafe_register_is_refused(
     assert relay.received("rex")[-1] != zero.data
 
 
+def test_timed_commands_that_would_act_late_are_refused(
+    relays, conductor_session, walk, as_upload
+) -> None:
+    # A host that starts or pauses late plays on another frame than the others for the rest
+    # of the show: the relay refuses, and the conductor's failure policy decides.
+    relay = relays.start("punctual", {"rex": "mini"})
+    client = claim(conductor_session(relay), relay)
+    show = walk(2.0, rex="mini")
+    text, sha = as_upload(show)
+    client.upload(text, sha)
+    with pytest.raises(NetworkError, match=r"the robots need 50 ms to be ready"):
+        client.start(sha, time.monotonic() + client.link.offset + 0.01)
+    sent = {f.data for f in show.performers[0].frames}
+    assert not sent & set(relay.received("rex"))  # nothing moved (pre-flight only read)
+    client.start(sha, time.monotonic() + client.link.offset + LEAD)
+    with pytest.raises(NetworkError, match=r"pause: its time passed \d+\.\d ms before it arrived"):
+        client.command("pause", at=time.monotonic() + client.link.offset - 0.05)
+    assert client.command("stop", reason="test over")["stops"] == {"rex": True}
+
+
 def test_malformed_commands_get_an_error_reply(relays, conductor_session) -> None:
     from xgo_show.net import messages as msg
 

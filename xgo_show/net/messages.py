@@ -14,10 +14,18 @@ and every reply is one JSON object::
   reply naming both versions.
 - ``seq`` is the conductor's sequence number, echoed in the reply; a relay ignores nothing
   silently: a request it cannot read gets ``ok: false`` and ``error`` saying why.
-- ``sent`` is the conductor's clock when it sent the request (seconds); ``relay_time`` is the
-  relay's monotonic clock when it answered. Every time a command carries (``start_at``,
-  ``at``) is in the RELAY's clock (the conductor converts with its offset estimate); show times
-  (``offset``, ``show_time``) are seconds from the start of the show.
+- Clock times. ``sent`` is the conductor's monotonic clock when it sent the request (seconds).
+  ``relay_time`` and every time a command carries (``start_at``, ``at``) are on the relay's
+  SHOW clock. Once the holder's clock tracker has pushed a timebase (``NS/relay/NAME/time``,
+  :mod:`xgo_show.net.timesync`), that clock reads the conductor's own monotonic time, slewed to
+  follow its drift, so the conductor sends its own clock times unconverted and every host acts
+  at the same instant. Before any timebase (a new holder, or sync refused) it is the relay's
+  monotonic clock, and the conductor converts with the offset its command round trips show.
+  Show times (``offset``, ``show_time``) are seconds from the start of the show.
+- A timed command is refused, never acted on late: a ``start`` that leaves the relay's robots
+  less than their lead (``start: the robots need ...``), or a ``pause``/``resume``/``seek``
+  whose ``at`` has passed when it arrives, since a host acting late would play on another frame
+  than the others for the rest of the show.
 - Sizes: a request is at most :data:`MAX_REQUEST_BYTES` (an upload: :data:`MAX_UPLOAD_BYTES`);
   a bigger one is refused before it is parsed.
 
@@ -31,8 +39,8 @@ release    (none): gives the relay up                    (none)
 upload     ``schedule`` (schedule JSON text), ``sha256``  ``sha256``, ``preflight`` rows,
            (of that text), ``link_loss`` ("stop" or      ``preflight_ok``
            "continue"), ``watchdog_ms``, ``battery_floor``
-start      ``sha256``, ``start_at`` (relay time),        ``start_at``
-           ``offset`` (show time)
+start      ``sha256``, ``start_at`` (relay time),        ``start_at``, ``margin`` (seconds to
+           ``offset`` (show time)                        spare when the robots were armed)
 pause      ``at`` (relay time or null: now)              ``at``
 resume     ``at``                                        ``at``
 seek       ``show_time``, ``at``                         ``at``
@@ -43,10 +51,14 @@ probe      ``performer``: read its identity and health   ``rows``: [[label, valu
 
 The description a relay serves on ``NS/relay/NAME/info`` (and in the ``hello`` reply)::
 
-    {"v": 1, "relay": "stage-left", "relay_time": ..., "allow_unsafe": false,
-     "holder": {"id": ..., "name": ...} | null, "state": "idle" | "armed" | "running" | ...,
+    {"v": 1, "relay": "stage-left", "instance": "3f9a0c1d2e4b", "relay_time": ...,
+     "allow_unsafe": false, "holder": {"id": ..., "name": ...} | null,
+     "state": "idle" | "loaded" | "armed" | "running" | "ended", "last": {...} | null,
      "robots": [{"name": "rex", "model": "mini", "port": "/dev/ttyUSB0",
                  "firmware": "XGO-mini ...", "battery": 87.0, "state": "idle"}, ...]}
+
+``instance`` is new each time the relay process starts: a relay that restarted is a new
+instance, with no holder and no show (it never resumes one it did not arm itself).
 """
 
 from __future__ import annotations

@@ -12,6 +12,7 @@ open) is noticed after ``watchdog`` seconds of silence, not after Zenoh's lease.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import getpass
 import json
 import os
@@ -19,8 +20,8 @@ import socket
 import threading
 import time
 import uuid
+from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from xgo_show.errors import NetworkError
@@ -31,7 +32,7 @@ from xgo_show.net.watchdog import Watchdog
 if TYPE_CHECKING:
     import zenoh
 
-__all__ = ["RelayClient", "RelayLink", "list_relays", "new_conductor"]
+__all__ = ["RECENT_RTTS", "Outcome", "RelayClient", "RelayLink", "list_relays", "new_conductor"]
 
 
 def new_conductor(name: str | None = None) -> msg.Conductor:
@@ -45,7 +46,14 @@ def new_conductor(name: str | None = None) -> msg.Conductor:
     return msg.Conductor(uuid.uuid4().hex, name)
 
 
-@dataclass
+#: How many recent round trips a :class:`RelayLink` keeps (a few seconds of heartbeats).
+RECENT_RTTS = 32
+
+#: What :meth:`RelayClient.send` hands its ``on_done``: the reply, or why there is none.
+Outcome = msg.Reply | NetworkError
+
+
+@dataclasses.dataclass
 class RelayLink:
     """What the heartbeats say about one relay (updated from Zenoh's threads)."""
 
@@ -54,6 +62,13 @@ class RelayLink:
     offset: float = 0.0  # relay clock - conductor clock, from the lowest round trip seen
     status: dict[str, Any] | None = None  # the last heartbeat's show status
     lost: bool = False
+    #: the round trips of the last exchanges (heartbeats and commands), newest last
+    recent: deque[float] = dataclasses.field(default_factory=lambda: deque(maxlen=RECENT_RTTS))
+
+    def worst_recent_rtt(self) -> float | None:
+        """The longest of the last :data:`RECENT_RTTS` round trips (None before any)."""
+        recent = tuple(self.recent)  # a copy: Zenoh's threads append meanwhile
+        return max(recent) if recent else None
 
 
 class RelayClient:
@@ -109,20 +124,74 @@ class RelayClient:
             if replies or time.monotonic() > deadline - 0.05:
                 break
             time.sleep(0.02)
-        for answer in replies:
-            ok = answer.ok
-            if ok is None:
-                err = answer.err
-                text = "" if err is None else err.payload.to_bytes().decode("utf-8", "replace")
-                raise NetworkError(f"relay {self.relay}: {op}: {text or 'error reply'}")
-            reply = msg.decode_reply(ok.payload.to_bytes())
-            self._learn(sent, time.monotonic(), reply.relay_time)
-            if not reply.ok:
-                raise NetworkError(f"relay {self.relay}: {reply.error}")
-            if reply.seq != seq:
-                raise NetworkError(f"relay {self.relay}: {op}: reply to request {reply.seq}")
-            return reply
-        raise NetworkError(
+        if not replies:
+            raise self._unanswered(op, wait)
+        return self._check(op, seq, sent, replies[0])
+
+    def send(
+        self,
+        op: str,
+        on_done: Callable[[Outcome], None],
+        *,
+        timeout: float | None = None,
+        **fields: Any,
+    ) -> None:
+        """Send one command without waiting: ``on_done`` gets its reply (or the error) once,
+        from a Zenoh thread.
+
+        Commands to many relays are then in flight together: a start to 16 relays costs one
+        round trip, not 16. The relay must be reachable already (a held relay is: its
+        heartbeats flow), so there is no resend for a route still being learnt.
+        """
+        import zenoh
+
+        seq, payload = self._next(op, fields)
+        wait = self.timeout if timeout is None else timeout
+        lock = threading.Lock()
+        got: list[Outcome] = []
+
+        def finish(outcome: Outcome) -> None:
+            with lock:
+                if got:
+                    return
+                got.append(outcome)
+            on_done(outcome)
+
+        def on_reply(answer: zenoh.Reply) -> None:
+            try:
+                finish(self._check(op, seq, sent, answer))
+            except NetworkError as exc:
+                finish(exc)
+
+        sent = time.monotonic()
+        try:
+            self.session.get(
+                self.key,
+                zenoh.handlers.Callback(on_reply, lambda: finish(self._unanswered(op, wait))),
+                payload=payload,
+                timeout=wait,
+                congestion_control=zenoh.CongestionControl.BLOCK,
+            )
+        except zenoh.ZError as exc:
+            finish(NetworkError(f"relay {self.relay}: {op} not sent: {exc}"))
+
+    def _check(self, op: str, seq: int, sent: float, answer: zenoh.Reply) -> msg.Reply:
+        """The relay's reply to request ``seq``, or a :class:`NetworkError` saying why not."""
+        ok = answer.ok
+        if ok is None:
+            err = answer.err
+            text = "" if err is None else err.payload.to_bytes().decode("utf-8", "replace")
+            raise NetworkError(f"relay {self.relay}: {op}: {text or 'error reply'}")
+        reply = msg.decode_reply(ok.payload.to_bytes())
+        self._learn(sent, time.monotonic(), reply.relay_time)
+        if not reply.ok:
+            raise NetworkError(f"relay {self.relay}: {reply.error}")
+        if reply.seq != seq:
+            raise NetworkError(f"relay {self.relay}: {op}: reply to request {reply.seq}")
+        return reply
+
+    def _unanswered(self, op: str, wait: float) -> NetworkError:
+        return NetworkError(
             f"relay {self.relay} did not answer {op} within {wait:g} s "
             "(is it running, in the same namespace, reachable with these endpoints?)"
         )
@@ -132,6 +201,7 @@ class RelayClient:
         link = self.link
         link.last_reply = received
         rtt = received - sent
+        link.recent.append(rtt)
         if rtt <= link.best_rtt:
             link.best_rtt = rtt
             link.offset = relay_time - (sent + received) / 2

@@ -6,6 +6,13 @@ session with heartbeats, one start command. The runner calls ``start(start_at)``
 first call sends the command, converted to the relay's show clock, and the others find it sent.
 Frames never cross the network: the relay plays its robots' schedules itself.
 
+Timed commands do not wait for their reply: the runner's loop over the performers puts the
+commands to every relay in flight together, and each reply comes back on a Zenoh thread (a
+refusal, or none within the timeout, is a :class:`~xgo_show.runtime.events.FaultRaised` for the
+relay's performers). So the lead a start needs does not grow with the number of relays: it is
+the slowest relay's recent round trip, measured by the heartbeats (:meth:`RelayShow.lead`),
+plus the relay's own set-up.
+
 What comes back: each heartbeat answer carries every performer's state, show time, frames sent
 and fault. A fault on the relay becomes a :class:`~xgo_show.runtime.events.FaultRaised` here (the
 runner applies the show's failure policy); a relay silent for the watchdog time faults every
@@ -22,9 +29,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from xgo_show.compiler.schedule import PerformerSchedule
-from xgo_show.errors import NetworkError, XgoShowError
+from xgo_show.errors import NetworkError
 from xgo_show.profiles import get_profile
-from xgo_show.relay.client import RelayClient
+from xgo_show.relay.client import Outcome, RelayClient
 from xgo_show.relay.forward import decode_events
 from xgo_show.runtime.clock import Clock
 from xgo_show.runtime.events import (
@@ -37,11 +44,28 @@ from xgo_show.runtime.events import (
 from xgo_show.runtime.executor import ExecutorState, Progress, SafeStopResult
 from xgo_show.runtime.show_runner import default_reach
 
-__all__ = ["NETWORK_LEAD", "RelayShow", "RelayedPerformer"]
+__all__ = [
+    "MIN_NETWORK_LEAD",
+    "NETWORK_LEAD",
+    "RELAY_SETUP",
+    "RTT_FACTOR",
+    "RelayShow",
+    "RelayedPerformer",
+    "executor_lead",
+]
 
-#: Seconds a command needs to reach a relay and be acted on (a LAN's round trip is ~1 ms; this
-#: covers a busy host and a Zenoh retransmission).
+#: Seconds between a pause/resume/seek request and the time every host acts on it (the
+#: runner's ``command_lead`` when a show has relayed performers; a LAN's round trip is ~1 ms).
 NETWORK_LEAD = 0.2
+#: A start's network share: this many of the worst recent round trips to the relay ...
+RTT_FACTOR = 3.0
+#: ... and never less than this (seconds; a heartbeat or two may not show a busy moment).
+MIN_NETWORK_LEAD = 0.05
+#: Seconds a relay takes from receiving a start to its executors waiting for the start time
+#: (decoding, building the runner and its threads; the executors' own lead comes on top).
+RELAY_SETUP = 0.05
+#: The executors' own lead on the relay (see ``PerformerExecutor.lead_time``).
+_EXECUTOR_LEAD = 0.05
 _DONE = (ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED)
 
 
@@ -55,6 +79,17 @@ class _Remote:
     total: int
     cue: str
     fault: str | None
+
+
+def executor_lead(schedule: PerformerSchedule, offset: float) -> float:
+    """Seconds the executor of ``schedule`` needs before a start at show time ``offset``: its
+    own lead, and the catch-up frames of a mid-show start on the robot's link (the relay
+    refuses a start that leaves less)."""
+    if offset <= 0:
+        return _EXECUTOR_LEAD
+    link = schedule.link
+    frames = default_reach(schedule, get_profile(schedule.model))(offset)
+    return _EXECUTOR_LEAD + sum(link.wire_time(len(d)) + link.gap for d, _ in frames)
 
 
 class RelayShow:
@@ -87,9 +122,12 @@ class RelayShow:
         self._status: dict[str, _Remote] = {}
         self._faulted: set[str] = set()
         self._lost: str | None = None
+        self._failed: str | None = None  # a command the relay refused or never answered
         self._stop: dict[str, Any] | None = None
         self._ended = threading.Event()
         self._readings: dict[str, dict[str, float]] = {}
+        #: what the relay said of the start: seconds to spare when it armed its executors
+        self.start_margin: float | None = None
 
     # ------------------------------------------------------------------ heartbeat side
 
@@ -196,8 +234,22 @@ class RelayShow:
         with self._lock:
             return dict(self._readings.get(perf, {}))
 
+    def lead(self) -> float:
+        """Seconds a start needs to reach this relay and be armed there in time.
+
+        :data:`RTT_FACTOR` times the worst of the recent round trips (at least
+        :data:`MIN_NETWORK_LEAD`), plus :data:`RELAY_SETUP`: commands to several relays go
+        out together, so the lead is the slowest relay's, not the sum of theirs.
+        """
+        worst = self.client.link.worst_recent_rtt()
+        network = MIN_NETWORK_LEAD if worst is None else max(MIN_NETWORK_LEAD, RTT_FACTOR * worst)
+        return network + RELAY_SETUP
+
     def once(self, op: str, at: float | None, value: float | None = None, **fields: Any) -> None:
-        """Send ``op`` for every performer of this relay, once per (op, at, value)."""
+        """Send ``op`` for every performer of this relay, once per (op, at, value).
+
+        Returns at once: the reply comes back on a Zenoh thread (see the module docstring).
+        """
         key = (op, at, value)
         with self._lock:
             if key in self._sent or self._lost is not None:
@@ -205,10 +257,33 @@ class RelayShow:
             self._sent.add(key)
         when = None if at is None else self.to_relay(at)
         if op == "start":
-            assert at is not None and when is not None
-            self.client.start(self.sha256, when, value or 0.0)
+            fields = {"sha256": self.sha256, "start_at": when, "offset": value or 0.0}
         else:
-            self.client.command(op, at=when, **fields)
+            fields = {**fields, "at": when}
+        self.client.send(op, lambda outcome: self._answered(op, outcome), **fields)
+
+    def _answered(self, op: str, outcome: Outcome) -> None:
+        if isinstance(outcome, NetworkError):
+            self.fail(f"{op} on relay {self.client.relay}: {outcome}")
+        elif op == "start":
+            margin = outcome.fields.get("margin")
+            self.start_margin = float(margin) if isinstance(margin, (int, float)) else None
+
+    def fail(self, why: str) -> None:
+        """A command failed: every performer of this relay faults (the runner applies the
+        show's failure policy, and its safe stop still reaches the relay)."""
+        with self._lock:
+            if self._failed is None:
+                self._failed = why
+            fresh = [p for p in self.names if p not in self._faulted]
+            self._faulted.update(fresh)
+        now = self.clock.now()
+        for perf in fresh:
+            self.events.publish(FaultRaised(now, perf, why))
+
+    def failed(self) -> str | None:
+        """Why a command to this relay failed (None: none did)."""
+        return self._failed
 
     def stop(self, reason: str, timeout: float) -> dict[str, Any]:
         """Safe-stop every robot of this relay (once); the relay's answer, or why none."""
@@ -250,10 +325,7 @@ class RelayedPerformer:
     def __init__(self, schedule: PerformerSchedule, show: RelayShow) -> None:
         self.schedule = schedule
         self.show = show
-        self._profile = get_profile(schedule.model)
-        self._reach = default_reach(schedule, self._profile)
         self._started = False
-        self._fault: str | None = None
         self._stop_result: SafeStopResult | None = None
 
     @property
@@ -285,7 +357,7 @@ class RelayedPerformer:
         remote = self.show.remote(self.name)
         if remote is not None and remote.fault is not None:
             return f"on relay {self.show.client.relay}: {remote.fault}"
-        return self._fault
+        return self.show.failed()
 
     @property
     def progress(self) -> Progress:
@@ -307,12 +379,9 @@ class RelayedPerformer:
         return self.show.readings(self.name)
 
     def lead_time(self, offset: float) -> float:
-        """The network's lead plus what the robot's catch-up frames need on its link."""
-        if offset <= 0:
-            return NETWORK_LEAD + 0.05
-        link = self.schedule.link
-        frames = self._reach(offset)
-        return NETWORK_LEAD + sum(link.wire_time(len(d)) + link.gap for d, _ in frames) + 0.05
+        """The relay's lead (:meth:`RelayShow.lead`, from measured round trips) plus what the
+        robot's executor needs there (:func:`executor_lead`)."""
+        return self.show.lead() + executor_lead(self.schedule, offset)
 
     def start(self, start_at: float, *, offset: float = 0.0) -> None:
         self._started = True
@@ -328,12 +397,7 @@ class RelayedPerformer:
         self._send("seek", at, show_time, show_time=show_time)
 
     def _send(self, op: str, at: float | None, value: float | None = None, **fields: Any) -> None:
-        try:
-            self.show.once(op, at, value, **fields)
-        except XgoShowError as exc:
-            if self._fault is None:
-                self._fault = f"{op} on relay {self.show.client.relay}: {exc}"
-                self.show.events.publish(FaultRaised(self.show.clock.now(), self.name, self._fault))
+        self.show.once(op, at, value, **fields)
 
     def abort(self) -> None:
         """Nothing to hold back here: the relay sends the frames (see :meth:`safe_stop`)."""

@@ -23,6 +23,7 @@ no show runs. Between shows nothing is sent; :meth:`Relay.close` (Ctrl-C) safe-s
 from __future__ import annotations
 
 import contextlib
+import gc
 import queue
 import threading
 import uuid
@@ -40,6 +41,7 @@ from xgo_show.net.testhooks import DelayInjector
 from xgo_show.net.timesync import TimeServer, serve_time
 from xgo_show.net.watchdog import Watchdog
 from xgo_show.relay.forward import EventCollector
+from xgo_show.relay.performer import executor_lead
 from xgo_show.relay.robots import OwnedRobot
 from xgo_show.relay.validate import validate_upload
 from xgo_show.runtime.clock import Clock, MonotonicClock
@@ -397,6 +399,11 @@ class Relay:
             robot.firmware = row.firmware or robot.firmware
             robot.battery = row.battery if row.battery is not None else robot.battery
             robot.voltage = row.voltage if row.voltage is not None else robot.voltage
+        # The show's runner collects garbage before it starts (and none while it plays): done
+        # here, and what exists frozen, that costs nothing between the start command and
+        # the start time, which a busy host would otherwise begin late by.
+        gc.collect()
+        gc.freeze()
         with self._lock:
             if self._holder is not None:
                 self._holder.watchdog.set_timeout(request.whole("watchdog_ms") / 1000)
@@ -450,11 +457,18 @@ class Relay:
                 raise XgoShowError("start: this show has already started")
             if not 0 <= offset < show.schedule.duration:
                 raise XgoShowError(f"start: offset {offset:g} s is outside the show")
-            now = self.clock.now()
-            if start_at <= now:
+            if start_at <= self.clock.now():
                 raise XgoShowError(
-                    f"start: the start time passed {(now - start_at) * 1e3:.1f} ms ago "
-                    "(give a longer lead time)"
+                    f"start: the start time passed {(self.clock.now() - start_at) * 1e3:.1f} ms "
+                    "ago (give a longer lead time)"
+                )
+            # Refused rather than started late: a late host would play behind the others.
+            need = max(executor_lead(p, offset) for p in show.schedule.performers)
+            margin = start_at - (self.clock.now() + need)
+            if margin < 0:
+                raise XgoShowError(
+                    f"start: the robots need {need * 1e3:.0f} ms to be ready and the start time "
+                    f"is {(need + margin) * 1e3:.0f} ms away (give a longer lead time)"
                 )
             runner = local_runner(
                 show.schedule,
@@ -470,7 +484,8 @@ class Relay:
                 target=self._play, args=(show,), name="relay show", daemon=True
             )
             show.thread.start()
-        return {"start_at": start_at}
+        self.log.event("armed", sha256=sha, start_at=start_at, margin_ms=round(margin * 1e3, 3))
+        return {"start_at": start_at, "margin": margin}
 
     def _play(self, show: _Show) -> None:
         runner = show.runner
@@ -481,6 +496,9 @@ class Relay:
             )
         except Exception as exc:  # the runner has safe-stopped every robot already
             result = ShowResult(False, f"exception: {exc!r}")
+        late = result.start_at - show.start_at if result.start_at else 0.0
+        if late > 0:  # the host was too busy to be ready in time: say so, it plays behind
+            self.log.event("late_start", late_ms=round(late * 1e3, 3))
         with self._lock:
             self._last = {
                 "sha256": show.sha256,
@@ -488,6 +506,7 @@ class Relay:
                 "reason": result.reason,
                 "faults": dict(result.faults),
                 "link_lost": show.link_lost,
+                "late_start_ms": round(max(0.0, late) * 1e3, 3),
                 "stops": {n: s.ok for n, s in result.stops.items()},
                 "stop_latency_ms": (
                     None if result.stop_latency is None else round(result.stop_latency * 1e3, 3)
@@ -504,7 +523,14 @@ class Relay:
                 raise XgoShowError(f"{op}: no show is running")
             runner = show.runner
         at = request.maybe_number("at")
-        when = self.clock.now() if at is None else at
+        now = self.clock.now()
+        if at is not None and at < now:
+            # Acting late would leave this host on another frame than the others, for good.
+            raise XgoShowError(
+                f"{op}: its time passed {(now - at) * 1e3:.1f} ms before it arrived "
+                "(give a longer command lead)"
+            )
+        when = now if at is None else at
         if op == "pause":
             runner.pause(at=when)
         elif op == "resume":
