@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -158,3 +160,138 @@ def test_decimated_values_still_arrive(samples: list[tuple[int, int, int]]) -> N
     assert final_sent == final_planned
     starts = [p.start_us for p in result.frames]
     assert starts == sorted(starts)
+
+
+# --- decimation: when values arrive, and what is dropped -------------------------------------
+
+ONE_BYTE_US = wire_us(XGO, 9) + 1000  # a one-byte write frame and the silence after it
+
+
+def _counted_remerge() -> tuple[list[int], object]:
+    calls: list[int] = []
+
+    def remerge(t_us: int, writes: list[Write]) -> list[PlannedFrame]:
+        calls.append(t_us)
+        return _remerge(t_us, writes)
+
+    return calls, remerge
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(2, 12), st.integers(2_000, 20_000), st.integers(1, 9))
+def test_a_burst_goes_out_one_period_at_a_time_not_at_the_end(
+    burst: int, period_us: int, quiet_periods: int,
+) -> None:
+    # A burst of samples to ``burst`` registers at t=0, more than one period of the link can
+    # carry, then a long quiet run of a single other register once every ``quiet_periods``.
+    # The values dropped from the burst must be re-sent at the next period boundaries, each as
+    # soon as the link has room, long before the show ends.
+    planned = [_sample_frame(0, 0x40 + i, i) for i in range(burst)]
+    end_us = 400 * period_us
+    # (the quiet run leaves the link free for most periods: values can only go out when it has
+    # room)
+    every = period_us * (burst + quiet_periods)
+    planned += [_sample_frame(t, 0x60, 1) for t in range(every, end_us, every)]
+    calls, remerge = _counted_remerge()
+    result = pace(planned, link=XGO, gap_us=1000, period_us=period_us, decimate=True,
+                  remerge=remerge)  # type: ignore[arg-type]
+    first_sent = {}
+    for p in result.frames:
+        first_sent.setdefault(p.frame.fields[0][0], p)
+    for i in range(burst):
+        sent = first_sent[0x40 + i]
+        # Every burst value is out within as many periods as there are values before it.
+        assert sent.start_us <= (i + 1) * period_us, (i, sent.start_us)
+        # A re-send is planned at a period boundary after the burst and starts on it or
+        # after the frame in front of it, never before.
+        assert sent.frame.t_us % period_us == 0 and sent.start_us >= sent.frame.t_us
+    # Re-sends are batched at most once a period (each batch is one call of the merger).
+    assert all(b - a >= period_us for a, b in itertools.pairwise(calls))
+
+
+def test_a_long_decimated_burst_compiles_in_time_linear_in_its_length() -> None:
+    # 200 ticks, each with more samples than a tick can carry: pending values are re-sent at
+    # most once a tick, so the merger runs at most once per tick (not once per dropped frame,
+    # which grows without bound as re-sends are dropped in their turn).
+    ticks, period_us = 200, 2000
+    planned = [_sample_frame(t * period_us, 0x40 + a, (t + a) % 256)
+               for t in range(ticks) for a in range(4)]
+    calls, remerge = _counted_remerge()
+    result = pace(planned, link=XGO, gap_us=1000, period_us=period_us, decimate=True,
+                  remerge=remerge)  # type: ignore[arg-type]
+    assert result.dropped > ticks
+    assert len(calls) <= ticks + 4
+    assert len(result.frames) <= ticks + 4 + len(calls)
+
+
+SLOW = Link(9600, 0.001)  # ~1 ms a byte: one frame can keep the link busy for many periods
+
+
+def _busy_for(us: int) -> tuple[PlannedFrame, int]:
+    """A setting at t=0 that keeps ``SLOW`` busy for more than ``us``, and when it is free."""
+    first = _planned(0, us * SLOW.baud // SLOW.bits_per_byte // 1_000_000 + 1)
+    return first, wire_us(SLOW, len(first.data)) + 1000
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(4, 40_000))
+def test_a_sample_is_dropped_only_when_more_than_half_a_period_late(period_us: int) -> None:
+    # Both sides of the rule, odd periods included ("half" rounds down to whole microseconds).
+    half = period_us // 2
+    first, link_free = _busy_for(period_us)
+    for late_by, dropped in ((half - 1, False), (half, False), (half + 1, True)):
+        sample = _sample_frame(link_free - late_by, 0x41, 7)
+        result = pace([first, sample], link=SLOW, gap_us=1000, period_us=period_us,
+                      decimate=True)
+        assert result.dropped == int(dropped), (late_by, half)
+        if dropped:
+            assert [p.frame for p in result.frames] == [first]
+            assert (result.first_drop_us, result.first_drop_origin) == (sample.t_us, None)
+        else:
+            assert result.frames[1] == (link_free, sample)
+            assert result.first_drop_us is None
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(2, 40_000), st.booleans())
+def test_a_frame_exactly_one_period_late_fits_the_link(period_us: int, decimate: bool) -> None:
+    # The link-fit rule from both sides: one period late fits, one microsecond more does not.
+    # Settings are never dropped, so decimation must not change the verdict.
+    first, link_free = _busy_for(period_us + 1)
+    for late_by, late in ((period_us - 1, False), (period_us, False), (period_us + 1, True)):
+        second = _planned(link_free - late_by, 1)
+        result = pace([first, second], link=SLOW, gap_us=1000, period_us=period_us,
+                      decimate=decimate)
+        assert [p.frame for p in result.frames] == [first, second]
+        assert result.frames[1].start_us - second.t_us == late_by
+        assert [p.frame for p in result.late] == ([second] if late else []), (late_by, period_us)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 40), st.integers(0, 3), st.integers(0, 255)),
+                min_size=1, max_size=120),
+       st.integers(0, 1999))
+def test_resends_never_go_out_before_planned_frames(
+    samples: list[tuple[int, int, int]], phase_us: int,
+) -> None:
+    # Frames go out in the order they were planned for; a re-send planned for the same
+    # microsecond as a planned frame goes after it (the planned value is the fresher one).
+    # ``phase_us`` moves the samples off the period grid, or onto it (0).
+    planned = [_sample_frame(tick * 2000 + phase_us, 0x40 + a, v)
+               for tick, a, v in sorted(samples, key=lambda s: s[0])]
+    result = pace(planned, link=XGO, gap_us=1000, period_us=2000, decimate=True,
+                  remerge=_remerge)
+    ids = {id(f) for f in planned}
+    order = [(p.frame.t_us, id(p.frame) not in ids) for p in result.frames]
+    assert order == sorted(order)
+    # A re-send carries the newest value planned for its register up to its own microsecond,
+    # never one a planned frame of that microsecond already replaced.
+    for p in result.frames:
+        if id(p.frame) not in ids:
+            (address, value), = p.frame.fields
+            newest = [f.fields[0][1] for f in planned
+                      if f.fields[0][0] == address and f.t_us <= p.frame.t_us][-1]
+            assert value == newest, (p.frame.t_us, address)
+    # And replaying the wire leaves every register at its last planned value.
+    final = {f.fields[0][0]: f.fields[0][1] for f in planned}
+    assert {p.frame.fields[0][0]: p.frame.fields[0][1] for p in result.frames} == final

@@ -8,7 +8,13 @@ import time
 
 import pytest
 
-from xgo_show.runtime.clock import HANDOFF, MonotonicClock, hand_off_cpu, is_realtime
+from xgo_show.runtime.clock import (
+    HANDOFF,
+    MonotonicClock,
+    hand_off_cpu,
+    is_realtime,
+    tighten_timer_slack,
+)
 
 
 def _in_fifo_thread(fn: object) -> dict[str, object]:
@@ -119,3 +125,52 @@ def test_monotonic_wait_with_the_interrupt_already_set_returns_false_at_once() -
     start = clock.now()
     assert clock.sleep_until(start + 1.0, interrupt) is False
     assert clock.now() - start < 0.5
+
+
+def test_a_wait_sleeps_and_spins_only_its_last_moments() -> None:
+    # Half a second's wait costs the waiting thread almost no CPU: it sleeps up to the margin
+    # and spins only the last fraction of a millisecond (a busy machine would take a whole
+    # time slice from a thread that spins long, and the others' deadlines with it).
+    clock = MonotonicClock()
+    for interrupt in (None, threading.Event()):
+        cpu = time.thread_time()
+        deadline = clock.now() + 0.5
+        assert clock.sleep_until(deadline, interrupt) is True
+        assert clock.now() >= deadline
+        assert time.thread_time() - cpu < 0.02
+
+
+def test_a_wait_wakes_near_its_deadline_whatever_its_margins() -> None:
+    # Wide margins so that aiming past the deadline by one of them (60 ms sleeping, 30 ms in
+    # the short naps) could not hide in a loaded machine's wake-up latency. The best of three
+    # waits is compared: only scheduling noise differs between them.
+    clock = MonotonicClock(margin=0.06, aim=0.03, spin=0.04)
+    for interrupt in (None, threading.Event()):
+        late = []
+        for _ in range(3):
+            deadline = clock.now() + 0.15
+            assert clock.sleep_until(deadline, interrupt) is True
+            late.append(clock.now() - deadline)
+        assert min(late) >= 0.0 and min(late) < 0.015, late
+
+
+def test_timer_slack_is_tightened_for_the_calling_thread_only() -> None:
+    import ctypes
+    import sys
+
+    if not sys.platform.startswith("linux"):
+        assert tighten_timer_slack() is False
+        return
+    libc = ctypes.CDLL(None, use_errno=True)
+    get_slack = 30  # PR_GET_TIMERSLACK
+
+    def slack_after_tightening() -> tuple[bool, int]:
+        return tighten_timer_slack(), int(libc.prctl(get_slack, 0, 0, 0, 0))
+
+    before = int(libc.prctl(get_slack, 0, 0, 0, 0))
+    out: list[tuple[bool, int]] = []
+    thread = threading.Thread(target=lambda: out.append(slack_after_tightening()))
+    thread.start()
+    thread.join(5)
+    assert out == [(True, 1)]  # 1 ns: sleeps wake on time instead of up to 50 us late
+    assert int(libc.prctl(get_slack, 0, 0, 0, 0)) == before  # other threads keep theirs
