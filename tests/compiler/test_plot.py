@@ -1,14 +1,87 @@
-"""plot_schedule draws a PNG (matplotlib is a test dependency)."""
+"""The PNG plot: properties of the drawn figure a choreographer relies on (matplotlib is a test
+dependency): the music grid, section names, one axis per unit, labels that never overprint,
+curves from show start."""
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
+from typing import Any
 
+import matplotlib.pyplot as plt
 import numpy as np
+import pytest
 from matplotlib.image import imread
 
+from xgo_show.choreo import load_show
 from xgo_show.choreo.resolved import ActionCue, ArmCue, FadeCue, MotionCue, SetCue
 from xgo_show.compiler import compile_show, plot_schedule
+from xgo_show.compiler.plot import timeline_figure
+from xgo_show.compiler.timeline import build_timeline
+
+ROUTINE = Path(__file__).parent / "data" / "timeline_show.yaml"
+
+
+@pytest.fixture(scope="module")
+def figure() -> Any:
+    fig = timeline_figure(build_timeline(compile_show(load_show(ROUTINE))))
+    fig.canvas.draw()
+    yield fig
+    plt.close(fig)
+
+
+def _by_label(fig: Any) -> dict[str, list[Any]]:
+    axes: dict[str, list[Any]] = {}
+    for ax in fig.axes:
+        axes.setdefault(ax.get_ylabel(), []).append(ax)
+    return axes
+
+
+def test_one_axis_per_unit_named_by_its_unit(figure: Any) -> None:
+    axes = _by_label(figure)
+    # rex: mm (body_z) and deg (pitch); rio: m/s (vx); the arm's servos in degrees.
+    assert len(axes["mm"]) == 1 and len(axes["m/s"]) == 1 and len(axes["deg"]) == 2
+    legends = [[t.get_text() for t in ax.get_legend().get_texts()] for ax in axes["deg"]]
+    assert legends == [["pitch"], ["1 gripper", "6 base"]]  # xArm servos by name
+
+
+def test_bar_grid_and_section_names_on_top(figure: Any) -> None:
+    header = _by_label(figure)["bar"][0]
+    ticks = [t.get_text() for t in header.get_xticklabels()]
+    assert ticks == [str(n) for n in range(1, 9)]  # 14 s at 120 bpm 4/4: bars 1..8 begin
+    assert {t.get_text().strip() for t in header.texts} == {"intro", "verse"}
+    verse = next(t for t in header.texts if t.get_text().strip() == "verse")
+    assert verse.get_position()[0] == pytest.approx(6.0)  # bar 4
+    for ax in figure.axes:  # the bar lines run through every axis, at the bar starts
+        lines = next(c for c in ax.collections if c.get_gid() == "bar-lines")
+        xs = sorted(round(seg[0][0], 6) for seg in lines.get_segments())
+        assert xs == [0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 12.0, 14.0]
+
+
+def test_labels_never_overprint(figure: Any) -> None:
+    renderer = figure.canvas.get_renderer()
+    labels = [t for ax in figure.axes for t in ax.texts if t.get_gid() == "label"]
+    texts = {t.get_text().strip() for t in labels}
+    assert {"stand_up (action 2)", "wave (action 13)", "gait=trot", "pace=slow",
+            "pace=normal", "gait=walk"} <= texts
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    for a, b in itertools.combinations(boxes, 2):
+        assert not a.overlaps(b)
+    for t, box in zip(labels, boxes, strict=True):  # inside its axes, left to right
+        frame = t.axes.get_window_extent(renderer)
+        assert frame.x0 - 1 <= box.x0 and box.x1 <= frame.x1 + 1, t.get_text()
+
+
+def test_state_is_drawn_from_show_start(figure: Any) -> None:
+    for unit in ("mm", "deg", "m/s"):
+        for ax in _by_label(figure)[unit]:
+            starts: dict[str, float] = {}  # per curve (colour): a solid or, where the value
+            for line in ax.get_lines():  # is assumed (xArm before its first move), dotted line
+                colour = str(line.get_color())
+                starts[colour] = min(starts.get(colour, 1e9), min(line.get_xdata()))
+            assert starts and set(starts.values()) == {0.0}
+    body_z = _by_label(figure)["mm"][0].get_lines()[0]
+    assert body_z.get_ydata()[0] == pytest.approx(97.5, abs=0.6)  # the Mini's initial height
 
 
 def test_plot_writes_a_png(make_show, o, tmp_path: Path) -> None:  # type: ignore[no-untyped-def]
@@ -23,8 +96,7 @@ def test_plot_writes_a_png(make_show, o, tmp_path: Path) -> None:  # type: ignor
     }))
     path = plot_schedule(schedule, tmp_path / "show.png")
     assert path.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
-    # Each performer's panel (a third of the height) has coloured lines: the axes, titles and
-    # grid alone are grey (the same schedule without frames gives no coloured pixel).
+    # Each performer's block has coloured lines: the axes, titles and grid alone are grey.
     image = imread(path)[:, :, :3]
     coloured = np.abs(image - image.mean(axis=2, keepdims=True)).max(axis=2) > 0.1
     assert all(band.sum() > 1000 for band in np.array_split(coloured, 3))

@@ -42,6 +42,7 @@ from xgo_show.compiler import (
 from xgo_show.compiler.frames import PlannedFrame, TrackPlan, to_us
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
 from xgo_show.compiler.state import frame_label, reach_frame
+from xgo_show.compiler.timeline import Curve, Lane, PerformerTimeline
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import XgoShowError
 from xgo_show.families import (
@@ -209,10 +210,13 @@ class TurretFamily(RobotFamily):
             return []
         return [reach_frame(profile, frame(PAN, state["pan"][0]), move_time)]
 
-    def plot_panel(self, ax: Any, profile: Profile, performer: PerformerSchedule,
-                   end: float) -> None:
-        ax.step([f.t for f in performer.frames], [_pan_degrees(f.data) for f in
-                                                  performer.frames], where="post")
+    def timeline(self, profile: Profile, performer: PerformerSchedule,
+                 end: float) -> PerformerTimeline:
+        pans = [float(_pan_degrees(f.data)) for f in performer.frames]
+        curve = Curve("pan", "deg", (0.0, *(f.t for f in performer.frames), end),
+                      (pans[0], *pans, pans[-1]))
+        return PerformerTimeline(performer.name, performer.model, profile.title,
+                                 (Lane("deg", (curve,)),), (), ())
 
     def client(self, transport: Transport, profile: Profile, *, timeout: float) -> TurretClient:
         return TurretClient(transport, profile, timeout=timeout)

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from xgo_show.client.base import ClientBase
     from xgo_show.compiler.frames import PlannedFrame, TrackPlan, Write
     from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.compiler.timeline import PerformerTimeline
     from xgo_show.families.values import StopFrame, TelemetryItem
     from xgo_show.runtime.preflight import PreflightRow
     from xgo_show.sim.base import SimulatedRobot
@@ -110,10 +111,11 @@ class RobotFamily(abc.ABC):
         """The fewest frames that bring a robot at its initial state to ``state`` (t = 0)."""
 
     @abc.abstractmethod
-    def plot_panel(
-        self, ax: Any, profile: Profile, performer: PerformerSchedule, end: float
-    ) -> None:
-        """Draw one performer's schedule on the matplotlib axes ``ax`` (``compile --plot``)."""
+    def timeline(
+        self, profile: Profile, performer: PerformerSchedule, end: float
+    ) -> PerformerTimeline:
+        """One performer's schedule read back as curves and events for the plot and the HTML
+        timeline (``--plot``, ``--timeline``); ``end`` is the show's end in seconds."""
 
     # -- robots: clients and simulators -------------------------------------------------
 

@@ -30,6 +30,7 @@ __all__ = [
     "DEGREES_MIN",
     "GRIPPER_SERVO",
     "POSITION_MAX",
+    "SERVO_NAMES",
     "UNSAFE_COMMANDS",
     "XARM",
     "battery_floor_mv",
@@ -39,6 +40,11 @@ __all__ = [
 ]
 
 POSITION_MAX = 1000
+# What each servo moves (the vendor's numbering, as choreographies/xarm_hello.yaml explains).
+SERVO_NAMES: Mapping[int, str] = {
+    1: "gripper", 2: "wrist rotation", 3: "wrist", 4: "elbow", 5: "shoulder", 6: "base",
+}
+
 DEGREES_MIN = -125.0
 DEGREES_MAX = 125.0
 GRIPPER_SERVO = 1

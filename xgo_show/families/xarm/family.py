@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from xgo_show.client.xarm import XarmClient
     from xgo_show.compiler.frames import TrackPlan
     from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.compiler.timeline import PerformerTimeline
     from xgo_show.runtime.preflight import PreflightRow
     from xgo_show.sim.xarm_robot import XarmRobot
     from xgo_show.transports.base import Transport
@@ -89,12 +90,12 @@ class XarmFamily(RobotFamily):
 
         return xarm_frames_to_reach(profile, state, move_time=move_time)
 
-    def plot_panel(
-        self, ax: Any, profile: Profile, performer: PerformerSchedule, end: float
-    ) -> None:
-        from xgo_show.compiler.plot import draw_xarm_panel
+    def timeline(
+        self, profile: Profile, performer: PerformerSchedule, end: float
+    ) -> PerformerTimeline:
+        from xgo_show.compiler.timeline import xarm_timeline
 
-        draw_xarm_panel(ax, performer, end)
+        return xarm_timeline(profile, performer, end)
 
     def client(self, transport: Transport, profile: Profile, *, timeout: float) -> XarmClient:
         from xgo_show.client.xarm import XarmClient

@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from xgo_show.client.xgo import XgoClient
     from xgo_show.compiler.frames import PlannedFrame, TrackPlan, Write
     from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+    from xgo_show.compiler.timeline import PerformerTimeline
     from xgo_show.runtime.preflight import PreflightRow
     from xgo_show.sim.xgo_robot import XgoRobot
     from xgo_show.transports.base import Transport
@@ -105,12 +106,12 @@ class XgoFamily(RobotFamily):
 
         return xgo_frames_to_reach(profile, state)
 
-    def plot_panel(
-        self, ax: Any, profile: Profile, performer: PerformerSchedule, end: float
-    ) -> None:
-        from xgo_show.compiler.plot import draw_xgo_panel
+    def timeline(
+        self, profile: Profile, performer: PerformerSchedule, end: float
+    ) -> PerformerTimeline:
+        from xgo_show.compiler.timeline import xgo_timeline
 
-        draw_xgo_panel(ax, profile, performer, end)
+        return xgo_timeline(profile, performer, end)
 
     def client(self, transport: Transport, profile: Profile, *, timeout: float) -> XgoClient:
         from xgo_show.client.xgo import XgoClient
