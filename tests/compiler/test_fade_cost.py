@@ -9,6 +9,7 @@ from hypothesis import strategies as st
 
 from xgo_show.choreo.resolved import FadeCue, ResolvedShow, ResolvedTrack
 from xgo_show.compiler import compile_show
+from xgo_show.compiler.frames import first_tick
 from xgo_show.diagnostics import Origin
 from xgo_show.wire.xgo import decode_one
 
@@ -41,9 +42,7 @@ def test_fade_frames_are_the_colour_changes_of_every_tick(
     """Reference: the colour at every tick (the naive sampling), keeping each change."""
     frames = _fade_frames(FadeCue(start, ORIGIN, "led1", to, duration), rate)
     expected: list[bytes] = []
-    k = 0
-    while k / rate < start - 1e-9:
-        k += 1
+    k = first_tick(start, rate)  # the compiler's own grid rule (start=1e-9 at 10 Hz: tick 1)
     while round(k * 1_000_000 / rate) < round((start + duration) * 1_000_000):
         frac = min(max((k / rate - start) / duration, 0.0), 1.0)
         colour = bytes(round(c * frac) for c in to)
