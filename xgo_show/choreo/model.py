@@ -23,9 +23,13 @@ from pydantic import (
     StringConstraints,
     Tag,
     WithJsonSchema,
+    field_validator,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
+
+from xgo_show.errors import NetworkError
+from xgo_show.net.keys import is_relay_url, parse_relay_url
 
 __all__ = [
     "BLOCK_KINDS",
@@ -603,9 +607,22 @@ class PerformerModel(_Model):
 
     model: Literal["mini", "lite", "rider", "xarm"]
     port: Annotated[str, Field(min_length=1)] | None = Field(
-        None, description="Serial port or transport URL."
+        None,
+        description="Serial port or transport URL; zenoh:RELAY/ROBOT is a robot behind an "
+        "xgo-show relay (zenoh:RELAY: its robot named like the performer).",
     )
     arm: bool = Field(False, description="Dogs: carries the arm and gripper accessory.")
+
+    @field_validator("port")
+    @classmethod
+    def _relay_url(cls, port: str | None) -> str | None:
+        # A relay named in the show: a typo is reported at its line, not when the show starts.
+        if port is not None and is_relay_url(port):
+            try:
+                parse_relay_url(port, "rex")  # zenoh:RELAY alone: a performer name fits
+            except NetworkError as exc:
+                raise PydanticCustomError("relay_url", "{problem}", {"problem": str(exc)}) from None
+        return port
 
 
 class WaitModel(_Model):

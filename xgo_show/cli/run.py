@@ -325,7 +325,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
         if opts.guard and not opts.fast
         else (opts.maps, opts.relays, None)
     )
-    relayed = use_relays(maps, relay_opts, fast=opts.fast)
+    relayed = use_relays(maps, relay_opts, fast=opts.fast, schedule=schedule, simulated=sim_names)
     # The launch refuses unsafe writes before anything opens (no log, no simulator, no port).
     launch = Launch(
         schedule,

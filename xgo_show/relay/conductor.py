@@ -26,9 +26,9 @@ from typing import TYPE_CHECKING, Any
 
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
-from xgo_show.errors import NetworkError, XgoShowError
+from xgo_show.errors import XgoShowError
 from xgo_show.net import messages as msg
-from xgo_show.net.keys import check_relay_name, relay_key
+from xgo_show.net.keys import SCHEME, parse_relay_url, relay_key
 from xgo_show.net.offset import Timebase
 from xgo_show.net.session import SessionOptions, open_session
 from xgo_show.net.timesync import ClockTracker
@@ -52,9 +52,6 @@ __all__ = [
     "probe_relayed",
     "shared_session",
 ]
-
-SCHEME = "zenoh"
-
 
 _options = ConductorOptions()
 _session: zenoh.Session | None = None
@@ -104,15 +101,7 @@ def close_session() -> None:
 
 def parse_zenoh_url(url: str, performer: str) -> tuple[str, str]:
     """``zenoh:RELAY/ROBOT`` (or ``zenoh:RELAY``: the robot is named like the performer)."""
-    scheme, colon, rest = url.partition(":")
-    if scheme.lower() != SCHEME or not colon:
-        raise NetworkError(f"{url!r} is not a zenoh:RELAY/ROBOT URL")
-    relay, _, robot = rest.strip().strip("/").partition("/")
-    if not relay:
-        raise NetworkError(f"{url!r}: name the relay, e.g. zenoh:stage-left/{performer or 'rex'}")
-    if not (robot or performer):
-        raise NetworkError(f"{url!r}: name the robot too, e.g. zenoh:{relay}/rex")
-    return check_relay_name(relay), check_relay_name(robot or performer)
+    return parse_relay_url(url, performer)
 
 
 def probe_relayed(url: str, session: SessionOptions, *, timeout: float) -> list[tuple[str, str]]:

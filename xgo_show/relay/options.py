@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from xgo_show.errors import XgoShowError
+from xgo_show.net.keys import is_relay_url
 from xgo_show.net.session import SessionOptions, add_session_arguments, session_options
 
 if TYPE_CHECKING:
@@ -77,14 +78,25 @@ def conductor_options(args: argparse.Namespace) -> ConductorOptions:
 
 
 def use_relays(
-    maps: Mapping[str, str], options: ConductorOptions | None, *, fast: bool
+    maps: Mapping[str, str],
+    options: ConductorOptions | None,
+    *,
+    fast: bool,
+    schedule: Schedule | None = None,
+    simulated: Sequence[str] = (),
 ) -> dict[str, Any]:
-    """Set up the ``zenoh:`` performers of ``maps``; return the launch options they need.
+    """Set up the ``zenoh:`` performers; return the launch options they need.
 
-    Empty when no performer is relayed. ``--fast`` is refused with relays: a relay plays in
-    real time on its own clock.
+    The performers are those of ``maps`` and, given the ``schedule``, those whose show file
+    names a relay (``port: zenoh:RELAY/ROBOT``; ``maps`` overrides it, and the ``simulated``
+    performers play on simulators instead). Empty when no performer is relayed. ``--fast`` is
+    refused with relays: a relay plays in real time on its own clock.
     """
-    relayed = sorted(n for n, url in maps.items() if url.lower().startswith("zenoh:"))
+    urls = {}
+    if schedule is not None:
+        urls = {p.name: p.port for p in schedule.performers if p.port and p.name not in simulated}
+    urls.update(maps)
+    relayed = sorted(n for n, url in urls.items() if is_relay_url(url))
     if not relayed:
         return {}
     if fast:
@@ -106,10 +118,6 @@ def close_session() -> None:
     conductor = sys.modules.get("xgo_show.relay.conductor")
     if conductor is not None:
         conductor.close_session()
-
-
-def _relayed(url: str) -> bool:
-    return url.lower().startswith("zenoh:")
 
 
 def guard_local_ports(
@@ -135,7 +143,7 @@ def guard_local_ports(
         for name, url in urls.items()
         if url
         and name not in sim_names
-        and not _relayed(url)
+        and not is_relay_url(url)
         and not url.strip().lower().startswith("sim:")
     }
     if not local:
@@ -152,7 +160,7 @@ def guard_local_ports(
     )
     session = options.session
     asked = session.connect or session.listen or session.config_file
-    if asked or any(_relayed(u) for u in urls.values()):
+    if asked or any(is_relay_url(u) for u in urls.values()):
         session = dataclasses.replace(session, also_connect=(child.endpoint,))
     else:  # only the child: a private link, nothing listening on the well-known port
         session = dataclasses.replace(session, connect=(child.endpoint,))
