@@ -13,6 +13,7 @@ from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote, Engine
 from xgo_show.cli.main import main
 from xgo_show.runtime.events import Event, TelemetryRead
+from xgo_show.runtime.runlog import read_log
 
 ROOT = Path(__file__).resolve().parents[2]
 ROUTINES = ROOT / "behaviours" / "exhibition" / "routines"
@@ -123,10 +124,18 @@ def test_offline_back_online_timers_and_sets(tmp_path: Path) -> None:
     assert [t for t, _ in plays(stage)] == [9, 10]  # every 3 s from 6 (set re-entered), 08:00:10
 
 
-def test_exhibition_rehearsal_trace(capsys: pytest.CaptureFixture[str]) -> None:
+def test_exhibition_rehearsal_trace(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    log = tmp_path / "run.jsonl"
     code = main(["behave", str(ROOT / "behaviours/exhibition/exhibition.yaml"), "--sim",
-                 "--fast", "--script", str(ROOT / "behaviours/exhibition/rehearsal.yaml")])
+                 "--fast", "--script", str(ROOT / "behaviours/exhibition/rehearsal.yaml"),
+                 "--log", str(log)])
     assert code == 0
+    rules = [(r["t"], r["rule"], r["what"], r["text"]) for r in read_log(log)
+             if r["kind"] == "rule"]
+    assert (20.0, "fallen", "fired", "rex tilted 90 deg > 60") in rules
+    assert (60.0, "evening-show", "fired", "at 19:00") in rules
     lines = [" ".join(line.split()) for line in capsys.readouterr().out.splitlines()]
     for want in [
         "0.00 rule idle: action: rex loops idle",

@@ -17,6 +17,7 @@ from xgo_show.behave.engine import BehaviourNote
 from xgo_show.behave.ports import BehaviourRunner
 from xgo_show.cli.main import main
 from xgo_show.runtime.events import Event, EventBus, FrameSent
+from xgo_show.runtime.runlog import read_log
 from xgo_show.sim import create_robot
 from xgo_show.sim.pty_server import PtyServer
 from xgo_show.transports import open_transport
@@ -87,7 +88,17 @@ def test_cli_rehearses_a_script_in_real_time_on_ptys(
     script = tmp_path / "events.yaml"
     script.write_text("duration: 1.5\nevents:\n  - {at: 0.3, trigger: visitor}\n"
                       "  - {at: 0.6, performer: rex, battery: 15}\n")
-    assert main(["behave", str(EXHIBITION), "--sim", "--script", str(script)]) == 0
+    log = tmp_path / "run.jsonl"
+    assert main(["behave", str(EXHIBITION), "--sim", "--script", str(script),
+                 "--log", str(log)]) == 0
+    records = read_log(log)
+    rules = [(r["rule"], r["what"], r["text"]) for r in records if r["kind"] == "rule"]
+    assert ("greet", "fired", "trigger visitor") in rules
+    assert ("battery-low", "action", "rex plays sit") in rules
+    # The runtime's records too: the frames of the routines, the battery read back.
+    assert any(r["kind"] == "frame" and r["send"] == "frame" for r in records)
+    assert any(r["kind"] == "telemetry" and r["name"] == "battery" and r["value"] == 15
+               for r in records)
     out = [" ".join(line.split()[1:]) for line in capsys.readouterr().out.splitlines()]
     for want in ["rule idle: action: rex loops idle", "script: trigger visitor",
                  "rule greet: action: rex plays greet", "script: rex battery 15%",

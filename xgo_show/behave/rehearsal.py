@@ -38,7 +38,7 @@ from xgo_show.behave.model import ClockTime, Name
 from xgo_show.choreo.source import read_yaml
 from xgo_show.choreo.validation import validate
 from xgo_show.errors import ChoreographyError
-from xgo_show.runtime.events import Event, TelemetryRead
+from xgo_show.runtime.events import Event, EventBus, TelemetryRead
 
 __all__ = ["TELEMETRY_INTERVAL", "RehearsalScript", "VirtualStage", "load_rehearsal", "rehearse"]
 
@@ -184,10 +184,12 @@ class VirtualStage:
 
 
 def rehearse(
-    behaviour: Behaviour, script: RehearsalScript, say: Callable[[float, str], None]
+    behaviour: Behaviour, script: RehearsalScript, say: Callable[[float, str], None],
+    events: EventBus | None = None,
 ) -> Engine:
     """Play ``script`` against ``behaviour`` on virtual time; ``say(t, line)`` gets the trace
-    (what fired, what each robot did). Returns the engine at the end, for inspection."""
+    (what fired, what each robot did), ``events`` (if given) every decision as a
+    :class:`BehaviourNote`. Returns the engine at the end, for inspection."""
     stage = VirtualStage(behaviour, script.battery, say)
     h, m, *s = (int(x) for x in script.start.split(":"))
     origin = dt.datetime(2026, 1, 1, h, m, s[0] if s else 0)
@@ -196,6 +198,8 @@ def rehearse(
         return origin + dt.timedelta(seconds=t)
 
     def emit(event: Event) -> None:
+        if events is not None:
+            events.publish(event)
         if isinstance(event, BehaviourNote):
             say(event.t, f"rule {event.rule}: {event.kind}: {event.text}")
 

@@ -12,11 +12,14 @@ decision is printed with its time: what fired, and what each robot did.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import threading
 import time
+from collections.abc import Iterator
 from typing import Any
 
 from xgo_show.errors import XgoShowError
+from xgo_show.runtime.events import EventBus
 
 __all__ = ["add_parser", "run"]
 
@@ -56,6 +59,9 @@ def add_parser(sub: Any) -> None:
         help="run the behaviour's threads under SCHED_FIFO where permitted (else nice -10): "
              "reactions stay quick although other programs keep the CPUs busy",
     )
+    parser.add_argument("--log", metavar="FILE",
+                        help="write the run log (JSON lines) to FILE: every rule decision, "
+                             "frame, telemetry reading and state change")
     parser.add_argument("--map", action="append", default=[], metavar="NAME=PORT",
                         help="a performer's port (repeatable; default: port: in the file)")
     parser.set_defaults(func=run)
@@ -90,12 +96,37 @@ def run(args: argparse.Namespace) -> int:
 
         print(f"rehearsing {model.behaviour!r} for {script.duration:g} s from {script.start} "
               f"(virtual time)")
-        rehearse(behaviour, script, lambda t, line: print(f"{t:9.2f}  {line}"))
+        with _run_log(args.log) as bus:
+            rehearse(behaviour, script, lambda t, line: print(f"{t:9.2f}  {line}"), bus)
         return 0
     return _run_live(args, behaviour, script)
 
 
+@contextlib.contextmanager
+def _run_log(path: str | None) -> Iterator[EventBus]:
+    """An event bus whose events go to the run log at ``path`` (if given) while it is open."""
+    bus = EventBus()
+    if path is None:
+        yield bus
+        return
+    from xgo_show.behave.runlog import attach_behaviour_log
+    from xgo_show.runtime.runlog import RunLog
+
+    with RunLog(path, keep=False) as log:
+        subs = attach_behaviour_log(log, bus)
+        try:
+            yield bus
+        finally:
+            for sub in subs:
+                sub.close()
+
+
 def _run_live(args: argparse.Namespace, behaviour: Any, script: Any) -> int:
+    with _run_log(args.log) as bus:
+        return _run_ports(args, behaviour, script, bus)
+
+
+def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: EventBus) -> int:
     from xgo_show.behave.ports import BehaviourRunner
     from xgo_show.sim import create_robot
     from xgo_show.sim.pty_server import PtyServer
@@ -132,7 +163,8 @@ def _run_live(args: argparse.Namespace, behaviour: Any, script: Any) -> int:
             print(f"real-time: {request_realtime()}")
         start = time.monotonic()
         runner = BehaviourRunner(
-            behaviour, transports, say=lambda t, line: print(f"{t - start:9.2f}  {line}")
+            behaviour, transports, events=bus,
+            say=lambda t, line: print(f"{t - start:9.2f}  {line}"),
         )
         if script is not None:
             feeder = threading.Thread(target=_play_script, args=(script, runner, servers, start),
