@@ -148,6 +148,8 @@ def test_exhibition_rehearsal_trace(
         "24.80 rule idle: action: rex loops idle",
         "60.00 rule evening-show: fired: at 19:00",
         "79.00 rule idle: fired: show ended on rex",
+        "95.00 rule battery-low: action: rex set pace=slow",
+        "95.00 rex: 1 frame(s) written beside idle",
         "95.00 rule battery-low: action: rex plays sit",
         "100.00 rule battery-low: action: switch to set resting",
         "110.00 rule charged: skipped: every 10 s: conditions do not hold",

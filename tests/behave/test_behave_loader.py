@@ -110,6 +110,23 @@ CASES = [
     ("wait_zero", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
      "    do: [{wait: 0}, {play: sit}]\n", "11:17", "greater than 0"),
     ("not_a_mapping", None, "1:1", "a behaviour is a mapping"),
+    ("led_without_leds", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
+     "    do: [{led: {all: red}}]\n", "11:16", "rex: led: the XGO-Mini has no LEDs"),
+    ("set_bad_value", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
+     "    do: [{set: {pace: sloww}}]\n", "11:16", "unknown value 'sloww'; one of normal"),
+    ("set_empty", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
+     "    do: [{set: {}}]\n", "11:16", "at least 1 item"),
+    ("set_performer", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
+     "    do: [{set: {gait: walk}, performers: [ivy]}]\n", "11:43", "no performer 'ivy'"),
+    ("led_fade", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
+     "    do: [{led: {all: red}, fade: 1}]\n", "11:28", "unknown field 'fade'"),
+    ("phrase_missing", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
+     "    do: [{play: greet, phrase: bow}]\n", "11:32", "routine has no phrase 'bow'"),
+    ("phrase_bad_value", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
+     "    do: [{play: greet, phrase: nod, with: {depth: 99}}]\n", "11:32",
+     "pitch = 99 deg is out of range"),
+    ("with_without_phrase", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
+     "    do: [{play: greet, with: {depth: 5}}]\n", "11:30", "add phrase:"),
 ]
 
 

@@ -105,3 +105,63 @@ def test_cli_rehearses_a_script_in_real_time_on_ptys(
                  "rule greet: cut: rex taken by rule battery-low",
                  "rule battery-low: action: rex plays sit"]:
         assert want in out, (want, out)
+
+
+def test_led_beside_a_loop_and_a_phrase_on_its_own_on_a_pty(tmp_path: Path) -> None:
+    (tmp_path / "moves.yaml").write_text(textwrap.dedent("""\
+        show: moves
+        performers: {rio: {model: rider}}
+        phrases:
+          sway: {params: {by: 5}, cues: [{move: {roll: [$by, 0]}, duration: 1.2}]}
+        tracks:
+          rio: [{move: {body_z: 80}, duration: 0.6}, {phrase: sway}]
+        """))
+    (tmp_path / "b.yaml").write_text(textwrap.dedent("""\
+        behaviour: rider
+        performers: {rio: {model: rider}}
+        routines: {moves: moves.yaml}
+        triggers: [red, sway]
+        rules:
+          - {name: idle, when: [{startup: true}], do: [{loop: moves}]}
+          - {name: red, when: [{trigger: red}], do: [{led: {all: red}}]}
+          - {name: sway, when: [{trigger: sway}], do: [{play: moves, phrase: sway,
+             with: {by: 8}}]}
+        """))
+    behaviour = load_behaviour(tmp_path / "b.yaml")
+    phrase = behaviour.routines["moves.sway(by=8)"].performers[0]
+    assert phrase.end == pytest.approx(1.2)
+    led = behaviour.writes["red.do[0]"].performers[0].frames[0].data
+    bus = EventBus()
+    seen: list[Event] = []
+    bus.subscribe(seen.append, FrameSent, BehaviourNote)
+    with PtyServer(create_robot("rider")) as server:
+        transport = open_transport(server.path)
+        transport.open()
+        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus)
+        thread = threading.Thread(target=runner.run, kwargs={"duration": 10.0})
+        thread.start()
+        try:
+            time.sleep(0.3)
+            runner.trigger("red")
+            wait_until(lambda: any(isinstance(e, FrameSent) and e.kind == "set"
+                                   for e in list(seen)))
+            assert runner.engine.playing("rio") == "moves"  # the loop was not cut
+            runner.trigger("sway")
+            wait_until(lambda: runner.engine.playing("rio") is None, timeout=3.0)
+        finally:
+            runner.stop()
+            thread.join(5)
+            transport.close()
+        received = [f.data for f in server.robot.received]
+    assert led in received  # the colour reached the robot
+    notes = [f"{e.rule} {e.kind}: {e.text}" for e in seen if isinstance(e, BehaviourNote)]
+    assert "red action: rio led all=red" in notes
+    assert "sway action: rio plays moves.sway(by=8)" in notes
+    assert not any(n.startswith("idle cut") for n in notes[: notes.index(
+        "red action: rio led all=red") + 1])
+    # The phrase played on its own: its frames, from its first, nothing of the routine's.
+    sway_at = next(e.t for e in seen if isinstance(e, BehaviourNote) and e.rule == "sway"
+                   and e.kind == "action")
+    frames = [e for e in seen if isinstance(e, FrameSent) and e.kind == "frame"
+              and e.t >= sway_at]
+    assert [e.data for e in frames[: len(phrase.frames)]] == [f.data for f in phrase.frames]

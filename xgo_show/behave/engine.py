@@ -31,7 +31,7 @@ from typing import Protocol, TypeVar
 
 from pydantic import BaseModel
 
-from xgo_show.behave.loader import Behaviour
+from xgo_show.behave.loader import Behaviour, played, write_key
 from xgo_show.behave.model import (
     After,
     AllOf,
@@ -41,6 +41,7 @@ from xgo_show.behave.model import (
     ConditionModel,
     Every,
     InSet,
+    LedCue,
     Loop,
     NotC,
     Offline,
@@ -52,6 +53,7 @@ from xgo_show.behave.model import (
     RoutineEnded,
     RuleModel,
     SafeStop,
+    SetCue,
     Startup,
     Stop,
     Switch,
@@ -95,6 +97,11 @@ class Stage(Protocol):
 
     def safe_stop(self, performers: tuple[str, ...], reason: str, t: float) -> None:
         """The full safe stop on the performers."""
+        ...
+
+    def write(self, key: str, performers: tuple[str, ...], t: float) -> None:
+        """Send the frames of a ``set``/``led`` action (``Behaviour.writes[key]``) to the
+        performers now, beside whatever they play."""
         ...
 
 
@@ -401,7 +408,7 @@ class Engine:
             run.pc += 1
             name = run.rule.name
             if isinstance(action, (Play, Loop)):
-                routine = action.play if isinstance(action, Play) else action.loop
+                routine = played(action)
                 perfs = self._claim(run, routine, action.performers, now)
                 if perfs is None:
                     self._end(run, now)
@@ -427,6 +434,13 @@ class Engine:
                 else:
                     self._note(name, "action", f"{', '.join(perfs)} safe stop", now)
                     self.stage.safe_stop(perfs, f"rule {name}", now)
+            elif isinstance(action, (SetCue, LedCue)):
+                kind, cue = ("set", action.set) if isinstance(action, SetCue) else (
+                    "led", action.led)
+                perfs = tuple(action.performers or self.model.performers)
+                what = " ".join(f"{k}={v}" for k, v in cue.items())
+                self._note(name, "action", f"{', '.join(perfs)} {kind} {what}", now)
+                self.stage.write(write_key(name, run.pc - 1), perfs, now)
             elif isinstance(action, Wait):
                 run.until = now + action.wait
                 return

@@ -10,15 +10,17 @@ trigger or set is an error here, not on stage.
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
+from xgo_show.behave.cues import compile_cue, compile_phrase
 from xgo_show.behave.model import (
     AllOf,
     AnyOf,
     BatteryBelow,
     BehaviourFile,
     InSet,
+    LedCue,
     Loop,
     NotC,
     Offline,
@@ -27,6 +29,7 @@ from xgo_show.behave.model import (
     Play,
     RoutineEnded,
     SafeStop,
+    SetCue,
     Stop,
     Switch,
     TelemetryCondition,
@@ -39,16 +42,33 @@ from xgo_show.compiler.schedule import Schedule
 from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import ChoreographyError, XgoShowError
 
-__all__ = ["Behaviour", "check_behaviour", "load_behaviour"]
+__all__ = ["Behaviour", "check_behaviour", "load_behaviour", "played", "write_key"]
+
+
+def played(action: Play | Loop) -> str:
+    """The name of what a play or loop action plays: its routine, or ``routine.phrase`` (with
+    the phrase's parameter values, if any: ``greet.wave(speed=2)``)."""
+    if isinstance(action, Loop) or action.phrase is None:
+        return action.play if isinstance(action, Play) else action.loop
+    args = ",".join(f"{k}={v}" for k, v in sorted((action.with_ or {}).items()))
+    return f"{action.play}.{action.phrase}" + (f"({args})" if args else "")
+
+
+def write_key(rule: str, index: int) -> str:
+    """The key of the frames of the ``set``/``led`` action ``do[index]`` of rule ``rule``."""
+    return f"{rule}.do[{index}]"
 
 
 @dataclass(frozen=True)
 class Behaviour:
-    """A loaded behaviour: the file's model and each routine compiled."""
+    """A loaded behaviour: the file's model, each routine (and each phrase played on its own,
+    under :func:`played`'s name) compiled, and the frames of each ``set``/``led`` action
+    (under :func:`write_key`) compiled as one-cue routines."""
 
     path: str
     model: BehaviourFile
     routines: dict[str, Schedule]
+    writes: dict[str, Schedule] = field(default_factory=dict)
 
     def routine_performers(self, routine: str) -> tuple[str, ...]:
         return tuple(p.name for p in self.routines[routine].performers)
@@ -148,6 +168,10 @@ def _check_names(c: _Checker, routines: dict[str, Schedule]) -> None:
                     c.name((*cl, "in_set"), cond.in_set, sets, "set")
         for a, action in enumerate(rule.do):
             al: Loc = (*base, "do", a)
+            if isinstance(action, (SetCue, LedCue)):
+                c.performers((*al, "performers"), action.performers)
+            elif isinstance(action, Play) and action.phrase is None and action.with_:
+                c.error((*al, "with"), "with: gives a phrase's parameter values: add phrase:")
             if isinstance(action, (Play, Loop)):
                 key = "play" if isinstance(action, Play) else "loop"
                 routine = action.play if isinstance(action, Play) else action.loop
@@ -208,6 +232,44 @@ def _compile_routines(c: _Checker, base_dir: Path) -> dict[str, Schedule]:
     return out
 
 
+def _compile_actions(
+    c: _Checker, routines: dict[str, Schedule], base_dir: Path
+) -> dict[str, Schedule]:
+    """Compile each phrase played on its own (into ``routines``, by :func:`played`) and each
+    ``set``/``led`` action (returned, by :func:`write_key`); errors at the action."""
+    m = c.model
+    writes: dict[str, Schedule] = {}
+    for r, rule in enumerate(m.rules):
+        for a, action in enumerate(rule.do):
+            al: Loc = ("rules", r, "do", a)
+            if isinstance(action, Play) and action.phrase is not None:
+                if action.play not in routines:
+                    continue  # reported: no such routine, or it does not load
+                has = routines[action.play].performers
+                perfs = tuple(p.name for p in has
+                              if action.performers is None or p.name in action.performers)
+                schedule, problems = compile_phrase(
+                    base_dir / m.routines[action.play], action.phrase, action.with_, perfs)
+                for problem in problems:
+                    c.error((*al, "phrase"), f"phrase {action.phrase!r} of routine "
+                            f"{action.play!r}: {problem}")
+                if schedule is not None:
+                    routines[played(action)] = schedule
+            elif isinstance(action, (SetCue, LedCue)):
+                kind, value = ("set", action.set) if isinstance(action, SetCue) else (
+                    "led", action.led)
+                names = action.performers or list(m.performers)
+                models = {p: m.performers[p].model for p in names if p in m.performers}
+                if len(models) < len(names):
+                    continue  # reported: no such performer
+                schedule, problems = compile_cue(c.doc.file, kind, value, models)
+                for problem in problems:
+                    c.error((*al, kind), problem)
+                if schedule is not None:
+                    writes[write_key(rule.name, a)] = schedule
+    return writes
+
+
 def check_behaviour(path: str | Path) -> tuple[Behaviour | None, list[Diagnostic]]:
     """Parse, validate, check and compile ``path``: the behaviour (if no errors) and every
     problem found."""
@@ -231,11 +293,12 @@ def check_behaviour(path: str | Path) -> tuple[Behaviour | None, list[Diagnostic
             checker.error(("performers", name, "model"), str(exc))
     routines = _compile_routines(checker, Path(path).parent)
     _check_names(checker, routines)
+    writes = _compile_actions(checker, routines, Path(path).parent)
     diags = sorted(checker.diags, key=lambda d: (d.origin.line, d.origin.column) if d.origin
                    else (0, 0))
     if diags:
         return None, diags
-    return Behaviour(str(path), model, routines), []
+    return Behaviour(str(path), model, routines, writes), []
 
 
 def load_behaviour(path: str | Path) -> Behaviour:

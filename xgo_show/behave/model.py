@@ -247,9 +247,13 @@ ConditionModel = Annotated[
 
 class Play(_Model):
     """Play a routine on performers (default: every performer the routine has) and wait for
-    its end."""
+    its end; with ``phrase``, only that phrase of the routine (its ``phrases:``)."""
 
     play: Name
+    phrase: Name | None = Field(None, description="Play only this phrase of the routine.")
+    with_: dict[Name, Any] | None = Field(
+        None, alias="with", description="The phrase's parameter values (name -> value)."
+    )
     performers: Performers | None = None
 
 
@@ -277,6 +281,22 @@ class Wait(_Model):
     wait: Seconds
 
 
+class SetCue(_Model):
+    """Write settings at once (as a routine's ``set:`` cue: ``{gait: walk}``) on performers
+    (default: all), beside whatever they play: nobody's routine is cut."""
+
+    set: Annotated[dict[Name, Any], Field(min_length=1)]
+    performers: Performers | None = None
+
+
+class LedCue(_Model):
+    """Set LED colours at once (as a routine's ``led:`` cue: ``{all: red}``) on performers
+    (default: all), beside whatever they play."""
+
+    led: Annotated[dict[Name, Any], Field(min_length=1)]
+    performers: Performers | None = None
+
+
 class Publish(_Model):
     """Publish a named event (printed in the trace, published on the event bus)."""
 
@@ -295,6 +315,8 @@ _ACTIONS: dict[str, type[_Model]] = {
     "stop": Stop,
     "safe_stop": SafeStop,
     "wait": Wait,
+    "set": SetCue,
+    "led": LedCue,
     "publish": Publish,
     "switch": Switch,
 }
@@ -307,6 +329,8 @@ ActionModel = Annotated[
         Annotated[Stop, Tag("stop-kind")],
         Annotated[SafeStop, Tag("safe_stop-kind")],
         Annotated[Wait, Tag("wait-kind")],
+        Annotated[SetCue, Tag("set-kind")],
+        Annotated[LedCue, Tag("led-kind")],
         Annotated[Publish, Tag("publish-kind")],
         Annotated[Switch, Tag("switch-kind")],
     ],

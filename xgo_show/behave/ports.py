@@ -76,6 +76,7 @@ class _Seat:
             if stage.watch_interval is not None else None,
         )
         self._feed: PerformerExecutor | None = None  # the latest executor (reads go to it)
+        self._pending: list[tuple[bytes, str]] = []  # frames for the next executor to send
         self._reader: threading.Thread | None = None
         self._reader_stop = threading.Event()
         link = next(iter(stage.behaviour.routines.values())).performers[0].link
@@ -100,6 +101,9 @@ class _Seat:
             read_port=False,
         )
         self.executor = self._feed = executor
+        if self._pending:
+            executor.send(self._pending)
+            self._pending = []
         if self._reader is None and self.poller.enabled:
             self._reader = threading.Thread(target=self._read_loop, daemon=True,
                                             name=f"xgo-show behave reader {self.name}")
@@ -118,6 +122,13 @@ class _Seat:
             executor = self._feed
             if chunk and executor is not None:
                 executor.received(chunk, self.stage.clock.now())
+
+    def send(self, frames: list[tuple[bytes, str]]) -> None:
+        """Write frames beside whatever plays (by the executor writing now, or the next)."""
+        if self.executor is not None and not self.executor.done:
+            self.executor.send(frames)
+        else:
+            self._pending += frames
 
     def watch(self) -> None:
         """Poll telemetry with nothing to play."""
@@ -200,6 +211,11 @@ class PortStage:
     def safe_stop(self, performers: tuple[str, ...], reason: str, t: float) -> None:
         for p in performers:
             self.seats[p].safe_stop(reason)
+
+    def write(self, key: str, performers: tuple[str, ...], t: float) -> None:
+        for part in self.behaviour.writes[key].performers:
+            if part.name in performers:
+                self.seats[part.name].send([(f.data, f.label) for f in part.frames])
 
     def finished(self, performer: str) -> int | None:
         """The play id whose routine just finished on ``performer`` (None: not a routine)."""

@@ -158,6 +158,13 @@ class VirtualStage:
         for p in performers:
             self._cut(p, t, f"safe stop ({reason})")
 
+    def write(self, key: str, performers: tuple[str, ...], t: float) -> None:
+        schedule = self.behaviour.writes[key]
+        for part in schedule.performers:
+            if part.name in performers:
+                self.say(t, f"{part.name}: {len(part.frames)} frame(s) written beside "
+                         f"{self.robots[part.name].routine or 'nothing'}")
+
     def _cut(self, p: str, t: float, how: str) -> None:
         robot = self.robots[p]
         if robot.routine is not None:

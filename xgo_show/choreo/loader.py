@@ -22,7 +22,7 @@ from xgo_show.choreo.validation import validate
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ChoreographyError, CompileError, XgoShowError
 
-__all__ = ["check_file", "is_part", "load_show", "validate_file"]
+__all__ = ["check_document", "check_file", "is_part", "load_show", "validate_file"]
 
 
 def _sorted(diags: list[Diagnostic]) -> list[Diagnostic]:
@@ -54,6 +54,12 @@ def _check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]
     doc, diags = read_yaml(Path(path), str(path))
     if diags:
         return None, _sorted(diags)
+    return check_document(doc)
+
+
+def check_document(doc: Document) -> tuple[ResolvedShow | None, list[Diagnostic]]:
+    """:func:`check_file` of a parsed routine: a file's, or one a behaviour builds in memory
+    (a phrase or a setting played on its own), whose diagnostics point into ``doc``."""
     if is_part(doc.data):
         return None, _check_part(doc)
     if not isinstance(doc.data, dict):

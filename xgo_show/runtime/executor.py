@@ -186,6 +186,7 @@ class PerformerExecutor:
         self._writer: threading.Thread | None = None
         self._reader: threading.Thread | None = None
         self._reader_stop = threading.Event()
+        self._extra: list[tuple[bytes, str]] = []  # frames to send beside the schedule
 
     # ------------------------------------------------------------------ public control
 
@@ -256,6 +257,21 @@ class PerformerExecutor:
         self._flags.resume_at = at
         self._flags.resume = True
         self._flags.wake.set()
+
+    def send(self, frames: Iterable[tuple[bytes, str]]) -> None:
+        """Write ``frames`` (data, label) as soon as the link is free, between scheduled frames
+        (a setting or LED colour a behaviour writes beside the routine playing; frames given
+        before :meth:`start` go before the first frame). Each may hold the next scheduled
+        frame for its wire time; sent as ``"set"`` frames."""
+        with self._state_lock:
+            self._extra.extend(frames)
+        self._flags.wake.set()
+
+    def _send_extra(self) -> bool:
+        """Send the frames :meth:`send` queued; False if aborted."""
+        with self._state_lock:
+            frames, self._extra = self._extra, []
+        return self._send_now("set", frames)
 
     def seek(self, show_time: float, *, at: float | None = None) -> None:
         """Jump to ``show_time``: catch-up frames, then the show goes on from there at clock
@@ -373,6 +389,8 @@ class PerformerExecutor:
             flags.wake.clear()  # before reading the flags: a request after this wakes the wait
             if flags.abort.is_set():
                 return
+            if self._extra and not self._send_extra():
+                return
             if flags.seek is not None:
                 index = self._seek_now()
                 continue
@@ -458,6 +476,8 @@ class PerformerExecutor:
         if not self._send_now("rest", self._rest):
             return index
         while not flags.resume and not flags.abort.is_set():
+            if self._extra:
+                self._send_extra()
             self._poll_once()
             flags.wake.wait(0.02)
             flags.wake.clear()

@@ -8,9 +8,9 @@ A run log is a subscriber of the runtime's :class:`~xgo_show.runtime.events.Even
 - ``"state"``: a performer changed state: ``performer``, ``state``, ``show_time``;
 - ``"frame"``: one frame sent: ``performer``, ``send`` (``frame`` = scheduled, ``reach`` =
   catch-up for a mid-show start or resume, ``read`` = telemetry request, ``rest`` and
-  ``stop`` = stop frames), ``index`` into the schedule, ``planned`` and ``actual`` send times in
-  seconds from the show start (``planned`` is null for frames the schedule does not hold),
-  ``bytes`` (hex);
+  ``stop`` = stop frames, ``set`` = written beside the schedule on request), ``index`` into
+  the schedule, ``planned`` and ``actual`` send times in seconds from the show start
+  (``planned`` is null for frames the schedule does not hold), ``bytes`` (hex);
 - ``"telemetry"``: ``performer``, ``name``, ``value``, ``t``;
 - ``"sim"``: final state of a simulated robot (``dry-run`` and ``run --sim``).
 
