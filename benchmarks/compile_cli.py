@@ -1,27 +1,36 @@
 """``xgo-show compile`` and ``validate`` end to end, as a user runs them, beside the baselines.
 
 The show of ``compile_speed.py`` (10 performers, 10 minutes, 50 Hz) is written as a routine
-(YAML), then each command runs in its own process, ``--repeat`` times: CPU seconds (user +
-system) and peak resident memory from process start to exit, as ``/usr/bin/time`` reports them
-(``os.wait4``'s resource usage of that one child). Beside them, in this process: the compiler
-alone on the show built in memory (``compile_show``), and writing the schedule with the version
-1 JSON writer (the old ``save``, see ``schedule_file.py``) against the version 2 file.
+(YAML), then each command runs in its own process, ``--repeat`` times after one untimed run
+(which leaves the ``.pyc`` files an installed copy has): CPU seconds (user + system), wall
+seconds and peak resident memory from process start to exit, as ``/usr/bin/time`` reports them
+(``os.wait4``'s resource usage of that one child), with the machine's load average.
+
+Beside them, the same commands of an earlier revision of xgo-show (``--before REV``, by default
+the one before this session's speed work; its ``xgo_show`` package is extracted with ``git
+archive`` and put first on ``PYTHONPATH``), and in this process: the compiler alone on the show
+built in memory (``compile_show``), and writing the schedule with the version 1 JSON writer
+(the old ``save``, see ``schedule_file.py``) against the version 2 file.
 Targets (issue 12): compile <= 2 s CPU and <= 300 MiB, validate <= 1 s. Prints figures only
 (no asserts). Usage::
 
     python benchmarks/compile_cli.py [--minutes 10] [--performers 10] [--rate 50]
+                                     [--repeat 3] [--before REV | --before none]
 """
 
 from __future__ import annotations
 
+import argparse
 import os
 import statistics
 import subprocess
 import sys
+import tarfile
 import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
@@ -31,17 +40,28 @@ from schedule_file import version1_bytes
 from xgo_show.compiler import compile_show
 from xgo_show.compiler.artifact import schedule_to_bytes
 
-REPEAT = 3
+BEFORE = "3556bc4"  # main before issue 12's second round (lazy CLI imports, faster loading)
+REPO = Path(__file__).resolve().parent.parent
 
 
-def run_child(argv: list[str]) -> tuple[float, float]:
-    """CPU seconds and peak RSS (MiB) of one process running ``argv`` to its end."""
-    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL)
+class Usage(NamedTuple):
+    cpu: float  # seconds, user + system
+    wall: float  # seconds
+    peak: float  # MiB of resident memory at most
+
+
+def run_child(argv: list[str], env: dict[str, str], cwd: str) -> Usage:
+    """CPU and wall seconds and peak RSS of one process running ``argv`` to its end (in
+    ``cwd``: ``python -m`` puts it first on the import path)."""
+    w0 = time.perf_counter()
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, env=env, cwd=cwd)
     _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - w0
     proc.returncode = os.waitstatus_to_exitcode(status)
     if proc.returncode != 0:
         raise SystemExit(f"{' '.join(argv)} exited with {proc.returncode}")
-    return usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024  # ru_maxrss: KiB on Linux
+    # ru_maxrss: KiB on Linux
+    return Usage(usage.ru_utime + usage.ru_stime, wall, usage.ru_maxrss / 1024)
 
 
 def in_process(run: Callable[[], object]) -> float:
@@ -50,41 +70,74 @@ def in_process(run: Callable[[], object]) -> float:
     return time.process_time() - c0
 
 
-def row(name: str, cpus: list[float], rss: list[float] | None, target: str) -> None:
+def row(name: str, cpus: list[float], walls: list[float] | None, rss: list[float] | None,
+        target: str = "") -> None:
+    wall = f"{statistics.median(walls):>7.2f}" if walls else f"{'-':>7}"
     mem = f"{max(rss):>8.0f}" if rss else f"{'-':>8}"
-    print(f"{name:<38} {min(cpus):>6.2f} {statistics.median(cpus):>6.2f} {max(cpus):>6.2f} "
-          f"{mem}  {target}")
+    print(f"{name:<52} {min(cpus):>6.2f} {statistics.median(cpus):>6.2f} {max(cpus):>6.2f} "
+          f"{wall} {mem}  {target}")
+
+
+def extract(rev: str, into: Path) -> Path:
+    """``rev``'s xgo_show package under ``into`` (for PYTHONPATH)."""
+    into.mkdir()
+    archive = into / "src.tar"
+    with archive.open("wb") as fh:
+        subprocess.run(["git", "-C", str(REPO), "archive", rev, "xgo_show"], stdout=fh,
+                       check=True)
+    with tarfile.open(archive) as tar:
+        tar.extractall(into, filter="data")
+    return into
+
+
+def commands(exe: list[str], routine: Path, out: Path) -> dict[str, tuple[list[str], str]]:
+    return {
+        "start-up (xgo-show validate --help)": ([*exe, "validate", "--help"], ""),
+        "xgo-show validate SHOW.yaml": ([*exe, "validate", "-q", str(routine)],
+                                        "target <= 1 s"),
+        "xgo-show compile SHOW.yaml -o F": ([*exe, "compile", "-q", str(routine), "-o",
+                                             str(out)], "target <= 2 s, <= 300 MiB"),
+    }
 
 
 def main() -> None:
-    args = show_arguments(__doc__, 10.0)
+    def more(parser: argparse.ArgumentParser) -> None:
+        parser.add_argument("--repeat", type=int, default=3)
+        parser.add_argument("--before", default=BEFORE,
+                            help="git revision to run beside this one ('none': skip)")
+
+    args = show_arguments(__doc__, 10.0, more)
     exe = [sys.executable, "-m", "xgo_show"]
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
     with tempfile.TemporaryDirectory() as tmp:
         routine = Path(tmp) / "compile_speed.yaml"
         routine.write_text(show_yaml(args.minutes, args.performers, args.rate), encoding="utf-8")
         out = Path(tmp) / "compile_speed.xshow.json"
-        print(f"routine: {routine.stat().st_size:,} bytes of YAML; {REPEAT} runs each; load "
-              f"average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
-        print(f"{'':<38} {'CPU s: min':>10} {'p50':>6} {'max':>6} {'peak MiB':>8}")
-        children = {
-            "python + imports (xgo-show --help)": ([*exe, "--help"], ""),
-            "xgo-show validate SHOW.yaml": ([*exe, "validate", "-q", str(routine)],
-                                            "target <= 1 s"),
-            "xgo-show compile SHOW.yaml -o F": ([*exe, "compile", "-q", str(routine), "-o",
-                                                 str(out)], "target <= 2 s, <= 300 MiB"),
-        }
-        for name, (argv, target) in children.items():
-            runs = [run_child(argv) for _ in range(REPEAT)]
-            row(name, [c for c, _ in runs], [m for _, m in runs], target)
-        print(f"schedule file: {out.stat().st_size:,} bytes")
+        print(f"routine: {routine.stat().st_size:,} bytes of YAML; {args.repeat} runs each "
+              f"after one untimed; load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} "
+              "CPUs")
+        print(f"{'':<52} {'CPU s: min':>10} {'p50':>6} {'max':>6} {'wall p50':>8} "
+              f"{'peak MiB':>8}")
+        versions = [("", env)]
+        if args.before != "none":
+            old = extract(args.before, Path(tmp) / "before")
+            versions.append((f"  before ({args.before}): ", {**env, "PYTHONPATH": str(old)}))
+        for name, (argv, target) in commands(exe, routine, out).items():
+            for prefix, child_env in versions:
+                run_child(argv, child_env, tmp)  # untimed: writes the .pyc files
+                runs = [run_child(argv, child_env, tmp) for _ in range(args.repeat)]
+                row(prefix + name, [u.cpu for u in runs], [u.wall for u in runs],
+                    [u.peak for u in runs], "" if prefix else target)
+        print(f"schedule file: {out.stat().st_size:,} bytes; load average now "
+              f"{os.getloadavg()[0]:.2f}")
     show = build_show(args.minutes, args.performers, args.rate)
     schedule = compile_show(show)
     row("baseline: compile_show in memory", [in_process(lambda: compile_show(show))
-                                             for _ in range(REPEAT)], None, "")
+                                             for _ in range(args.repeat)], None, None)
     row("baseline: version 1 JSON writer", [in_process(lambda: version1_bytes(schedule))
-                                            for _ in range(REPEAT)], None, "")
+                                            for _ in range(args.repeat)], None, None)
     row("version 2 writer (schedule_to_bytes)", [in_process(lambda: schedule_to_bytes(schedule))
-                                                 for _ in range(REPEAT)], None, "")
+                                                 for _ in range(args.repeat)], None, None)
 
 
 if __name__ == "__main__":

@@ -17,6 +17,7 @@ import argparse
 import os
 import random
 import time
+from collections.abc import Callable
 from typing import NamedTuple
 
 from xgo_show.choreo.resolved import Cue, FadeCue, MotionCue, ResolvedShow, ResolvedTrack
@@ -99,9 +100,14 @@ def show_yaml(minutes: float = 10.0, performers: int = 10, rate: float = 50.0) -
     return "\n".join(lines) + "\n"
 
 
-def show_arguments(doc: str, minutes: float) -> argparse.Namespace:
-    """The benchmark show's size from the command line (also wire_bytes.py's)."""
+def show_arguments(doc: str, minutes: float,
+                   more: Callable[[argparse.ArgumentParser], object] | None = None
+                   ) -> argparse.Namespace:
+    """The benchmark show's size from the command line (also wire_bytes.py's); ``more`` adds
+    a script's own options."""
     parser = argparse.ArgumentParser(description=doc.splitlines()[0])
+    if more is not None:
+        more(parser)
     parser.add_argument("--minutes", type=float, default=minutes)
     parser.add_argument("--performers", type=int, default=10)
     parser.add_argument("--rate", type=float, default=50.0)

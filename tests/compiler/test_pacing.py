@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import itertools
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from xgo_show.choreo.resolved import ActionCue, MotionCue, SetCue
-from xgo_show.compiler import compile_show, state_at
+from xgo_show.compiler import compile_diagnostics, compile_show, state_at
 from xgo_show.compiler.frames import PlannedFrame, Write
 from xgo_show.compiler.pacing import pace, wire_us
 from xgo_show.errors import CompileError
@@ -109,10 +110,22 @@ def test_track_that_does_not_fit_is_an_error_naming_time_and_cue(make_show, o) -
         raise AssertionError("expected a link-fit error")
 
 
+
+def test_validate_road_finds_the_same_link_fit_error(make_show, o) -> None:  # type: ignore[no-untyped-def]
+    # compile_diagnostics keeps no frames: the same error, with the same diagnostics.
+    with pytest.raises(CompileError) as full:
+        compile_show(_crowded(make_show, o))
+    with pytest.raises(CompileError) as light:
+        compile_diagnostics(_crowded(make_show, o))
+    assert light.value.diagnostics == full.value.diagnostics
+    assert str(light.value) == str(full.value)
+
+
 def test_decimation_drops_samples_with_a_warning_and_still_arrives(make_show, o) -> None:  # type: ignore[no-untyped-def]
     schedule = compile_show(_crowded(make_show, o, decimate=True))
     (warning,) = schedule.warnings
     assert warning.severity == "warning" and "decimated" in warning.message
+    assert compile_diagnostics(_crowded(make_show, o, decimate=True)) == schedule.warnings
     assert warning.origin == o("sway", 3)  # the cue whose samples were dropped first: file:line
     perf = schedule.performers[0]
     labels = [f.label for f in perf.frames]

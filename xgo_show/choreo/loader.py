@@ -21,6 +21,7 @@ from xgo_show.choreo.source import Document, read_yaml
 from xgo_show.choreo.validation import validate
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ChoreographyError, CompileError, XgoShowError
+from xgo_show.gcpause import paused_gc
 
 __all__ = ["check_document", "check_file", "is_part", "load_show", "validate_file"]
 
@@ -44,7 +45,8 @@ def _sorted(diags: list[Diagnostic]) -> list[Diagnostic]:
 def check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]]:
     """Parse, validate, resolve and check ``path``: the show (if no errors) and all findings."""
     try:
-        return _check_file(path)
+        with paused_gc():  # see gcpause: 10^5 nodes and cues, no cycle worth a collection
+            return _check_file(path)
     except RecursionError:  # absurdly nested repeats/phrases/includes
         return None, [Diagnostic("error", "the routine is nested too deeply", Origin(
             str(path), 1, 1))]
@@ -169,11 +171,11 @@ def validate_file(path: str | Path) -> list[Diagnostic]:
     if show is None:
         return diags
     try:
-        from xgo_show.compiler import compile_show  # the compiler is optional for loading
+        from xgo_show.compiler import compile_diagnostics  # optional for loading
     except ImportError:
         return diags
     try:
-        schedule = compile_show(show)
+        warnings = compile_diagnostics(show)
     except CompileError as exc:
         extra = list(exc.diagnostics)
         if not extra:
@@ -181,4 +183,4 @@ def validate_file(path: str | Path) -> list[Diagnostic]:
         return _sorted(diags + extra)
     except XgoShowError as exc:  # any other user-facing failure of the compiler: one line
         return _sorted([*diags, Diagnostic("error", f"compiler: {exc}", Origin(str(path), 1, 1))])
-    return _sorted(diags + list(schedule.warnings))
+    return _sorted(diags + list(warnings))

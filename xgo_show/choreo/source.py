@@ -52,6 +52,9 @@ _FLOAT_12 = re.compile(
     r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
 )
 
+# A float PyYAML reads as float() of the text (no .inf, no sign dance): see _Builder.scalar.
+_DECIMAL = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?\Z")
+
 
 class _Loader(yaml.SafeLoader):
     """The safe loader with YAML 1.2 numbers (see :data:`_INT_12`); booleans and nulls as
@@ -235,19 +238,21 @@ class _Builder:
     def scalar(self, node: ScalarNode, loc: Loc) -> object:
         """A plain value: numbers as YAML 1.2 (and within range), text without control
         characters; an error (and None) otherwise."""
-        if node.tag == _INT_TAG:
+        tag = node.tag
+        if tag == _INT_TAG:
             return self.integer(node, loc)
-        try:
-            value = self.constructor.construct_object(node, deep=True)
-        except yaml.YAMLError as exc:
-            self.error(node, loc, _problem(exc))
-            return None
-        except ValueError:  # an explicit tag on a value it does not fit (!!float abc)
-            self.error(node, loc, f"{printable(node.value)!r} is not a {node.tag.rsplit(':')[-1]}")
-            return None
-        if value is not None and not isinstance(value, (str, int, float)):  # !!binary, ...
-            self.error(node, loc, f"unsupported YAML tag {printable(node.tag)}")
-            return None
+        value: object
+        # Text and plain decimals, nearly every value of a routine, are what PyYAML's
+        # constructor makes of them (the text itself; the sign times float() of the rest),
+        # without its dispatch per node: a third of loading a long routine.
+        if tag == _STR_TAG:
+            value = node.value
+        elif tag == _FLOAT_TAG and _DECIMAL.match(node.value):
+            value = float(node.value)
+        else:
+            value = self.construct(node, loc)
+            if value is None:
+                return None
         if isinstance(value, float) and not math.isfinite(value):
             what = "infinite" if math.isinf(value) else "not a number"
             self.error(node, loc, f"{node.value} is {what}: give a finite number")
@@ -261,6 +266,22 @@ class _Builder:
                 self.error(node, loc, f"the text holds the control character {bad}: "
                            "write plain text")
                 return None
+        return value
+
+    def construct(self, node: ScalarNode, loc: Loc) -> object:
+        """Any other scalar through PyYAML's constructor; None (reported) when it fails or
+        makes something a routine does not hold."""
+        try:
+            value = self.constructor.construct_object(node, deep=True)
+        except yaml.YAMLError as exc:
+            self.error(node, loc, _problem(exc))
+            return None
+        except ValueError:  # an explicit tag on a value it does not fit (!!float abc)
+            self.error(node, loc, f"{printable(node.value)!r} is not a {node.tag.rsplit(':')[-1]}")
+            return None
+        if value is not None and not isinstance(value, (str, int, float)):  # !!binary, ...
+            self.error(node, loc, f"unsupported YAML tag {printable(node.tag)}")
+            return None
         return value
 
     def integer(self, node: ScalarNode, loc: Loc) -> int | None:
@@ -331,10 +352,11 @@ def parse_yaml(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         mark = nodes[1].start_mark
         origin = Origin(file, mark.line + 1, mark.column + 1)
         return doc, [Diagnostic("error", "one YAML document per file, found several", origin)]
-    deep = _deepest(nodes[0])
+    deep, count, shared = _walk(nodes[0])
     if deep is not None:
         return doc, [_too_deep_at(deep, file)]
-    if _expanded_size(nodes[0], {}, set()) > MAX_NODES:
+    # Without a list or mapping used twice (an alias), the values built are the nodes walked.
+    if (_expanded_size(nodes[0], {}, set()) if shared else count) > MAX_NODES:
         return doc, [_too_big(text, file)]
     builder = _Builder(doc)
     doc.data = builder.build(nodes[0], ())
@@ -348,6 +370,14 @@ _FAST_LOADER: type[yaml.SafeLoader] | None = None
 if _C_LOADER is not None:
     class _CLoader(_C_LOADER):  # type: ignore[valid-type,misc]
         """libyaml's parser with the same YAML 1.2 number resolvers as :class:`_Loader`."""
+
+        # libyaml's composer calls these for every node; they only serve path resolvers,
+        # which no loader here has (PyYAML's own return at once without them too).
+        def descend_resolver(self, current_node: Node | None, current_index: object) -> None:
+            pass
+
+        def ascend_resolver(self) -> None:
+            pass
 
     _CLoader.yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
     _FAST_LOADER = _CLoader
@@ -371,15 +401,22 @@ def _line_col(text: str, position: int) -> tuple[int, int]:
     return len(lines), len(lines[-1]) + 1
 
 
-def _deepest(root: Node) -> Node | None:
-    """The first node nested deeper than :data:`MAX_DEPTH` (aliases followed once), or None."""
+def _walk(root: Node) -> tuple[Node | None, int, bool]:
+    """The first node nested deeper than :data:`MAX_DEPTH` (aliases followed once), or None;
+    how many nodes were walked; whether a list or mapping is reached twice (an alias)."""
     stack: list[tuple[Node, int]] = [(root, 1)]
     seen: set[int] = set()
+    count = 0
+    shared = False
     while stack:
         node, depth = stack.pop()
         if depth > MAX_DEPTH:
-            return node
-        if id(node) in seen or isinstance(node, ScalarNode):
+            return node, count, shared
+        count += 1
+        if isinstance(node, ScalarNode):
+            continue
+        if id(node) in seen:
+            shared = True
             continue
         seen.add(id(node))
         if isinstance(node, SequenceNode):
@@ -388,7 +425,7 @@ def _deepest(root: Node) -> Node | None:
             for key, value in reversed(node.value):
                 stack.append((value, depth + 1))
                 stack.append((key, depth + 1))
-    return None
+    return None, count, shared
 
 
 def _too_deep_at(node: Node, file: str) -> Diagnostic:

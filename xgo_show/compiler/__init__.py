@@ -1,7 +1,8 @@
 """The compiler: a pure, deterministic function from a validated routine to paced frame schedules.
 
 - :func:`compile_show` turns a :class:`~xgo_show.choreo.resolved.ResolvedShow` into a
-  :class:`~xgo_show.compiler.schedule.Schedule`;
+  :class:`~xgo_show.compiler.schedule.Schedule`; :func:`compile_diagnostics` finds the same
+  errors and warnings without keeping the frames (what `validate` needs);
 - :func:`save_schedule` / :func:`load_schedule` write and read the versioned JSON artifact;
 - :func:`describe_frame`, :func:`state_at`, :func:`frames_to_reach` read schedules back;
 - :func:`plot_schedule` draws one (needs the optional ``plot`` extra, matplotlib).
@@ -12,7 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from xgo_show.compiler.artifact import load_schedule, save_schedule
-from xgo_show.compiler.build import compile_show
+from xgo_show.compiler.build import compile_diagnostics, compile_show
 from xgo_show.compiler.schedule import (
     SCHEDULE_VERSION,
     PerformerSchedule,
@@ -26,6 +27,7 @@ __all__ = [
     "PerformerSchedule",
     "Schedule",
     "ScheduledFrame",
+    "compile_diagnostics",
     "compile_show",
     "describe_frame",
     "frames_to_reach",

@@ -60,7 +60,6 @@ from xgo_show.compiler.document import (
     schedule_document,
     xarm_frame_problem,
 )
-from xgo_show.compiler.gcpause import paused_gc
 from xgo_show.compiler.schedule import (
     SCHEDULE_VERSION,
     PerformerSchedule,
@@ -71,6 +70,7 @@ from xgo_show.compiler.state import frame_labels
 from xgo_show.diagnostics import Origin
 from xgo_show.errors import FileAccessError, ScheduleError
 from xgo_show.files import read_bytes_file, read_head
+from xgo_show.gcpause import paused_gc
 from xgo_show.profiles.model import Profile
 from xgo_show.wire.xgo import MIN_LENGTH, TAIL
 

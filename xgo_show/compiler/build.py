@@ -8,17 +8,17 @@ from __future__ import annotations
 
 from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
 from xgo_show.compiler.frames import cue_label, to_us
-from xgo_show.compiler.gcpause import paused_gc
 from xgo_show.compiler.pacing import PaceResult, pace
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
 from xgo_show.compiler.state import frame_labels
 from xgo_show.diagnostics import Diagnostic
 from xgo_show.errors import CompileError, ProfileError
 from xgo_show.families import get_family
+from xgo_show.gcpause import paused_gc
 from xgo_show.profiles.model import Link, Profile
 from xgo_show.profiles.registry import get_profile
 
-__all__ = ["compile_show"]
+__all__ = ["compile_diagnostics", "compile_show"]
 
 
 def compile_show(show: ResolvedShow) -> Schedule:
@@ -29,10 +29,19 @@ def compile_show(show: ResolvedShow) -> Schedule:
     loader's, and decimation) are in ``Schedule.warnings``.
     """
     with paused_gc():  # see gcpause: millions of objects, no cycle to collect
-        return _compile(show)
+        return _compile(show, keep=True)
 
 
-def _compile(show: ResolvedShow) -> Schedule:
+def compile_diagnostics(show: ResolvedShow) -> tuple[Diagnostic, ...]:
+    """What :func:`compile_show` finds in ``show``, without keeping its frames (``validate``).
+
+    Raises the same :class:`CompileError`; returns the same ``Schedule.warnings``.
+    """
+    with paused_gc():
+        return _compile(show, keep=False).warnings
+
+
+def _compile(show: ResolvedShow, *, keep: bool) -> Schedule:
     if show.control_rate <= 0:
         raise CompileError(f"control_rate must be positive, not {show.control_rate:g} Hz")
     errors: list[Diagnostic] = []
@@ -45,7 +54,7 @@ def _compile(show: ResolvedShow) -> Schedule:
             errors.append(Diagnostic("error", str(exc), None,
                                      f"tracks.{track.performer}"))
             continue
-        performer, errs, warns = _compile_track(show, track, profile)
+        performer, errs, warns = _compile_track(show, track, profile, keep)
         errors.extend(errs)
         warnings.extend(warns)
         performers.append(performer)
@@ -71,7 +80,7 @@ def _compile(show: ResolvedShow) -> Schedule:
 
 
 def _compile_track(
-    show: ResolvedShow, track: ResolvedTrack, profile: Profile
+    show: ResolvedShow, track: ResolvedTrack, profile: Profile, keep: bool
 ) -> tuple[PerformerSchedule, list[Diagnostic], list[Diagnostic]]:
     gap = profile.link.gap if show.gap is None else show.gap
     link = Link(profile.link.baud, gap, profile.link.bits_per_byte)
@@ -118,10 +127,10 @@ def _compile_track(
     frames = [
         ScheduledFrame(start_us / 1_000_000, f.data, f.origin, f.duration, labels)
         for start_us, f in paced.frames
-    ]
+    ] if keep else []
     end = plan.end if show.end is None else show.end
-    if frames:
-        end = max(end, frames[-1].t)
+    if paced.frames:
+        end = max(end, paced.frames[-1].start_us / 1_000_000)
     performer = PerformerSchedule(
         name=track.performer, model=profile.model, link=link, frames=tuple(frames), end=end,
         port=track.port,
