@@ -2,24 +2,38 @@
 
 Four simulated XGO robots run in their own processes (``xgo-show simulate --record``), each
 on a real pseudo-terminal, timestamping every frame they receive with the machine-wide
-monotonic clock. One more process keeps a CPU busy. The same four-performer schedule is played
-twice in one run, first by the runtime's ShowRunner (telemetry on),
-then by a naive loop per port that writes a frame and sleeps the interval to the next one (the
-vendor library's pattern). Errors are measured from the simulators' receive times:
+monotonic clock. The same four-performer schedule is played by the runtime's ShowRunner
+(telemetry on) and by a naive loop per port that writes a frame and sleeps the interval to the
+next one (the vendor library's pattern), first on a machine left alone and then with one more
+process keeping a CPU busy, all in one run. Errors are measured from the simulators' receive
+times:
 
-- send-time error: receive time - (start + planned time), per frame;
-- end-of-show drift: median error over the last second - that over the first, per robot.
+- send-time error: receive time - (start + planned time), per frame: p50, p99, p99.9, max;
+- end-of-show drift: median error over the last second - that over the first, per robot;
+- issue lateness: when the runner issued each write minus when it was due (its own records),
+  which tells our lateness apart from the time the bytes spent in the kernel and simulator.
+
+``--diagnose`` also plays the show with each suspect of late writes switched on or off, in
+the same run: the cyclic garbage collector left on (pauses timed with ``gc.callbacks``), no
+telemetry (no reader threads, no polls), a SCHED_FIFO runner (``request_realtime``, when
+permitted), and without the writers' final spin. For each it counts the writes issued more than
+1 ms late, how many of those came in bursts where three or more writers were late together (a
+stall of the whole process: the collector, the GIL held, the process off its CPU), the
+collector's pauses, and the process's involuntary context switches (the OS taking its CPU).
 
 Prints figures only (no asserts). Usage::
 
-    python benchmarks/runtime_timing.py [--seconds 60] [--rate 50] [--no-load]
+    python benchmarks/runtime_timing.py [--seconds 60] [--rate 50] [--no-load | --only-load]
+                                        [--diagnose]
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -121,27 +135,90 @@ def make_schedule(seconds: float, rate: float) -> Schedule:
     return Schedule("timing benchmark", "-", tuple(performers), rate)
 
 
-def run_ours(
-    schedule: Schedule, links: dict[str, Transport], *, hold_gc: bool = True
-) -> tuple[dict[str, float], list[float]]:
-    """Each performer's start time (monotonic time of show time 0), and the issue errors.
+@dataclass
+class Variant:
+    """One way of playing the show with our runner: which suspects are switched off."""
 
-    Issue error (ms): when the runner issued each schedule frame's write minus when it was due,
-    from the runner's own records. Against the receive-time error it tells our lateness apart
-    from the time the bytes spent in the kernel (pty or serial driver) and the simulator.
-    """
-    runner = local_runner(schedule, links, clock=MonotonicClock(), hold_gc=hold_gc)
-    issued: list[float] = []
+    name: str
+    hold_gc: bool = True
+    telemetry: bool = True
+    realtime: bool = False
+    nice: int = 0  # this thread's nice value during the show (the writers inherit it)
+    clock: MonotonicClock | None = None
+
+
+@dataclass
+class OursRun:
+    starts: dict[str, float]
+    issued: list[tuple[float, str, float]]  # (clock time, performer, issue lateness ms)
+    gc_pauses: list[float]  # seconds each collection took
+    gc_late: int  # writes issued > 1 ms late while or just after a collection ran
+    involuntary: int  # involuntary context switches of this process during the show
+    policy: str
+
+
+LATE_MS = 1.0  # a write issued later than this counts as late
+
+
+def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) -> OursRun:
+    """Play ``schedule`` with our runner as ``variant`` says; what the runner's own records
+    and this process tell about it (see :class:`OursRun`)."""
+    runner = local_runner(schedule, links, clock=variant.clock or MonotonicClock(),
+                          hold_gc=variant.hold_gc, telemetry=variant.telemetry)
+    issued: list[tuple[float, str, float]] = []
+    pauses: list[tuple[float, float]] = []
+    began: list[float] = []
 
     def on_frame(event: Event) -> None:
         if isinstance(event, FrameSent) and event.kind == "frame" and event.error is not None:
-            issued.append(event.error * 1000.0)
+            issued.append((event.t, event.performer, event.error * 1000.0))
+
+    def on_gc(phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            began.append(time.monotonic())
+        elif began:
+            pauses.append((began.pop(), time.monotonic()))
 
     runner.events.subscribe(on_frame, FrameSent)
-    result = runner.run(lead=0.3, handle_signals=False)
+    policy = "normal priority"
+    if variant.realtime:
+        policy = request_realtime()
+    if variant.nice:
+        os.setpriority(os.PRIO_PROCESS, 0, variant.nice)  # Linux: this thread (and children)
+        policy = f"nice {os.getpriority(os.PRIO_PROCESS, 0)}"
+    gc.callbacks.append(on_gc)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
+    try:
+        result = runner.run(lead=0.3, handle_signals=False)
+    finally:
+        involuntary = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
+        gc.callbacks.remove(on_gc)
+        if variant.realtime:
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
+        if variant.realtime or variant.nice:
+            os.setpriority(os.PRIO_PROCESS, 0, 0)
     if not result.completed:
         raise SystemExit(f"our run did not complete: {result.reason}")
-    return {name: result.start_at for name in links}, issued
+    # Only collections while the show played (the runner's own gc.collect() before it starts
+    # and the one after it ends are no stall of a write).
+    first, last = result.start_at, max((t for t, _, _ in issued), default=result.start_at)
+    pauses = [(a, b) for a, b in pauses if b >= first and a <= last]
+    late = [t for t, _, err in issued if err > LATE_MS]
+    gc_late = sum(1 for t in late
+                  if any(a <= t - LATE_MS / 1000 <= b + 0.002 or a <= t <= b for a, b in pauses))
+    return OursRun({name: result.start_at for name in links}, issued,
+                   [b - a for a, b in pauses], gc_late, involuntary, policy)
+
+
+def bursts(issued: list[tuple[float, str, float]], writers: int = 3) -> int:
+    """Late writes that came with late writes of ``writers``-1 other performers within 2 ms of
+    them: the whole process stalled rather than one thread."""
+    late = sorted((t, name) for t, name, err in issued if err > LATE_MS)
+    count = 0
+    for i, (t, _) in enumerate(late):
+        near = {name for u, name in late[max(0, i - 8):i + 9] if abs(u - t) <= 0.002}
+        count += len(near) >= writers
+    return count
 
 
 def run_naive(schedule: Schedule, links: dict[str, Transport]) -> dict[str, float]:
@@ -209,105 +286,113 @@ def measure(
     return errors, drifts
 
 
+def variants(diagnose: bool) -> list[Variant]:
+    out = [Variant("ours")]
+    if diagnose:
+        out += [
+            Variant("  gc on (no hold)", hold_gc=False),
+            Variant("  no telemetry", telemetry=False),
+            Variant("  SCHED_FIFO", realtime=True),
+            Variant("  nice -10", nice=-10),
+            Variant("  no final spin", clock=MonotonicClock(aim=0.0, spin=0.0)),
+        ]
+    return out
+
+
+def p(errs: list[float], q: float) -> float:
+    return percentile([abs(e) for e in errs], q)
+
+
+def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
+         plays: list[Variant | None]) -> None:
+    """Play the show once per entry (None: the naive loop) and print one row each."""
+    windows: list[tuple[Variant | None, float, float, dict[str, float], OursRun | None]] = []
+    for variant in plays:
+        t0 = time.monotonic()
+        if variant is None:
+            run, starts = None, run_naive(schedule, links)
+        else:
+            run = run_ours(schedule, links, variant)
+            starts = run.starts
+        time.sleep(0.3)
+        windows.append((variant, t0, time.monotonic(), starts, run))
+    time.sleep(0.2)  # the simulators' last records reach their files
+    got = {perf.name: read_records(record)
+           for perf, record in zip(schedule.performers, records, strict=True)}
+    for variant, t0, t1, starts, run in windows:
+        errs, drifts = measure(schedule, got, (t0, t1), starts, schedule.control_rate)
+        name = "naive (write, sleep)" if variant is None else variant.name
+        line = (f"{name:<22}{p(errs, 0.5):>8.3f}{p(errs, 0.99):>8.3f}{p(errs, 0.999):>8.3f}"
+                f"{p(errs, 1.0):>8.2f}{max(abs(d) for d in drifts):>7.2f}")
+        if run is not None:
+            issued = [e for _, _, e in run.issued]
+            late = sum(1 for e in issued if e > LATE_MS)
+            gcs = (f"{len(run.gc_pauses)}/{max(run.gc_pauses) * 1000:.1f}"
+                   if run.gc_pauses else "0")
+            line += (f" |{p(issued, 0.99):>7.3f}{p(issued, 0.999):>8.3f}{p(issued, 1.0):>7.2f}"
+                     f"{late:>6}{bursts(run.issued):>7}{run.gc_late:>5} {gcs:>9}"
+                     f"{run.involuntary:>7}")
+            if variant is not None and (variant.realtime or variant.nice):
+                line += f"  ({run.policy})"
+        print(line)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=60.0, help="show length per run")
     parser.add_argument("--rate", type=float, default=50.0, help="frames per second per robot")
-    parser.add_argument("--no-load", action="store_true", help="do not keep a CPU busy")
-    parser.add_argument(
-        "--realtime",
-        action="store_true",
-        help="ask SCHED_FIFO for this process (both the runtime and the naive loop get it)",
-    )
-    parser.add_argument(
-        "--nice",
-        type=int,
-        default=0,
-        help="run this process at this nice value (e.g. -10; both loops get it)",
-    )
-    parser.add_argument(
-        "--gc-on",
-        action="store_true",
-        help="leave Python's cyclic garbage collector on during our run (the runner holds it)",
-    )
+    which = parser.add_mutually_exclusive_group()
+    which.add_argument("--no-load", action="store_true", help="only with no CPU kept busy")
+    which.add_argument("--only-load", action="store_true", help="only with one CPU kept busy")
+    parser.add_argument("--diagnose", action="store_true",
+                        help="also play with each suspect of late writes switched off")
     parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.serve_sim:
         serve_sim(Path(args.serve_sim))
         return
     schedule = make_schedule(args.seconds, args.rate)
-    load_before = os.getloadavg()[0]
+    loads = [False] if args.no_load else [True] if args.only_load else [False, True]
+    print(f"{ROBOTS} simulated {MODEL}s on ptys, {args.rate:g} frames/s each for "
+          f"{args.seconds:g} s per row; {os.cpu_count()} CPUs; load average "
+          f"{os.getloadavg()[0]:.2f} at the start")
     with tempfile.TemporaryDirectory() as tmpdir:
         # The simulators and the load start before this process changes its scheduling: a
         # child inherits SCHED_FIFO and nice values, and a SCHED_FIFO busy loop would take a
         # whole CPU from the kernel workers that move pty data and from the simulators.
         sims = start_sims(Path(tmpdir))
-        busy = None
-        if not args.no_load:
-            busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
-        realtime = request_realtime() if args.realtime else "normal priority"
-        if args.nice:
-            os.nice(args.nice)
-            realtime += f", nice {args.nice}"
         links: dict[str, Transport] = {}
         try:
             for perf, path in zip(schedule.performers, sims.paths, strict=True):
                 links[perf.name] = open_transport(path, baudrate=perf.link.baud)
                 links[perf.name].open()
-            print(
-                f"{ROBOTS} simulated {MODEL}s on ptys ({sims.priority} simulator processes), "
-                f"{args.rate:g} frames/s each for {args.seconds:g} s; CPU load: "
-                f"{'none' if busy is None else '1 busy process'}; {os.cpu_count()} CPUs; "
-                f"this process: {realtime}"
-            )
-            t0 = time.monotonic()
-            ours_starts, ours_issued = run_ours(schedule, links, hold_gc=not args.gc_on)
-            time.sleep(0.3)
-            t1 = time.monotonic()
-            naive_starts = run_naive(schedule, links)
-            time.sleep(0.3)
-            t2 = time.monotonic()
+            for loaded in loads:
+                busy = None
+                if loaded:
+                    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+                try:
+                    print(f"\n-- {'one CPU kept busy' if loaded else 'no extra load'} "
+                          f"(simulators: {sims.priority}); load average "
+                          f"{os.getloadavg()[0]:.2f}")
+                    print(f"{'send error, ms':<22}{'|p50|':>8}{'|p99|':>8}{'|p99.9|':>8}"
+                          f"{'max':>8}{'drift':>7} |{'issued late by, ms: p99':>7}"
+                          f"{'p99.9':>8}{'max':>7}{'>1ms':>6}{'burst':>7}{'gc':>5}"
+                          f"{'gc n/max':>10}{'invol':>7}")
+                    plays: list[Variant | None] = [*variants(args.diagnose), None]
+                    play(schedule, links, sims.records, plays)
+                finally:
+                    if busy is not None:
+                        busy.kill()
+                        busy.wait()
         finally:
-            if busy is not None:
-                busy.kill()
-                busy.wait()
             for link in links.values():
                 link.close()
             stop_sims(sims)
-        records = {
-            perf.name: read_records(record)
-            for perf, record in zip(schedule.performers, sims.records, strict=True)
-        }
-    ours_err, ours_drift = measure(schedule, records, (t0, t1), ours_starts, args.rate)
-    naive_err, naive_drift = measure(schedule, records, (t1, t2), naive_starts, args.rate)
-
-    def row(label: str, ours: float, naive: float) -> str:
-        ratio = naive / ours if ours else float("inf")
-        return f"{label:<28}{ours:>12.3f}{naive:>12.3f}{ratio:>10.1f}x"
-
-    def p(errs: list[float], q: float) -> float:
-        return percentile([abs(e) for e in errs], q)
-
-    print(f"{'(milliseconds)':<28}{'ours':>12}{'naive':>12}{'naive/ours':>11}")
-    print(row("send error |p50|", p(ours_err, 0.5), p(naive_err, 0.5)))
-    print(row("send error |p99|", p(ours_err, 0.99), p(naive_err, 0.99)))
-    print(row("send error |p99.9|", p(ours_err, 0.999), p(naive_err, 0.999)))
-    print(row("send error max", p(ours_err, 1.0), p(naive_err, 1.0)))
-    print(
-        row(
-            "end-of-show drift (worst)",
-            max(abs(d) for d in ours_drift),
-            max(abs(d) for d in naive_drift),
-        )
-    )
-    print(
-        f"ours, write issued late by (runner's records): |p50| {p(ours_issued, 0.5):.3f}  "
-        f"|p99| {p(ours_issued, 0.99):.3f}  |p99.9| {p(ours_issued, 0.999):.3f}  "
-        f"max {p(ours_issued, 1.0):.3f}"
-    )
-    print("targets for ours: p99 <= 0.5 ms, p99.9 <= 2 ms, drift <= 1 ms"
-          f"; garbage collector during our run: {'on' if args.gc_on else 'held'}")
-    print(f"load average before/after: {load_before:.2f} / {os.getloadavg()[0]:.2f}")
+    print("\ntargets for ours: p99 <= 0.5 ms, p99.9 <= 2 ms, drift <= 1 ms (with one CPU "
+          "busy). Issued late: >1ms counts writes issued over 1 ms late, burst those of them "
+          "with 3+ writers late within 2 ms, gc those during or just after a collection; "
+          "gc n/max: collections and the longest (ms); invol: involuntary context switches")
+    print(f"load average at the end: {os.getloadavg()[0]:.2f}")
 
 
 if __name__ == "__main__":

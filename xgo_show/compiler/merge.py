@@ -19,7 +19,7 @@ from xgo_show.errors import ProfileError
 from xgo_show.profiles.model import Link
 from xgo_show.wire.xgo import MAX_DATA, MIN_LENGTH, TAIL, write_frame
 
-__all__ = ["FramePlan", "Merger", "by_address", "by_order", "merge_writes", "wire_bytes"]
+__all__ = ["FramePlan", "Merger", "Slot", "by_address", "by_order", "merge_writes", "wire_bytes"]
 
 
 def link_cost_us(link: Link, nbytes: int) -> float:
@@ -46,11 +46,18 @@ def merge_writes(
     return merger.merge(t_us, sorted(writes, key=by_address), known, uniform=False)
 
 
+class Slot(NamedTuple):
+    """One field of a planned frame: a register and where its bytes come from."""
+
+    address: int
+    write: int | None  # index into the tick's writes; None: a gap filler (``known`` bytes)
+
+
 class FramePlan(NamedTuple):
     """One frame of a merge plan: the fields it carries, by where their bytes come from."""
 
     address: int
-    slots: tuple[tuple[int, int], ...]  # (address, index into the tick's writes, or -1: filler)
+    slots: tuple[Slot, ...]  # every field of the frame, in address order
     writes: tuple[int, ...]  # indices of the tick's writes in this frame
     nbytes: int  # data bytes (a cheap check that the writes have the sizes planned with)
     prefix: bytes  # frame bytes before the data
@@ -110,7 +117,8 @@ class Merger:
         layout, link = self.layout, self.link
         frame_cost = self.frame_cost_us
         first = ordered[0]
-        runs: list[list[tuple[int, int, int]]] = [[(first.address, 0, len(first.data))]]
+        # (address, index into ordered or None for a gap filler, data bytes) per field
+        runs: list[list[tuple[int, int | None, int]]] = [[(first.address, 0, len(first.data))]]
         run_len = len(first.data)
         last_addr = first.address
         for i in range(1, len(ordered)):
@@ -129,7 +137,7 @@ class Merger:
                     and link_cost_us(link, extra) < frame_cost
                 ):
                     run = runs[-1]
-                    run.extend((a, -1, len(d)) for a, d in fill)
+                    run.extend((a, None, len(d)) for a, d in fill)
                     run.append((addr, i, len(w.data)))
                     run_len += extra + len(w.data)
                     last_addr = addr
@@ -151,12 +159,12 @@ class Merger:
             template = write_frame(address, bytes(nbytes), write_type=write_type)
             plan.append(FramePlan(
                 address,
-                tuple([(a, i) for a, i, _ in run]),
-                tuple([i for _, i, _ in run if i >= 0]),
+                tuple([Slot(a, i) for a, i, _ in run]),
+                tuple([i for _, i, _ in run if i is not None]),
                 nbytes,
                 template[:len(template) - nbytes - 3],
                 MIN_LENGTH + nbytes + write_type + address,
-                any(i < 0 for _, i, _ in run),
+                any(i is None for _, i, _ in run),
             ))
         return tuple(plan)
 
@@ -173,10 +181,10 @@ class Merger:
         for run in plan:
             if run.fills:
                 fields = tuple([
-                    (a, ordered[i].data if i >= 0 else known[a]) for a, i in run.slots
+                    (a, known[a] if i is None else ordered[i].data) for a, i in run.slots
                 ])
-            else:
-                fields = tuple([(a, ordered[i].data) for a, i in run.slots])
+            else:  # no filler: every slot names a write
+                fields = tuple([(a, ordered[i].data) for a, i in run.slots if i is not None])
             data = b"".join([d for _, d in fields])
             if len(data) != run.nbytes:
                 return None
