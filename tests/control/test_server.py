@@ -7,6 +7,7 @@ session (multicast scouting off, explicit endpoints), and some tests use the ``c
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import socket
@@ -18,11 +19,13 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
+import jsonschema
 import pytest
 import zenoh
 
 from xgo_show.control.client import ControlClient, ControlFailed
 from xgo_show.control.keys import control_key, event_key, trigger_key
+from xgo_show.control.schemas import definition
 
 ROOT = Path(__file__).resolve().parents[2]
 NS = f"test-serve-{os.getpid()}"
@@ -50,7 +53,7 @@ def server(triggered_path: Path) -> Iterator[str]:
     show = triggered_path
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "xgo_show", "serve", "--sim", "--no-telemetry", "--load",
+        [sys.executable, "-m", "xgo_show", "serve", "--sim", "--load",
          str(show), "--listen", endpoint, "--namespace", NS],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
@@ -81,9 +84,36 @@ def session(server: str) -> Iterator[zenoh.Session]:
         s.close()
 
 
+@functools.cache
+def _validator(name: str) -> jsonschema.Draft202012Validator:
+    return jsonschema.Draft202012Validator(definition(name))
+
+
+def check(name: str, payload: object) -> None:
+    """``payload`` is valid as the schema file's ``name`` (request-X, reply-X, error, event-X)."""
+    errors = sorted(_validator(name).iter_errors(payload), key=str)
+    assert not errors, f"{name}: {errors[0].message} at {list(errors[0].absolute_path)}"
+
+
+class CheckedClient(ControlClient):
+    """A client that checks every request it sends and every reply against the schemas."""
+
+    def _get(self, key: str, payload: dict[str, Any] | None, what: str) -> dict[str, Any]:
+        if payload is not None:
+            check(f"request-{what}", payload)
+        try:
+            reply = super()._get(key, payload, what)
+        except ControlFailed as exc:
+            if exc.code != "no_reply":
+                check("error", exc.reply)
+            raise
+        check(f"reply-{what}", reply)
+        return reply
+
+
 @pytest.fixture
 def client(session: zenoh.Session) -> Iterator[ControlClient]:
-    c = ControlClient(session, NS, timeout=5.0)
+    c = CheckedClient(session, NS, timeout=5.0)
     yield c
     # Leave no show running for the next test.
     if c.status()["state"] not in ("idle", "loaded"):
@@ -169,6 +199,7 @@ def test_bad_requests_get_clear_error_replies(session: zenoh.Session) -> None:
     ]
     for key, payload, code, message in cases:
         body = _get_err(session, key, payload)
+        check("error", body)
         assert body["error"] == code, (key, body)
         assert message in body["message"], (key, body)
 
@@ -241,6 +272,44 @@ def test_a_trigger_flood_is_absorbed_and_the_real_one_still_counts(
         th.join()
     _until(lambda: client.status()["state"] in ("loaded", "idle"), timeout=10.0)
     assert client.status()["last_result"]["completed"] is True
+
+
+def test_every_payload_the_server_sends_matches_its_schema(
+    client: ControlClient, session: zenoh.Session, triggered_path: Path
+) -> None:
+    """A tour of the API: every command's reply (checked by the client), then every event."""
+    events: list[tuple[str, dict[str, Any]]] = []
+    sub = session.declare_subscriber(
+        event_key(NS), lambda s: events.append((str(s.key_expr), json.loads(s.payload.to_bytes())))
+    )
+    try:
+        assert client.command("panic")["state"] == "idle"
+        loaded = client.command("load", path=str(triggered_path))
+        assert loaded["show"]["triggers"] == ["go", "encore"]
+        client.command("start")
+        _until(lambda: client.status()["state"] == "waiting")
+        assert client.command("pause")["state"] == "waiting"  # held at a wait already
+        session.put(trigger_key(NS, "lights"), b"{}")  # nobody waits: a refusal event
+        session.put(trigger_key(NS, "go"), b"{not json")  # dropped: a warning event
+        client.trigger("go", source="tour", data={"desk": 1})
+        _until(lambda: client.status()["state"] == "waiting")  # at c, for 'encore'
+        client.command("seek", section="d")  # (a section that waits would hold again)
+        client.command("pause")
+        _until(lambda: client.status()["state"] == "paused")
+        time.sleep(1.1)  # a progress event (and the robots' telemetry) at least once a second
+        client.command("resume")
+        assert client.command("stop", reason="tour over")["state"] == "ended"
+        _until(lambda: any(e["event"] == "state" and e.get("state") == "ended" for _, e in events))
+    finally:
+        sub.undeclare()
+    kinds = set()
+    for key, event in events:
+        kind = "telemetry" if "/event/telemetry/" in key else key.rsplit("/", 1)[-1]
+        assert event["event"] == kind, (key, event)
+        check(f"event-{kind}", event)
+        kinds.add(kind)
+    # A fault needs a robot that fails: the runtime's tests make those.
+    assert kinds == {"state", "cue", "wait", "trigger", "progress", "telemetry", "warning"}
 
 
 def test_the_zenoh_only_example_imports_nothing_of_ours() -> None:

@@ -5,14 +5,13 @@ A request is checked whole before anything happens: a payload that is not JSON, 
 of a newer version, with an unknown or mistyped field is answered with an error reply naming
 the problem, never half-applied. Replies are ``{"v": 1, "ok": true, "command": ..., ...}``;
 errors are sent as Zenoh error replies ``{"v": 1, "ok": false, "command": ..., "error": CODE,
-"message": ...}``. The JSON Schemas in ``schemas/`` are generated from the models below
-(``python -m xgo_show.control.protocol``).
+"message": ...}``. :mod:`xgo_show.control.schemas` writes the JSON Schema of every payload
+(these requests' from the models below) to ``schemas/``.
 """
 
 from __future__ import annotations
 
 import json
-import sys
 from typing import Annotated, Any, Literal
 
 from pydantic import (
@@ -20,7 +19,6 @@ from pydantic import (
     ConfigDict,
     Field,
     StringConstraints,
-    TypeAdapter,
     ValidationError,
     model_validator,
 )
@@ -38,7 +36,6 @@ __all__ = [
     "StopRequest",
     "TriggerRequest",
     "error_payload",
-    "json_schemas",
     "ok_payload",
     "parse_request",
 ]
@@ -221,18 +218,3 @@ def error_payload(command: str, code: str, message: str) -> bytes:
 
 def _dump(obj: dict[str, Any]) -> bytes:
     return json.dumps(obj, ensure_ascii=False, separators=(",", ":"), allow_nan=False).encode()
-
-
-def json_schemas() -> dict[str, Any]:
-    """The JSON Schema of every request payload, by command (draft 2020-12)."""
-    out: dict[str, Any] = {}
-    for command, model in REQUESTS.items():
-        schema = TypeAdapter(model).json_schema(by_alias=True)
-        schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
-        out[command] = schema
-    return out
-
-
-if __name__ == "__main__":  # pragma: no cover - a developer's tool
-    json.dump(json_schemas(), sys.stdout, indent=1, sort_keys=True)
-    sys.stdout.write("\n")
