@@ -51,8 +51,14 @@ def test_the_doc_lists_every_key_with_its_schema() -> None:
     assert f"schemas/{SCHEMA_FILE}" in DOC
 
 
+def test_the_doc_shows_the_access_control_example_as_it_is() -> None:
+    text = (ROOT / "examples" / "zenoh-acl" / "serve.json5").read_text(encoding="utf-8")
+    assert f"```json5\n{text}```" in DOC
+
+
 def test_the_doc_lists_every_error_code() -> None:
-    table = set(re.findall(r"^\| `([a-z_]+)` \| ", DOC.split("## Errors", 1)[1], re.MULTILINE))
+    section = DOC.split("\n## Errors\n", 1)[1].split("\n## ", 1)[0]
+    table = set(re.findall(r"^\| `([a-z_]+)` \| ", section, re.MULTILINE))
     assert table == set(ERROR_CODES)
 
 
