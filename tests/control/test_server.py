@@ -246,32 +246,145 @@ def test_the_command_line_clients_from_other_processes(
     assert fired.stdout.strip() == "trigger 'go': released section 'b'"
 
 
+class Flood:
+    """Puts on ``key`` from a thread, ``rate`` a second (reliable, blocking: none is lost on
+    the way, so the server's counters can be checked against ``sent``)."""
+
+    def __init__(self, session: zenoh.Session, key: str, payload: bytes, rate: int) -> None:
+        self.sent = 0
+        self._stop = threading.Event()
+
+        def run() -> None:
+            start = time.monotonic()
+            while not self._stop.is_set():
+                due = int((time.monotonic() - start) * rate)
+                while self.sent < due:
+                    session.put(key, payload, congestion_control=zenoh.CongestionControl.BLOCK)
+                    self.sent += 1
+                time.sleep(0.005)
+
+        self._thread = threading.Thread(target=run, name="xgo-show test flood")
+        self._thread.start()
+
+    def stop(self) -> int:
+        self._stop.set()
+        self._thread.join()
+        return self.sent
+
+
+def _counters(client: ControlClient) -> dict[str, int]:
+    return dict(client.status()["counters"])
+
+
 def test_a_trigger_flood_is_absorbed_and_the_real_one_still_counts(
     client: ControlClient, session: zenoh.Session
 ) -> None:
+    before = _counters(client)
     client.command("start")
     _until(lambda: client.status()["state"] == "waiting")
-    flood_key = trigger_key(NS, "lights")
-    stop = threading.Event()
-
-    def flood() -> None:
-        payload = b'{"v": 1}'
-        while not stop.is_set():
-            for _ in range(100):
-                session.put(flood_key, payload)
-            time.sleep(0.05)
-
-    th = threading.Thread(target=flood, name="xgo-show test flood")
-    th.start()
+    warnings: list[dict[str, Any]] = []
+    sub = session.declare_subscriber(
+        event_key(NS, "*"), lambda s: warnings.append(json.loads(s.payload.to_bytes()))
+    )
+    client.status()  # the subscriber is in place
+    refused = Flood(session, trigger_key(NS, "lights"), b'{"v": 1}', rate=2000)
+    malformed = Flood(session, trigger_key(NS, "go"), b"{not json", rate=1000)
     try:
-        time.sleep(0.5)
+        time.sleep(1.0)
         assert client.status()["state"] == "waiting"  # still answering, still holding
         assert client.trigger("go")["held"] is True
     finally:
-        stop.set()
-        th.join()
+        sent = refused.stop(), malformed.stop()
     _until(lambda: client.status()["state"] in ("loaded", "idle"), timeout=10.0)
     assert client.status()["last_result"]["completed"] is True
+    after = _counters(client)
+    assert after["refused"] - before["refused"] == sent[0]
+    assert after["malformed"] - before["malformed"] == sent[1]
+    assert after["triggers"] - before["triggers"] == sent[0] + 1
+    assert after["accepted"] - before["accepted"] == 1
+    _until(lambda: any(w.get("suppressed") for w in warnings), timeout=3.0)
+    sub.undeclare()
+    noisy = [w for w in warnings
+             if w["event"] == "warning" and "suppressed" not in w
+             or w["event"] == "trigger" and not w["accepted"]]
+    seconds = max(w["time"] for w in warnings) - min(w["time"] for w in warnings) + 1
+    assert 0 < len(noisy) <= 10 * (seconds + 1)  # the rest counted, not published
+    assert len(noisy) + sum(w.get("suppressed", 0) for w in warnings) == sum(sent)
+
+
+def test_panic_wins_over_queued_commands_and_a_flood(
+    client: ControlClient, session: zenoh.Session
+) -> None:
+    flood = Flood(session, trigger_key(NS, "lights"), b"{}", rate=2000)
+    replies: list[dict[str, Any]] = []
+
+    def start() -> None:
+        try:
+            replies.append(client.command("start"))
+        except ControlFailed as exc:
+            replies.append(exc.reply)
+
+    starts = [threading.Thread(target=start) for _ in range(3)]
+    try:
+        for th in starts:
+            th.start()
+        time.sleep(0.05)  # the starts are in: one being armed, the others queued
+        began = time.monotonic()
+        panic = client.command("panic")
+        assert time.monotonic() - began < 1.0
+        for th in starts:
+            th.join(10.0)
+    finally:
+        flood.stop()
+    assert panic["ok"] and panic["state"] in ("ended", "idle")
+    assert len(replies) == 3
+    assert all(r["ok"] or r["error"] in ("cancelled", "refused") for r in replies), replies
+    # Nothing plays after a panic: not the start being armed, not a queued one.
+    _until(lambda: client.status()["state"] in ("loaded", "idle"))
+    time.sleep(0.5)
+    assert client.status()["state"] in ("loaded", "idle")
+
+
+SLOW = """\
+show: Slow to compile
+performers:
+  rex: {model: mini}
+tracks:
+  rex:
+    - repeat: 300
+      cues:
+        - {move: {roll: 8, pitch: 5}, duration: 1.0}
+        - {move: {roll: -8, pitch: -5}, duration: 1.0}
+"""
+
+
+def test_panic_cancels_the_commands_still_queued(
+    client: ControlClient, triggered_path: Path
+) -> None:
+    replies: dict[str, dict[str, Any]] = {}
+
+    def send(command: str, **fields: Any) -> None:
+        try:
+            replies[command] = client.command(command, **fields)
+        except ControlFailed as exc:
+            replies[command] = exc.reply
+
+    load = threading.Thread(target=send, args=("load",), kwargs={"routine": SLOW})
+    load.start()
+    time.sleep(0.2)  # being compiled (about a second) on the control thread
+    start = threading.Thread(target=send, args=("start",))
+    start.start()
+    time.sleep(0.1)  # queued behind the load
+    before = _counters(client)["cancelled"]
+    assert client.command("panic")["ok"]
+    load.join(30.0)
+    start.join(30.0)
+    assert replies["start"]["error"] == "cancelled", replies["start"]
+    assert replies["start"]["message"] == "start cancelled by a panic"
+    assert replies["load"]["ok"]  # what was under way ends (loading moves nothing)
+    assert _counters(client)["cancelled"] == before + 1
+    assert client.status()["state"] == "loaded"
+    client.command("load", path=str(triggered_path))
 
 
 def test_every_payload_the_server_sends_matches_its_schema(

@@ -4,9 +4,11 @@ The listener runs in the runtime's threads (an executor's writer among them), so
 and queues: a frame tells whether a new cue started, a telemetry reading updates the robot's
 latest values, anything else worth telling is queued. A publisher thread turns the queue into
 JSON puts under ``NS/event/...``. The queue is bounded (the oldest item goes first when full,
-counted); progress and telemetry go out at most once per ``progress_interval`` seconds;
-refused triggers (a flood of them, say) at most ``refusals_per_second``, the rest counted in a
-``warning`` event, so a flood never floods the network in turn.
+counted); progress and telemetry go out at most once per ``progress_interval`` seconds.
+Noisy events, those a client can cause at will (a refused trigger, a malformed one dropped),
+go out at most ``noisy_per_second`` a second: the rest are counted, and one ``warning`` event
+says how many were left out once the second is over, so a flood of triggers never floods the
+network in turn.
 """
 
 from __future__ import annotations
@@ -53,15 +55,17 @@ class EventPublisher:
         clock: Clock,
         maxlen: int = 1024,
         progress_interval: float = 1.0,
-        refusals_per_second: int = 10,
+        noisy_per_second: int = 10,
+        window: float = 1.0,
     ) -> None:
         self.ns = namespace
         self.put = put
         self.clock = clock
         self.progress_interval = progress_interval
-        self.refusals_per_second = refusals_per_second
+        self.noisy_per_second = noisy_per_second
+        self.window = window  # seconds over which noisy_per_second counts
         self.dropped = 0  # events lost to a full queue
-        self.suppressed = 0  # refusals not published (over the rate)
+        self.suppressed = 0  # noisy events not published (over the rate)
         self._queue: collections.deque[tuple[str, dict[str, Any]]] = collections.deque()
         self._maxlen = maxlen
         self._cond = threading.Condition()
@@ -70,8 +74,9 @@ class EventPublisher:
         self._cues: dict[str, str] = {}
         self._readings: dict[str, dict[str, float]] = {}
         self._next_progress = float("-inf")
-        self._refusal_window = (float("-inf"), 0)  # (window start, count in it)
-        self._pending_suppressed = 0
+        self._noisy_start = float("-inf")  # the current window's start
+        self._noisy_count = 0  # noisy events in it (published or not)
+        self._pending_suppressed = 0  # left out in it: said in a warning when it ends
         self._thread = threading.Thread(target=self._loop, name="xgo-show events", daemon=True)
         self._thread.start()
 
@@ -85,6 +90,35 @@ class EventPublisher:
     def publish(self, kind: str, **fields: Any) -> None:
         """Queue one event ``NS/event/KIND`` (any thread)."""
         self._enqueue(event_key(self.ns, kind), {"event": kind, **fields})
+
+    def publish_noisy(self, kind: str, **fields: Any) -> bool:
+        """Queue an event a client can cause at will, within the rate (see the module
+        docstring); False when it was left out and counted instead."""
+        now = self.clock.now()
+        with self._cond:
+            self._roll(now)
+            self._noisy_count += 1
+            if self._noisy_count > self.noisy_per_second * self.window:
+                self.suppressed += 1
+                self._pending_suppressed += 1
+                self._cond.notify()  # the publisher thread says so when the window ends
+                return False
+        self.publish(kind, **fields)
+        return True
+
+    def _roll(self, now: float) -> None:
+        """Start a new window if the current one is over, saying what the last left out.
+        Holds ``_cond``."""
+        if now - self._noisy_start < self.window:
+            return
+        if self._pending_suppressed:
+            n, self._pending_suppressed = self._pending_suppressed, 0
+            self._append(event_key(self.ns, "warning"), {
+                "event": "warning", "suppressed": n,
+                "message": f"{n} refused or malformed trigger(s) not published in the last "
+                f"{self.window:g} s",
+            })
+        self._noisy_start, self._noisy_count = now, 0
 
     def close(self) -> None:
         """Send what is queued (briefly), then stop."""
@@ -123,7 +157,8 @@ class EventPublisher:
                               {"event": "telemetry", "robot": robot, "readings": dict(values)})
             return
         if isinstance(event, TriggerRefused):
-            self._refused(event)
+            self.publish_noisy("trigger", trigger=event.trigger, accepted=False,
+                               reason=event.reason)
             return
         fields = self._describe(event)
         if fields is not None:
@@ -163,40 +198,32 @@ class EventPublisher:
                     "trigger": event.trigger, "how": event.how, "goto": event.goto}
         return None
 
-    def _refused(self, event: TriggerRefused) -> None:
-        now = self.clock.now()
-        start, count = self._refusal_window
-        if now - start >= 1.0:
-            if self._pending_suppressed:
-                self.publish("warning", message=f"{self._pending_suppressed} more refused "
-                             "trigger(s) not published in the last second",
-                             suppressed=self._pending_suppressed)
-                self._pending_suppressed = 0
-            start, count = now, 0
-        count += 1
-        self._refusal_window = (start, count)
-        if count > self.refusals_per_second:
-            self.suppressed += 1
-            self._pending_suppressed += 1
-            return
-        self.publish("trigger", trigger=event.trigger, accepted=False, reason=event.reason)
-
     # ------------------------------------------------------------------ publishing
 
     def _enqueue(self, key: str, payload: dict[str, Any]) -> None:
-        payload = {"v": PROTOCOL_VERSION, "time": wall_time(), **payload}
         with self._cond:
-            if len(self._queue) >= self._maxlen:
-                self._queue.popleft()
-                self.dropped += 1
-            self._queue.append((key, payload))
+            self._append(key, payload)
             self._cond.notify()
+
+    def _append(self, key: str, payload: dict[str, Any]) -> None:
+        """Queue one event (holds ``_cond``); a full queue loses its oldest, counted."""
+        if len(self._queue) >= self._maxlen:
+            self._queue.popleft()
+            self.dropped += 1
+        self._queue.append((key, {"v": PROTOCOL_VERSION, "time": wall_time(), **payload}))
 
     def _loop(self) -> None:
         while True:
             with self._cond:
                 while not self._queue and not self._closed:
-                    self._cond.wait()
+                    if self._pending_suppressed:  # say so when the window ends
+                        left = self._noisy_start + self.window - self.clock.now()
+                        if left <= 0:
+                            self._roll(self.clock.now())
+                            continue
+                        self._cond.wait(left)
+                    else:
+                        self._cond.wait()
                 if not self._queue:
                     return
                 key, payload = self._queue.popleft()

@@ -26,7 +26,7 @@ SCHEMA_FILE = f"zenoh-api.v{PROTOCOL_VERSION}.schema.json"
 #: Every ``error`` an error reply can carry (docs/zenoh-api.md says when).
 ERROR_CODES = (
     "unknown_command", "bad_request", "version", "too_large", "not_found", "refused",
-    "failed", "busy", "closing", "internal",
+    "failed", "busy", "cancelled", "closing", "internal",
 )
 
 Num = float
@@ -126,6 +126,19 @@ class NextWait(_Piece):
     trigger: str
 
 
+class Counters(_Piece):
+    """What came in since the server started, and what became of it."""
+
+    triggers: int = Field(description="Well-formed triggers received (puts and queries).")
+    accepted: int = Field(description="Triggers that released a wait or were kept for one.")
+    refused: int = Field(description="Triggers nobody waited for.")
+    malformed: int = Field(description="Triggers whose payload was refused (dropped).")
+    busy: int = Field(description="Commands refused because 64 were queued.")
+    cancelled: int = Field(description="Commands (and starts being armed) a panic cancelled.")
+    events_dropped: int = Field(description="Events lost to a full event queue.")
+    events_suppressed: int = Field(description="Noisy events left out over the rate.")
+
+
 class _PlaceFields(BaseModel):
     """Where in the show: show time, bar and beat (shows with a tempo), the section."""
 
@@ -201,6 +214,7 @@ class StatusReply(_Reply):
     last_result: LastResult | None
     namespace: str
     version: int
+    counters: Counters
     # while a show runs:
     show_time: Num | None = None
     bar: int | None = None

@@ -57,6 +57,7 @@ if TYPE_CHECKING:
 __all__ = ["ServeOptions", "ShowServer"]
 
 _QUEUE = 64  # control commands waiting for the control thread
+_COUNTERS = ("triggers", "accepted", "refused", "malformed", "busy", "cancelled")
 
 
 @dataclass(frozen=True)
@@ -116,8 +117,9 @@ class ShowServer:
         self._queue: collections.deque[tuple[str, Any, Any]] = collections.deque()
         self._cond = threading.Condition()
         self._closed = False
-        self.triggers_received = 0
-        self.bad_triggers = 0
+        self._panics = 0  # panics so far: a start armed across one is cancelled
+        #: what came in and what became of it (status replies carry them)
+        self.counters = dict.fromkeys(_COUNTERS, 0)
         self.publisher = EventPublisher(self.ns, self._put, clock=self.clock)
         if any(_relayed(url) for url in opts.maps.values()):
             from xgo_show.relay.conductor import configure
@@ -148,6 +150,7 @@ class ShowServer:
             return
         with self._cond:
             if len(self._queue) >= _QUEUE:
+                self._count("busy")
                 self._reply_err(query, command, "busy",
                                 f"{_QUEUE} commands are already waiting; try again")
                 return
@@ -162,8 +165,8 @@ class ShowServer:
         try:
             request = parse_request("trigger", sample.payload.to_bytes())
         except ControlError as exc:
-            self.bad_triggers += 1
-            self.publisher.publish("warning", message=f"trigger {name!r} dropped: {exc}")
+            self._count("malformed")
+            self.publisher.publish_noisy("warning", message=f"trigger {name!r} dropped: {exc}")
             return
         # A refusal is said in the trigger event (rate-limited): a put has no one to answer.
         with contextlib.suppress(ControlError):
@@ -172,7 +175,11 @@ class ShowServer:
     def _on_trigger_query(self, query: Any) -> None:
         name = str(query.key_expr).rsplit("/", 1)[-1]
         try:
-            request = parse_request("trigger", _payload(query))
+            try:
+                request = parse_request("trigger", _payload(query))
+            except ControlError:
+                self._count("malformed")
+                raise
             fields = self._trigger(name, request)  # type: ignore[arg-type]
         except ControlError as exc:
             self._reply_err(query, "trigger", exc.code, str(exc))
@@ -241,6 +248,7 @@ class ShowServer:
 
     def _cmd_start(self, req: StartRequest) -> dict[str, Any]:
         with self._lock:
+            panics = self._panics
             if self._run is not None:
                 raise ControlError("a show is running already (stop it first)")
             if self._loaded is None:
@@ -258,17 +266,22 @@ class ShowServer:
         elif req.in_ is not None:
             start_at = now + req.in_
         if start_at is not None and start_at < now - 0.5:
-            run.launch.close()
-            if run.sims is not None:
-                run.sims.close()
+            _disarm(run)
             raise ControlError(
                 f"start time is {now - start_at:.3f} s in the past", code="bad_request"
             )
         thread = threading.Thread(target=self._play, args=(run, offset, start_at),
                                   name="xgo-show show", daemon=True)
         run.thread = thread
-        with self._lock:
-            self._run = run
+        with self._lock:  # a panic now finds the run (and stops it), or came before: cancel
+            cancelled = self._panics != panics
+            if not cancelled:
+                self._run = run
+        if cancelled:
+            _disarm(run)
+            self._count("cancelled")
+            raise ControlError("start cancelled by a panic during its pre-flight",
+                               code="cancelled")
         thread.start()
         report = run.launch.report
         when = start_at if start_at is not None else now
@@ -373,10 +386,17 @@ class ShowServer:
                 "stops": {n: {"ok": s.ok, "error": s.error} for n, s in result.stops.items()}}
 
     def _panic(self, reason: str) -> dict[str, Any]:
-        """Safe stop everything now: the running show, or (between shows) the robots of the
-        loaded show. Always accepted."""
+        """Safe stop everything now: the running show, a start being armed (cancelled) and
+        every command still queued (cancelled). Always accepted."""
         with self._lock:
+            self._panics += 1
             run = self._run
+        with self._cond:
+            queued = list(self._queue)
+            self._queue.clear()
+        for command, _, query in queued:
+            self._count("cancelled")
+            self._reply_err(query, command, "cancelled", f"{command} cancelled by a panic")
         if run is not None:
             run.runner.stop(reason)
             self.publisher.publish("state", state="panic")
@@ -384,15 +404,27 @@ class ShowServer:
         return {"state": "idle", "note": "no show is running: nothing is moving"}
 
     def _trigger(self, name: str, req: TriggerRequest) -> dict[str, Any]:
-        self.triggers_received += 1
+        self._count("triggers")
         with self._lock:
             run = self._run
-        if run is None:
-            raise ControlError(f"trigger {name!r} refused: no show is running")
-        outcome = run.director.trigger(name)
+        try:
+            if run is None:
+                reason = "no show is running"
+                self.publisher.publish_noisy("trigger", trigger=name, accepted=False,
+                                             reason=reason)
+                raise ControlError(f"trigger {name!r} refused: {reason}")
+            outcome = run.director.trigger(name)  # a refusal is published by the director
+        except ControlError:
+            self._count("refused")
+            raise
+        self._count("accepted")
         self.publisher.publish("trigger", trigger=name, accepted=True, section=outcome.section,
                                held=outcome.held, source=req.source, data=req.data)
         return {"trigger": name, "section": outcome.section, "held": outcome.held}
+
+    def _count(self, what: str) -> None:
+        with self._lock:
+            self.counters[what] += 1
 
     # ------------------------------------------------------------------ status
 
@@ -406,6 +438,7 @@ class ShowServer:
             "last_result": last,
             "namespace": self.ns,
             "version": PROTOCOL_VERSION,
+            "counters": self._counters(),
         }
         if run is not None:
             director = run.director
@@ -426,6 +459,13 @@ class ShowServer:
             out["faults"] = faults
         return out
 
+    def _counters(self) -> dict[str, int]:
+        with self._lock:
+            out = dict(self.counters)
+        out["events_dropped"] = self.publisher.dropped
+        out["events_suppressed"] = self.publisher.suppressed
+        return out
+
     # ------------------------------------------------------------------ life
 
     def close(self) -> None:
@@ -444,6 +484,14 @@ class ShowServer:
             decl.undeclare()
         self._decls = []
         self.publisher.close()
+
+
+def _disarm(run: _Run) -> None:
+    """Give up an armed run that never started (nothing moved): close its ports."""
+    run.director.close()
+    run.launch.close()
+    if run.sims is not None:
+        run.sims.close()
 
 
 def _relayed(url: str) -> bool:
