@@ -49,8 +49,8 @@ def test_malformed_messages_say_what_is_wrong(data: bytes, says: str) -> None:
 
 
 def test_missing_and_mistyped_fields_are_named() -> None:
-    with pytest.raises(msg.MessageError, match="missing field 'start_at'"):
-        msg.decode_request(request("start", sha256="x", offset=0.0))
+    with pytest.raises(msg.MessageError, match="missing field 'offset'"):
+        msg.decode_request(request("start", sha256="x", start_at=1.0))
     with pytest.raises(msg.MessageError, match=r"start\.start_at' must be a number"):
         msg.decode_request(request("start", sha256="x", start_at="soon", offset=0.0))
     with pytest.raises(msg.MessageError, match="link_loss"):

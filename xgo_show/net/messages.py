@@ -39,8 +39,10 @@ release    (none): gives the relay up                    (none)
 upload     ``schedule`` (schedule JSON text), ``sha256``  ``sha256``, ``preflight`` rows,
            (of that text), ``link_loss`` ("stop" or      ``preflight_ok``
            "continue"), ``watchdog_ms``, ``battery_floor``
-start      ``sha256``, ``start_at`` (relay time),        ``start_at``, ``margin`` (seconds to
-           ``offset`` (show time)                        spare when the robots were armed)
+start      ``sha256``, ``start_at`` (relay time) or      ``start_at``, ``margin`` (seconds to
+           ``start_in`` (seconds after the command       spare when the robots were armed)
+           arrives: the naive way, for comparisons),
+           ``offset`` (show time)
 pause      ``at`` (relay time or null: now)              ``at``
 resume     ``at``                                        ``at``
 seek       ``show_time``, ``at``                         ``at``
@@ -103,7 +105,7 @@ OPS: dict[str, dict[str, str]] = {
         "watchdog_ms": "int",
         "battery_floor": "float?",
     },
-    "start": {"sha256": "str", "start_at": "float", "offset": "float"},
+    "start": {"sha256": "str", "start_at": "float?", "start_in": "float?", "offset": "float"},
     "pause": {"at": "float?"},
     "resume": {"at": "float?"},
     "seek": {"show_time": "float", "at": "float?"},

@@ -447,7 +447,12 @@ class Relay:
 
     def _start(self, request: msg.Request) -> dict[str, Any]:
         sha = request.text("sha256")
-        start_at = request.number("start_at")
+        start_at = request.maybe_number("start_at")
+        start_in = request.maybe_number("start_in")
+        if start_in is not None and start_at is None:
+            start_at = self.clock.now() + start_in  # the naive way: a lead after arrival
+        elif start_at is None or start_in is not None:
+            raise XgoShowError("start: give start_at or start_in (not both)")
         offset = request.number("offset")
         with self._lock:
             show = self._show
