@@ -1,0 +1,673 @@
+"""How together do relays on several "hosts" start and stay? Clock sync vs the naive way.
+
+Relays run as separate ``xgo-show relay`` processes, each owning one simulated robot served by
+its own ``xgo-show simulate --record`` process on a real pseudo-terminal. Every relay's clock
+is made wrong on purpose (``XGO_SHOW_TEST_CLOCK``): a random offset of up to +-100 s and a
+rate error of up to +-100 ppm. The simulators timestamp what they receive with this machine's
+monotonic clock, which they all share, so the spread of those timestamps is the true skew.
+
+Two ways to start the same show on every relay, in the same run:
+
+- **synced**: the conductor measures each relay's clock (NTP-style, lowest round trips) and
+  pushes the timebase, which the relay's show clock follows; ``start`` carries a start time,
+  so every relay starts at the same instant; a clock tracker keeps measuring during the show
+  and the relays slew onto each new drift estimate;
+- **naive**: ``start`` with ``start_in``: each relay starts a fixed lead after the command
+  arrives on its own (uncorrected) clock, as a system without clock sync would.
+
+Figures (ms, p50/p99/p99.9/max; with 20 starts p99 and up are the largest values):
+
+1. start skew: spread of the first frame's receive time across the robots, per start, and
+   where it comes from: each relay's own lateness (its write against the start, on its show
+   clock, from its run log), and receive time - that write (the clock's error plus the
+   pseudo-terminal's delivery), beside the same parts for N local robots that one process
+   starts (the floor: no network, no clock to estimate);
+2. skew after a long show (``--drift-seconds``, 60 by default): spread of the receive time of
+   the show's last frame, synced with tracking, synced without tracking (offset only), naive;
+3. send-time error at the robot (receive time - planned time) of a relayed robot vs the same
+   schedule played by a local runner in this process: what the relay adds;
+4. the estimator with a test-only delay on every time-sync reply (5 ms +- 2 ms, one way): its
+   error against the bound it reports, and the start skew it gives;
+5. scale: the same start with ``--scale`` relays (16 by default): set-up time, start skew,
+   command round trip, and the conductor's CPU per second while it keeps them synced.
+
+Prints figures only (no asserts). Run it alone (``flock /work/land.lock``)::
+
+    python benchmarks/relay_sync.py [--relays 4] [--starts 20] [--drift-seconds 60] [--scale 16]
+    python benchmarks/relay_sync.py --quick     # about a minute: 5 starts, 10 s drift, no scale
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import random
+import resource
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from xgo_show.compiler.artifact import schedule_to_bytes
+from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
+from xgo_show.errors import NetworkError
+from xgo_show.net.keys import relay_key
+from xgo_show.net.session import SessionOptions, open_session
+from xgo_show.net.testhooks import CLOCK_ENV, DELAY_ENV
+from xgo_show.net.timesync import ClockTracker, measure
+from xgo_show.profiles import get_profile
+from xgo_show.relay.client import RelayClient
+from xgo_show.relay.validate import schedule_digest
+from xgo_show.runtime.clock import MonotonicClock
+from xgo_show.runtime.events import EventBus, EventRecorder, FrameSent
+from xgo_show.runtime.launch import local_runner
+from xgo_show.runtime.report import percentile
+from xgo_show.transports import open_transport
+from xgo_show.wire.xgo import write_frame
+
+MODEL = "mini"
+RATE = 20.0  # frames per second in the shows
+LEAD = 0.5  # seconds between the start commands and the start
+SHORT = 0.3  # seconds of show per start
+
+
+# ---------------------------------------------------------------------------- processes
+
+
+@dataclass
+class Sim:
+    """One ``xgo-show simulate --record`` process."""
+
+    proc: subprocess.Popen[str]
+    path: str
+    record: Path
+
+    def frames(self) -> list[tuple[float, str]]:
+        """(receive time, hex) of every frame, once the process has ended."""
+        out = []
+        for line in self.record.read_text(encoding="utf-8").splitlines():
+            row = json.loads(line)
+            out.append((float(row["t"]), str(row["hex"])))
+        return out
+
+
+@dataclass
+class Relay:
+    """One ``xgo-show relay`` process owning one simulated robot, and its client."""
+
+    name: str
+    port: int
+    proc: subprocess.Popen[str]
+    sim: Sim
+    offset: float
+    ppm: float
+    log: Path | None = None  # its run log (--log)
+    client: RelayClient | None = None
+    tracker: ClockTracker | None = None
+    sha: str = ""
+
+    def sync(self, session: object, *, track: bool = True) -> None:
+        """Measure the relay's clock and push the timebase; keep tracking it if ``track``."""
+        assert self.client is not None
+        self.unsync()
+        self.tracker = ClockTracker(
+            session,  # type: ignore[arg-type]
+            relay_key("xgo-show", self.name, "time"),
+            conductor=self.client.conductor.id,
+            interval=1.0,
+        )
+        self.tracker.start()
+        if not track:
+            self.tracker.close()
+
+    def unsync(self) -> None:
+        if self.tracker is not None:
+            self.tracker.close()
+
+
+@dataclass
+class Rig:
+    """Every process of one configuration; :meth:`close` ends them all."""
+
+    tmp: Path
+    relays: list[Relay] = field(default_factory=list)
+    sims: list[Sim] = field(default_factory=list)
+
+    def close(self) -> None:
+        for relay in self.relays:
+            if relay.client is not None:
+                relay.client.stop_heartbeat()
+            relay.unsync()
+            if relay.proc.poll() is None:
+                relay.proc.send_signal(signal.SIGINT)
+        for relay in self.relays:
+            _wait(relay.proc)
+        for sim in self.sims:
+            if sim.proc.poll() is None:
+                sim.proc.send_signal(signal.SIGINT)
+        for sim in self.sims:
+            _wait(sim.proc)
+
+
+def _wait(proc: subprocess.Popen[str]) -> None:
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(5)
+    for stream in (proc.stdin, proc.stdout, proc.stderr):
+        if stream is not None:
+            stream.close()
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def start_sim(tmp: Path, name: str) -> Sim:
+    record = tmp / f"{name}.jsonl"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "xgo_show", "simulate", "--model", MODEL, "--record", str(record)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    assert proc.stdout is not None
+    path = proc.stdout.readline().strip()
+    if not path.startswith("/dev/"):
+        raise SystemExit(f"simulator {name} did not start")
+    return Sim(proc, path, record)
+
+
+def start_relays(
+    rig: Rig,
+    count: int,
+    rng: random.Random,
+    *,
+    prefix: str,
+    env: dict[str, str] | None = None,
+    ppm: bool = True,
+) -> list[Relay]:
+    """``count`` relays with random clock errors (ppm 0 if not ``ppm``); waits until ready."""
+    made = []
+    for i in range(count):
+        name = f"{prefix}{i}"
+        sim = start_sim(rig.tmp, name)
+        rig.sims.append(sim)
+        offset = rng.uniform(-100.0, 100.0)
+        rate = rng.uniform(-100.0, 100.0) if ppm else 0.0
+        port = _free_port()
+        log = rig.tmp / f"{name}-run.jsonl"
+        proc = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "xgo_show",
+                "relay",
+                "--name",
+                name,
+                "--map",
+                f"bot={sim.path}",
+                "--listen",
+                f"tcp/127.0.0.1:{port}",
+                "--no-telemetry",
+                "--log",
+                str(log),
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env={**os.environ, CLOCK_ENV: f"offset={offset!r},ppm={rate!r}", **(env or {})},
+        )
+        made.append(Relay(name, port, proc, sim, offset, rate, log))
+        rig.relays.append(made[-1])
+    for relay in made:
+        assert relay.proc.stdout is not None
+        if "ready" not in relay.proc.stdout.readline():
+            err = relay.proc.stderr.read() if relay.proc.stderr else ""
+            raise SystemExit(f"relay {relay.name} did not start: {err}")
+    return made
+
+
+def connect(relays: Sequence[Relay]) -> object:
+    return open_session(
+        SessionOptions(
+            connect=tuple(f"tcp/127.0.0.1:{r.port}" for r in relays),
+            listen=("tcp/127.0.0.1:0",),
+        )
+    )
+
+
+def claim(session: object, relay: Relay, *, sync: bool = True) -> None:
+    client = RelayClient(session, relay.name)  # type: ignore[arg-type]
+    deadline = time.monotonic() + 10
+    while True:  # the session may still be connecting
+        try:
+            client.hello()
+            break
+        except NetworkError:
+            if time.monotonic() > deadline:
+                raise
+            time.sleep(0.05)
+    client.start_heartbeat(period=0.1, watchdog=0.5)
+    relay.client = client
+    if sync:
+        relay.sync(session)
+
+
+# ---------------------------------------------------------------------------- shows
+
+
+def make_schedule(seconds: float, names: Sequence[str] = ("bot",)) -> Schedule:
+    """Robots swaying body_z every 1/RATE s (every frame's byte tells its index mod 128)."""
+    profile = get_profile(MODEL)
+    reg = profile.register("body_z")
+    n = max(2, round(seconds * RATE))
+    frames = tuple(
+        ScheduledFrame(
+            k / RATE, write_frame(reg.address, bytes((k % 128,)), write_type=profile.write_type)
+        )
+        for k in range(n)
+    )
+    parts = tuple(
+        PerformerSchedule(name, MODEL, profile.link, frames, end=frames[-1].t + 0.05)
+        for name in names
+    )
+    return Schedule("relay sync benchmark", "-", parts, RATE)
+
+
+def upload(relays: Sequence[Relay], schedule: Schedule) -> None:
+    text = schedule_to_bytes(schedule).decode("ascii")
+    sha = schedule_digest(text)
+    for relay in relays:
+        assert relay.client is not None
+        reply = relay.client.upload(text, sha)
+        if not reply["preflight_ok"]:
+            raise SystemExit(f"relay {relay.name}: pre-flight failed: {reply['preflight']}")
+        relay.sha = sha
+
+
+def lead(relays: Sequence[Relay]) -> float:
+    """Seconds from the first start command to the start: enough for one command per relay."""
+    return LEAD + 0.15 * len(relays)
+
+
+def start(relays: Sequence[Relay], *, naive: bool) -> float:
+    """Start every relay's uploaded show; return the intended start (monotonic time)."""
+    start_at = time.monotonic() + lead(relays)
+    for relay in relays:
+        assert relay.client is not None
+        if naive:
+            relay.client.request("start", sha256=relay.sha, start_in=lead(relays), offset=0.0)
+        else:
+            relay.client.request("start", sha256=relay.sha, start_at=start_at, offset=0.0)
+    return start_at
+
+
+def wait_ended(relays: Sequence[Relay], timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    for relay in relays:
+        assert relay.client is not None
+        while relay.client.command("heartbeat")["show"]["state"] not in ("ended", "idle"):
+            if time.monotonic() > deadline:
+                raise SystemExit(f"relay {relay.name}: the show did not end")
+            time.sleep(0.05)
+
+
+# ---------------------------------------------------------------------------- figures
+
+
+def stats(values_ms: Sequence[float]) -> str:
+    """p50/p99/p99.9/max of values in ms."""
+    if not values_ms:
+        return "(no data)"
+    v = sorted(values_ms)
+    return (
+        f"p50 {percentile(v, 0.50):7.3f}  p99 {percentile(v, 0.99):7.3f}  "
+        f"p99.9 {percentile(v, 0.999):7.3f}  max {v[-1]:7.3f}  (n={len(v)})"
+    )
+
+
+@dataclass(frozen=True)
+class Run:
+    """One show on every relay: from when the commands went out to when it had ended."""
+
+    mode: str
+    sent: float
+    ended: float
+    start_at: float | None  # the intended start (synced runs)
+    # robot -> when its first frame was written (this machine's clock; a relay's show clock)
+    writes: dict[str, float] = field(default_factory=dict)
+
+
+def received_in(sim: Sim, run: Run) -> list[float]:
+    """Receive times of the frames ``sim`` got during ``run``."""
+    return [t for t, _ in sim.frames() if run.sent <= t < run.ended]
+
+
+def skew(relays: Sequence[Relay], run: Run, index: int) -> float | None:
+    """Spread (ms) of the ``index``-th frame's receive time across the robots (None: missing)."""
+    times = []
+    for relay in relays:
+        got = received_in(relay.sim, run)
+        if not got or index >= len(got) or -index > len(got):
+            return None
+        times.append(got[index])
+    return (max(times) - min(times)) * 1000
+
+
+def first_writes(relay: Relay) -> dict[float, float]:
+    """start time -> when that show's first frame was written, from the relay's run log.
+
+    Both on the relay's show clock (the conductor's time as the relay knows it)."""
+    assert relay.log is not None
+    out: dict[float, float] = {}
+    start: float | None = None
+    for line in relay.log.read_text(encoding="utf-8").splitlines():
+        rec = json.loads(line)
+        if rec.get("event") == "start":
+            start = float(rec["start_at"]) - float(rec["offset"])
+        elif rec.get("kind") == "frame" and rec.get("send") == "frame" and start is not None:
+            out[round(start, 6)] = start + float(rec["actual"])
+            start = None
+    return out
+
+
+def parts(robots: Sequence[Relay], runs: Sequence[Run]) -> tuple[list[float], ...]:
+    """Where the start skew comes from, over ``runs`` (ms): per start, the spread across the
+    robots of their lateness (write - start) and of their delivery (receive - write); and
+    every robot's lateness and delivery."""
+    late_spread, delivery_spread, late, delivery = [], [], [], []
+    for run in runs:
+        assert run.start_at is not None
+        got = {r.name: received_in(r.sim, run) for r in robots}
+        if any(not got[r.name] or r.name not in run.writes for r in robots):
+            continue
+        lates = [(run.writes[r.name] - run.start_at) * 1000 for r in robots]
+        deliveries = [(got[r.name][0] - run.writes[r.name]) * 1000 for r in robots]
+        late_spread.append(max(lates) - min(lates))
+        delivery_spread.append(max(deliveries) - min(deliveries))
+        late += lates
+        delivery += deliveries
+    return late_spread, delivery_spread, late, delivery
+
+
+def print_parts(label: str, robots: Sequence[Relay], runs: Sequence[Run]) -> None:
+    late_spread, delivery_spread, late, delivery = parts(robots, runs)
+    print(f"   {label:9s} write - start    {stats(late)}")
+    print(f"   {'':9s}   spread         {stats(late_spread)}")
+    print(f"   {'':9s} receive - write  {stats(delivery)}")
+    print(f"   {'':9s}   spread         {stats(delivery_spread)}")
+
+
+def send_errors(relays: Sequence[Relay], run: Run, schedule: Schedule) -> list[float]:
+    """Receive time - planned time (ms) of every frame of a synced run, every robot."""
+    assert run.start_at is not None
+    planned = [run.start_at + f.t for f in schedule.performers[0].frames]
+    out = []
+    for relay in relays:
+        got = received_in(relay.sim, run)
+        out += [(t - p) * 1000 for t, p in zip(got, planned, strict=False)]
+    return out
+
+
+def play(relays: Sequence[Relay], schedule: Schedule, mode: str) -> Run:
+    """Upload ``schedule`` to every relay and play it; a ``mode`` ending in ``naive`` starts
+    each relay when its command arrives, any other at one start time."""
+    upload(relays, schedule)
+    sent = time.monotonic()
+    naive = mode.endswith("naive")
+    try:
+        start_at = start(relays, naive=naive)
+    except NetworkError as exc:  # counted as a failed start, not measured
+        print(f"   ({mode}: {exc}; every relay stopped, start not counted)")
+        for relay in relays:
+            assert relay.client is not None
+            relay.client.command("stop", reason="benchmark: a start failed")
+        wait_ended(relays, 10)
+        return Run("failed", sent, time.monotonic(), None)
+    wait_ended(relays, lead(relays) + schedule.duration + 10)
+    return Run(mode, sent, time.monotonic(), None if naive else start_at)
+
+
+# ---------------------------------------------------------------------------- phases
+
+
+def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
+    rig = Rig(tmp / "main")
+    rig.tmp.mkdir()
+    short, long = make_schedule(SHORT), make_schedule(args.drift_seconds)
+    runs: list[Run] = []
+    rates: list[str] = []
+    try:
+        # The local runs first, while this process has nothing else to do (as a local show).
+        local, local_runs = play_local(rig, args.relays, args.starts)
+        relays = start_relays(rig, args.relays, rng, prefix="stage")
+        session = connect(relays)
+        for relay in relays:
+            claim(session, relay)
+        for _ in range(args.starts):
+            runs.append(play(relays, short, "start synced"))
+            runs.append(play(relays, short, "start naive"))
+        if args.drift_seconds > 0:
+            runs.append(play(relays, long, "drift synced"))
+            for relay in relays:
+                assert relay.client is not None and relay.tracker is not None
+                tb = relay.tracker.timebase
+                assert tb is not None
+                rates.append(
+                    f"{relay.name}: {relay.ppm:+8.3f} ppm set, {tb.rate * 1e6:+8.3f} "
+                    f"+- {tb.rate_bound * 1e6:.3f} ppm estimated, offset bound "
+                    f"{tb.bound * 1e3:.3f} ms"
+                )
+                # offset only: one burst (rate unknown, taken as 0), then no tracking
+                relay.sync(session, track=False)
+            runs.append(play(relays, long, "drift offset only"))
+            for relay in relays:  # a naive relay runs on its own, uncorrected clock
+                assert relay.client is not None
+                relay.client.stop_heartbeat()
+                relay.client.command("release")
+                claim(session, relay, sync=False)
+            runs.append(play(relays, long, "drift naive"))
+    finally:
+        rig.close()
+    logged = {relay.name: first_writes(relay) for relay in relays}
+    for run in runs:
+        if run.start_at is not None:
+            for name, writes in logged.items():
+                if (t := writes.get(round(run.start_at, 6))) is not None:
+                    run.writes[name] = t
+    local_errors = [e for r in local_runs for e in send_errors(local, r, short)]
+    local_skews = [skew(local, r, 0) for r in local_runs]
+    print(
+        f"\n{args.relays} relays, clocks off by up to +-100 s and +-100 ppm "
+        f"({', '.join(f'{r.offset:+.1f} s {r.ppm:+.0f} ppm' for r in relays)})"
+    )
+    print(
+        f"\n1. start skew: spread of the first frame across the robots, {args.starts} starts (ms)"
+    )
+    for mode in ("synced", "naive"):
+        values = [skew(relays, r, 0) for r in runs if r.mode == f"start {mode}"]
+        print(f"   {mode:9s} {stats([v for v in values if v is not None])}")
+    local_line = stats([v for v in local_skews if v is not None])
+    print(f"   local     {local_line}   (the same robots on one host, one runner)")
+    print("   its parts (ms): each robot's first write against the start, and its receive time")
+    print("   against that write (for a relay: its clock's error + the pseudo-terminal)")
+    print_parts("relayed", relays, [r for r in runs if r.mode == "start synced"])
+    print_parts("local", local, local_runs)
+    if args.drift_seconds > 0:
+        print(
+            f"\n2. skew after {args.drift_seconds:g} s of show: "
+            "spread of the first and of the last frame (ms)"
+        )
+        for r in runs:
+            if r.mode.startswith("drift"):
+                first, last = skew(relays, r, 0), skew(relays, r, -1)
+                print(f"   {r.mode[6:]:12s} first {first or 0:8.3f}   last {last or 0:8.3f}")
+        print("   the clock tracker's drift estimates at the end of the synced show:")
+        for line in rates:
+            print(f"     {line}")
+    print("\n3. send-time error at the robot: receive time - planned time (ms)")
+    relayed = [e for r in runs if r.mode == "start synced" for e in send_errors(relays, r, short)]
+    print(f"   relayed   {stats(relayed)}")
+    print(f"   local     {stats(local_errors)}")
+
+
+def play_local(rig: Rig, count: int, starts: int) -> tuple[list[Relay], list[Run]]:
+    """The same short show on ``count`` robots by one local runner (``xgo-show run``'s way),
+    ``starts`` times; each robot a simulator process of its own, as behind the relays."""
+    names = [f"local{i}" for i in range(count)]
+    schedule = make_schedule(SHORT, names)
+    sims = [start_sim(rig.tmp, name) for name in names]
+    rig.sims += sims
+    links = {
+        n: open_transport(s.path, baudrate=schedule.performers[0].link.baud)
+        for n, s in zip(names, sims, strict=True)
+    }
+    runs = []
+    for link in links.values():
+        link.open()
+    try:
+        for _ in range(starts):
+            bus = EventBus()
+            recorder = EventRecorder(bus, FrameSent)
+            runner = local_runner(
+                schedule, links, clock=MonotonicClock(), events=bus, telemetry=False
+            )
+            sent = time.monotonic()
+            start_at = sent + LEAD
+            result = runner.run(start_at=start_at, handle_signals=False)
+            if not result.completed:
+                raise SystemExit(f"the local run did not complete: {result.reason}")
+            writes = {}
+            for ev in recorder.sent():
+                if ev.kind == "frame" and ev.performer not in writes:
+                    writes[ev.performer] = ev.t
+            recorder.close()
+            runs.append(Run("local", sent, time.monotonic(), start_at, writes))
+    finally:
+        for link in links.values():
+            link.close()
+    # Stand-ins with the simulators, for skew() and send_errors()
+    return [Relay(n, 0, s.proc, s, 0.0, 0.0) for n, s in zip(names, sims, strict=True)], runs
+
+
+def phase_delay(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
+    """Relays whose time-sync replies are held back 5 ms +- 2 ms (one way, so asymmetric)."""
+    rig = Rig(tmp / "delay")
+    rig.tmp.mkdir()
+    short = make_schedule(SHORT)
+    runs: list[Run] = []
+    errors: list[float] = []
+    bounds: list[float] = []
+    inside = 0
+    try:
+        env = {DELAY_ENV: "mean=0.005,jitter=0.002"}
+        # ppm 0: the true offset is then the configured one at any time
+        relays = start_relays(rig, args.relays, rng, prefix="slow", env=env, ppm=False)
+        session = connect(relays)
+        for relay in relays:
+            claim(session, relay)
+        for _ in range(args.estimates):
+            for relay in relays:
+                key = relay_key("xgo-show", relay.name, "time")
+                est = measure(session, key, n=25)  # type: ignore[arg-type]
+                error = est.offset - relay.offset
+                errors.append(abs(error) * 1000)
+                bounds.append(est.bound * 1000)
+                inside += abs(error) <= est.bound
+        for _ in range(max(1, args.starts // 2)):
+            runs.append(play(relays, short, "start synced"))
+    finally:
+        rig.close()
+    print("\n4. time-sync replies delayed 5 ms +- 2 ms (one way) on every relay")
+    print(f"   |estimator error| {stats(errors)}")
+    print(f"   reported bound    {stats(bounds)}")
+    print(f"   error within the bound: {inside} of {len(errors)}")
+    values = [skew(relays, r, 0) for r in runs if r.mode != "failed"]
+    print(f"   start skew        {stats([v for v in values if v is not None])}")
+
+
+def phase_scale(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
+    """``--scale`` relays on one conductor."""
+    rig = Rig(tmp / "scale")
+    rig.tmp.mkdir()
+    short = make_schedule(SHORT)
+    runs: list[Run] = []
+    try:
+        t0 = time.monotonic()
+        relays = start_relays(rig, args.scale, rng, prefix="many")
+        spawned = time.monotonic() - t0
+        session = connect(relays)
+        t0 = time.monotonic()
+        for relay in relays:
+            claim(session, relay)
+        claimed = time.monotonic() - t0
+        time.sleep(2.0)
+        before = resource.getrusage(resource.RUSAGE_SELF)
+        idle = 10.0
+        time.sleep(idle)
+        after = resource.getrusage(resource.RUSAGE_SELF)
+        cpu = (after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime) / idle
+        rtts = []
+        for _ in range(5):
+            for relay in relays:
+                assert relay.client is not None
+                t = time.monotonic()
+                relay.client.command("heartbeat")
+                rtts.append((time.monotonic() - t) * 1000)
+        t0 = time.monotonic()
+        upload(relays, short)
+        uploaded = time.monotonic() - t0
+        for _ in range(5):
+            runs.append(play(relays, short, "start synced"))
+    finally:
+        rig.close()
+    print(f"\n5. {args.scale} relays on one conductor")
+    print(
+        f"   relay processes ready {spawned:6.2f} s; hello + clock sync + heartbeats for all "
+        f"{claimed:6.2f} s; upload + pre-flight to all {uploaded:6.2f} s"
+    )
+    print(
+        f"   conductor CPU while keeping them synced (8 pings/s and 10 heartbeats/s each): "
+        f"{cpu * 100:.1f} % of one core"
+    )
+    print(f"   command round trip {stats(rtts)}")
+    values = [skew(relays, r, 0) for r in runs if r.mode != "failed"]
+    print(f"   start skew         {stats([v for v in values if v is not None])}")
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=(__doc__ or "").split("\n")[0])
+    parser.add_argument("--relays", type=int, default=4)
+    parser.add_argument("--starts", type=int, default=20)
+    parser.add_argument("--drift-seconds", type=float, default=60.0)
+    parser.add_argument("--estimates", type=int, default=10, help="bursts per delayed relay")
+    parser.add_argument("--scale", type=int, default=16, help="relays in the scale test (0: skip)")
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--quick", action="store_true", help="5 starts, 10 s drift, 3 bursts, no scale test"
+    )
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.starts, args.drift_seconds, args.estimates, args.scale = 5, 10.0, 3, 0
+    rng = random.Random(args.seed)
+    with tempfile.TemporaryDirectory(prefix="relay-sync-") as tmp:
+        phase_main(Path(tmp), args, rng)
+        phase_delay(Path(tmp), args, rng)
+        if args.scale > 0:
+            phase_scale(Path(tmp), args, rng)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
