@@ -64,18 +64,26 @@ def _reaches(relay_conf: zenoh.Config, conductor_conf: zenoh.Config) -> tuple[bo
             server.close()
 
 
-def test_user_and_password(tmp_path: Path) -> None:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
+def usrpwd_configs(
+    tmp_path: Path, endpoint: str
+) -> tuple[dict[str, Any], dict[str, dict[str, Any]]]:
+    """A relay's config that requires a user and password (listening on ``endpoint``), and
+    conductors' configs: ``none`` (no credentials), ``wrong`` (a wrong password), ``right``.
+    Also used by ``tests/relay/test_security.py`` with a relay process."""
     users = tmp_path / "users.txt"
     users.write_text("relay:relay-pw\nalice:s3cret\n", encoding="utf-8")
     auth = {"user": "relay", "password": "relay-pw", "dictionary_file": str(users)}
     relay = _peer({"listen": [endpoint]}, auth={"usrpwd": auth})
     conn = {"connect": [endpoint]}
-    cases = {
+    return relay, {
         "none": _peer(conn),
         "wrong": _peer(conn, auth={"usrpwd": {"user": "alice", "password": "guess"}}),
         "right": _peer(conn, auth={"usrpwd": {"user": "alice", "password": "s3cret"}}),
     }
+
+
+def test_user_and_password(tmp_path: Path) -> None:
+    relay, cases = usrpwd_configs(tmp_path, f"tcp/127.0.0.1:{free_port()}")
     got = {
         name: _reaches(
             _config(tmp_path / "relay.json5", relay), _config(tmp_path / f"{name}.json5", c)

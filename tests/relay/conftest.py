@@ -90,8 +90,9 @@ class Relays:
         robots: dict[str, str],
         *extra: str,
         env: dict[str, str] | None = None,
+        listen: bool = True,
     ) -> RelayProcess:
-        relay = self.spawn(name, robots, *extra, env=env)
+        relay = self.spawn(name, robots, *extra, env=env, listen=listen)
         self.ready(relay)
         return relay
 
@@ -108,13 +109,16 @@ class Relays:
         robots: dict[str, str],
         *extra: str,
         env: dict[str, str] | None = None,
+        listen: bool = True,
     ) -> RelayProcess:
         port = free_port()
         servers = {n: PtyServer(create_robot(model)).start() for n, model in robots.items()}
         cmd = [sys.executable, "-m", "xgo_show", "relay", "--name", name]
         for n, server in servers.items():
             cmd += ["--map", f"{n}={server.path}"]
-        cmd += ["--listen", f"tcp/127.0.0.1:{port}", "--no-telemetry", *extra]
+        if listen:  # else the relay's --zenoh-config (in extra) names its endpoints
+            cmd += ["--listen", f"tcp/127.0.0.1:{port}"]
+        cmd += ["--no-telemetry", *extra]
         proc = subprocess.Popen(
             cmd,
             stdout=subprocess.PIPE,
