@@ -35,7 +35,11 @@ def add_parser(sub: Any) -> None:
         "-o", "--output", metavar="OUT.xshow.json",
         help="schedule file to write (default: SHOW.xshow.json next to the routine)",
     )
-    parser.add_argument("--plot", metavar="PNG", help="also draw the schedule into a PNG")
+    parser.add_argument(
+        "--plot", metavar="FILE.png|FILE.html",
+        help="also draw the schedule: a PNG, or an interactive HTML timeline (zoom; hover for "
+        "each cue and its line)",
+    )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
     parser.set_defaults(func=run)
 

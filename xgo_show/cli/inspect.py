@@ -34,7 +34,11 @@ def add_parser(sub: Any) -> None:
     )
     parser.add_argument("file", metavar="FILE", help="routine (.yaml) or schedule (.xshow.json)")
     parser.add_argument("--frames", action="store_true", help="list every frame")
-    parser.add_argument("--plot", metavar="PNG", help="also draw the schedule into a PNG")
+    parser.add_argument(
+        "--plot", metavar="FILE.png|FILE.html",
+        help="also draw the schedule: a PNG, or an interactive HTML timeline (zoom; hover for "
+        "each cue and its line)",
+    )
     parser.set_defaults(func=run)
 
 

@@ -39,7 +39,13 @@ __all__ = [
 
 
 def plot_schedule(schedule: Schedule, path: str | Path) -> Path:
-    """Draw ``schedule`` into a PNG at ``path`` (see :mod:`xgo_show.compiler.plot`)."""
+    """Draw ``schedule`` at ``path``: an interactive page when it ends in ``.html``
+    (:mod:`xgo_show.compiler.timeline_html`, no dependency), else a PNG
+    (:mod:`xgo_show.compiler.plot`, needs matplotlib)."""
+    if Path(path).suffix.lower() in (".html", ".htm"):
+        from xgo_show.compiler.timeline_html import write_timeline_html
+
+        return write_timeline_html(schedule, path)
     from xgo_show.compiler.plot import plot_schedule as _plot
 
     return _plot(schedule, path)

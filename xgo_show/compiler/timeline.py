@@ -44,7 +44,8 @@ class Curve:
 
     ``ramp`` False: the value steps at each point (sampled XGO registers); True: it moves in a
     straight line between points (an xArm servo over its ServoMove time). ``known_from``: before
-    this time the value is an assumption (an xArm servo before its first move).
+    this time the value is an assumption (an xArm servo before its first move). ``sources``:
+    per point, the cue that set it as (cue, "file:line"); ("", "") for the initial value.
     """
 
     name: str
@@ -53,6 +54,7 @@ class Curve:
     values: tuple[float, ...]
     ramp: bool = False
     known_from: float = 0.0
+    sources: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -102,9 +104,13 @@ class Timeline:
 
 
 def _source(origin: Origin | None) -> tuple[str, str]:
+    """(``file:line``, cue) of a frame's origin."""
     if origin is None:
         return "", ""
     return f"{origin.file}:{origin.line}", origin.cue
+
+
+_NONE = ("", "")
 
 
 def build_timeline(schedule: Schedule) -> Timeline:
@@ -145,7 +151,7 @@ def build_timeline(schedule: Schedule) -> Timeline:
 
 def xgo_timeline(profile: Profile, performer: PerformerSchedule, end: float) -> PerformerTimeline:
     """An XGO performer's curves (by unit), actions, settings and LED colour runs."""
-    points: dict[str, list[tuple[float, float]]] = {}
+    points: dict[str, list[tuple[float, float, tuple[str, str]]]] = {}
     events: list[Event] = []
     colours: list[Event] = []
     open_colour: dict[str, tuple[float, tuple[int, int, int], Origin | None]] = {}
@@ -166,7 +172,7 @@ def xgo_timeline(profile: Profile, performer: PerformerSchedule, end: float) -> 
                     colours.append(_colour_run(name, previous, frame.t))
                 open_colour[name] = (frame.t, rgb, frame.origin)
             elif isinstance(value, float):
-                points.setdefault(name, []).append((frame.t, value))
+                points.setdefault(name, []).append((frame.t, value, (cue, source)))
             else:
                 text = f"{name}={format_value(profile, name, value)}"
                 events.append(Event(frame.t, frame.t, "setting", text, source, cue))
@@ -177,14 +183,15 @@ def xgo_timeline(profile: Profile, performer: PerformerSchedule, end: float) -> 
         reg = profile.register(name)
         initial = reg.decode_value(reg.initial) if reg.initial is not None else None
         first = float(initial) if isinstance(initial, float) else pts[0][1]
-        times = [0.0, *(t for t, _ in pts), end]
-        values = [first, *(v for _, v in pts), pts[-1][1]]
+        times = [0.0, *(p[0] for p in pts), end]
+        values = [first, *(p[1] for p in pts), pts[-1][1]]
         if min(values) == max(values):
             continue  # never changes (a register only re-sent to bridge a gap)
         unit = reg.unit or "value"
         curves.setdefault(unit, []).append(Curve(
             name, unit, tuple(times), tuple(values),
             known_from=0.0 if isinstance(initial, float) else pts[0][0],
+            sources=(_NONE, *(p[2] for p in pts), pts[-1][2]),
         ))
     lanes = _lanes(profile, curves)
     colours.sort(key=lambda e: (e.lane, e.start))
@@ -222,7 +229,7 @@ def xarm_timeline(
     profile: Profile, performer: PerformerSchedule, end: float
 ) -> PerformerTimeline:
     """An xArm performer: each servo's angle, named, ramping over each ServoMove."""
-    tracks: dict[int, list[tuple[float, float]]] = {}
+    tracks: dict[int, list[tuple[float, float, tuple[str, str]]]] = {}
     events: list[Event] = []
     for frame in performer.frames:
         fields = dict(describe_frame(profile, frame.data))
@@ -234,8 +241,8 @@ def xarm_timeline(
             degrees = position_to_degrees(int(pos))  # type: ignore[call-overload]
             pts = tracks.setdefault(servo, [])
             if pts:
-                pts.append((frame.t, pts[-1][1]))
-            pts.append((frame.t + move, degrees))
+                pts.append((frame.t, pts[-1][1], (cue, source)))
+            pts.append((frame.t + move, degrees, (cue, source)))
             moved.append(_servo_name(servo))
         events.append(Event(frame.t, frame.t + move, "move", "move " + ", ".join(moved),
                             source, cue))
@@ -243,10 +250,10 @@ def xarm_timeline(
     for servo in sorted(tracks):
         pts = tracks[servo]
         known = pts[0][0]
-        times = [0.0, *(t for t, _ in pts), end]
-        values = [pts[0][1], *(v for _, v in pts), pts[-1][1]]
+        times = [0.0, *(p[0] for p in pts), end]
+        values = [pts[0][1], *(p[1] for p in pts), pts[-1][1]]
         curves.append(Curve(_servo_name(servo), "deg", tuple(times), tuple(values), ramp=True,
-                            known_from=known))
+                            known_from=known, sources=(_NONE, *(p[2] for p in pts), _NONE)))
     lanes = (Lane("deg", tuple(curves)),) if curves else ()
     return PerformerTimeline(performer.name, performer.model, profile.title, lanes,
                              tuple(events), ())
