@@ -7,7 +7,7 @@ from typing import Literal
 
 from xgo_show.text import printable
 
-__all__ = ["Diagnostic", "Origin", "Severity"]
+__all__ = ["Diagnostic", "Origin", "Severity", "merge_repeats"]
 
 Severity = Literal["error", "warning"]
 
@@ -46,3 +46,19 @@ class Diagnostic:
     @property
     def is_error(self) -> bool:
         return self.severity == "error"
+
+
+def merge_repeats(diags: list[Diagnostic]) -> list[Diagnostic]:
+    """Say each finding once: diagnostics with the same severity, message and place (a phrase
+    played by several tracks, or several times) become one naming every track's path."""
+    merged: dict[tuple[object, ...], list[Diagnostic]] = {}
+    for d in diags:
+        o = d.origin
+        key = (d.severity, d.message, o and (o.file, o.line, o.column))
+        merged.setdefault(key, []).append(d)
+    out = []
+    for group in merged.values():
+        paths = list(dict.fromkeys(d.path for d in group if d.path))
+        out.append(Diagnostic(group[0].severity, group[0].message, group[0].origin,
+                              ", ".join(paths)))
+    return out

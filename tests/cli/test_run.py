@@ -399,9 +399,9 @@ def test_sim_summary_names_actions_and_what_cut_them() -> None:
     summary = SimSummary(
         model="mini", changed={}, raw={}, actions=[13, 255], frames_received=3,
         frames_rejected=0,
-        action_names=["wave (13) cut after 0.50 of 7.00 s by write body_z", "reset (255)"],
+        action_names=["wave (action 13) cut after 0.50 of 7.00 s by write body_z", "reset (action 255)"],
     )
     text = format_summaries({"rex": summary}, fast=True)
-    assert "actions run: wave (13) cut after 0.50 of 7.00 s by write body_z, reset (255)" in text
+    assert "actions run: wave (action 13) cut after 0.50 of 7.00 s by write body_z, reset (action 255)" in text
     assert "--fast sends frames without waiting" in text
     assert "--fast" not in format_summaries({"rex": summary}, fast=False)

@@ -77,10 +77,10 @@ def test_compile_reports_every_infeasible_cue(make_show, o) -> None:  # type: ig
     assert len(diags) == 2
     first, second = diags
     assert first.origin == o("drop", 3) and second.origin == o("tilt", 4)
-    assert re.search(r"cue 'drop' needs at least \d\.\d\d s under its limits \(body_z: velocity "
-                     r"60 mm/s", first.message)
+    assert re.search(r"the move to body_z 75 needs at least \d\.\d\d s under its limits "
+                     r"\(body_z: velocity 60 mm/s", first.message)
     assert "given 0.10 s" in first.message
-    assert "cue 'tilt'" in second.message
+    assert "the move to roll 20 " in second.message
 
 
 def test_cue_limits_override_profile_limits(make_show, o) -> None:  # type: ignore[no-untyped-def]

@@ -153,8 +153,8 @@ def _check_dry_run_api(out: str, tmp: Path) -> None:
     for name in ("ace", "bo", "lu", "rio", "maestro"):  # every robot of the mixed show played
         assert f"\n{name} (" in out and f"\n  {name} (" in out  # the report and its robot
     assert out.count(" 0 rejected;") == 5
-    assert out.count("actions run: wave (13)") == 3  # the three dogs
-    assert "circular_shake (6)" in out
+    assert out.count("actions run: wave (action 13)") == 3  # the three dogs
+    assert "circular_shake (action 6)" in out
     assert "rio: move body_z" in out  # the event listener printed the cues as they started
 
 

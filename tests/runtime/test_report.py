@@ -109,3 +109,11 @@ def test_report_and_log_of_a_completed_run(perf, sched, tmp_path) -> None:
     events = [r["event"] for r in records if r["kind"] == "event"]
     assert events == ["start", "end"]
     json.dumps(records)
+
+
+def test_a_send_time_error_above_target_is_flagged() -> None:
+    on_time = error_stats([0.0001] * 1000)  # 0.1 ms
+    assert "ABOVE TARGET" not in on_time.format()
+    late = error_stats([0.0001] * 985 + [0.003] * 15)  # p99 and p99.9 at 3 ms
+    assert late.format().endswith(
+        "  ABOVE TARGET: p99 3.000 ms > 0.5 ms, p99.9 3.000 ms > 2 ms")

@@ -11,7 +11,7 @@ fields. See docs/choreography.md for the language reference.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import (
@@ -106,6 +106,7 @@ ParamDefault = Annotated[
 ]
 
 _BAR_BEAT = re.compile(r"^\s*(\d+)\s*\.\s*(\d+)\s*$")
+_SECONDS = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*s\s*$")  # "12.5s": seconds, said on purpose
 
 
 class _Model(BaseModel):
@@ -122,6 +123,9 @@ class Position:
     seconds: float | None = None
     bar: int | None = None
     beat: float = 1.0
+    # Seconds written as a bare number: in a show with a tempo the resolver asks whether a bar
+    # was meant ("12.5s" says seconds on purpose).
+    bare: bool = field(default=False, compare=False)
 
     def describe(self) -> str:
         if self.seconds is not None:
@@ -144,15 +148,19 @@ def _parse_position(value: object) -> Position:
             raise PydanticCustomError(
                 "position", "a time must be a number of seconds >= 0, not {value}", {"value": value}
             )
-        return Position(seconds=seconds)
+        return Position(seconds=seconds, bare=True)
     if isinstance(value, str):
+        seconds_match = _SECONDS.match(value)
+        if seconds_match:
+            return Position(seconds=float(seconds_match[1]))
         match = _BAR_BEAT.match(value)
         if not match:
             # A parameter is a whole value, never a piece of a string.
             hint = " (a parameter goes in whole: {bar: $bar, beat: 1})" if "$" in value else ""
             raise PydanticCustomError(
                 "position",
-                "{value!r} is not a time: write seconds (12.5), \"BAR.BEAT\" (\"5.3\") or "
+                "{value!r} is not a time: write seconds (12.5 or \"12.5s\"), \"BAR.BEAT\" "
+                "(\"5.3\") or "
                 "{bar: 5, beat: 3.5}{hint}",
                 {"value": value, "value!r": repr(value), "hint": hint},
             )
@@ -189,11 +197,12 @@ def _bar_beat(bar: int, beat: float) -> Position:
 
 
 _POSITION_SCHEMA: dict[str, Any] = {
-    "description": "Seconds from the start of the block (number), \"BAR.BEAT\" (string) or "
-    "{bar, beat}; bars and beats count from 1.",
+    "description": "Seconds from the start of the block (number, or \"12.5s\"), \"BAR.BEAT\" "
+    "(string) or {bar, beat}; bars and beats count from 1.",
     "anyOf": [
         {"type": "number", "minimum": 0},
         {"type": "string", "pattern": r"^\s*\d+\s*\.\s*\d+\s*$"},
+        {"type": "string", "pattern": r"^\s*\d+(\.\d+)?\s*s\s*$"},
         {
             "type": "object",
             "properties": {
@@ -600,6 +609,11 @@ class SettingsModel(_Model):
         20, description="Battery % below which the pre-flight check fails."
     )
     end: PositionField | None = Field(None, description="Explicit show end.")
+    timed_by_hand: list[Name] = Field(
+        default_factory=list,
+        description="Preset actions the documents give no duration for (the Rider's) whose "
+        "durations in this routine you have timed on the robot: their warning is silenced.",
+    )
 
 
 class PerformerModel(_Model):

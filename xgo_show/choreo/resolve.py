@@ -187,6 +187,12 @@ class _Resolver:
 
     def position(self, pos: Position, block: _Block, loc: Loc) -> float | None:
         if pos.seconds is not None:
+            if pos.bare and self.tempo is not None:
+                amount = f"{pos.seconds:g}"
+                self.warning(block.doc, loc, f"at: {amount} is {amount} seconds, not a bar (the "
+                             f"show has a tempo): for bar {int(pos.seconds) or 1} write "
+                             f"\"{int(pos.seconds) or 1}.1\"; to keep seconds, write "
+                             f"\"{amount}s\"")
             return block.start + pos.seconds
         assert pos.bar is not None
         tempo = self.need_tempo(block.doc, loc, "bar/beat times")
@@ -251,6 +257,7 @@ class _Resolver:
                            f"'arm: true' is for the XGO-Mini and XGO-Lite; the {profile.title} "
                            "has no arm accessory")
             performers[name] = _Performer(name, perf, profile, _initial_state(profile))
+        self.check_timed_by_hand([p.profile for p in performers.values()])
         for name, cues in show.tracks.items():
             if not cues and name in performers:
                 self.warning(doc, ("tracks", name), f"the track of {name} is empty: "
@@ -323,6 +330,18 @@ class _Resolver:
         )
         return Resolution(resolved, self.diags, self.sources,
                           {n: p.model for n, p in performers.items()}, untimed)
+
+    def check_timed_by_hand(self, profiles: Sequence[Profile]) -> None:
+        """settings.timed_by_hand names actions without a documented duration on some
+        performer's robot: a misspelt name would silence nothing, silently."""
+        untimed = sorted({a.name for p in profiles for a in p.actions if a.duration is None})
+        for i, name in enumerate(self.show.settings.timed_by_hand):
+            if name not in untimed:
+                hint = did_you_mean(name, untimed)
+                valid = ", ".join(untimed) or "none in this show"
+                self.error(self.doc, ("settings", "timed_by_hand", i),
+                           f"{name!r} is not an action without a documented duration on any "
+                           f"performer's robot{hint}; those are: {valid}")
 
     def build_music(self) -> Music | None:
         """``music:``: the recording must exist (it is decoded only when played)."""
@@ -673,6 +692,15 @@ def _describe(performer: str, kind: str, cue: object, context: str) -> str:
     return f"{text} ({context})" if context else text
 
 
+def _given_in_music(cue: object, segments: int) -> tuple[float, str] | None:
+    """A segment's length as the user wrote it, when in beats or bars (for messages)."""
+    for unit in ("beats", "bars"):
+        amount = getattr(cue, unit, None)
+        if amount is not None:
+            return float(amount) / segments, unit
+    return None
+
+
 def _initial_state(profile: Profile) -> dict[str, float]:
     state: dict[str, float] = {}
     for reg in profile.registers:
@@ -755,9 +783,11 @@ class _Emitter:
             self.needs_length(f"the documents give no duration for {self.profile.title} "
                               f"action {act.name!r}: give duration, beats or bars", "action")
             return None
-        if act.duration is None:
+        if act.duration is None and act.name not in self.res.show.settings.timed_by_hand:
             self.res.warning(self.doc, self.loc, f"action {act.name!r} lasts {length:.3g} s as "
-                             "given by hand (the documents give no duration)")
+                             "given by hand (the documents give no duration); once you have "
+                             f"timed it on the robot, say so: settings: {{timed_by_hand: "
+                             f"[{act.name}]}}")
         slot = length if length is not None else act.duration
         assert slot is not None
         running = act.duration if act.duration is not None else slot
@@ -806,6 +836,7 @@ class _Emitter:
                     self.error(f"limits given for {name!r}, which this move does not move",
                                "limits", name, key=True)
         overrides = {n: lim for n, lim in limits.items() if cue is not None and n in cue.limits}
+        given = _given_in_music(cue, segments)
         t = start
         for k in range(segments):
             targets: dict[str, float] = {}
@@ -817,14 +848,16 @@ class _Emitter:
             if length is not None:
                 seg = length / segments
                 self.add(MotionCue(t, self.origin, targets, seg, overrides, cue is not None
-                                   and cue.interrupt), t + seg, values)
+                                   and cue.interrupt, (k + 1, segments), given),
+                         t + seg, values)
                 t += seg
             else:
                 from xgo_show.compiler.trajectory import min_duration
 
                 seg = min_duration(self.perf.state, targets, limits)
                 self.add(MotionCue(t, self.origin, targets, None, overrides,
-                                   cue is not None and cue.interrupt), t + seg, values)
+                                   cue is not None and cue.interrupt, (k + 1, segments)),
+                         t + seg, values)
                 t += seg
             self.perf.state.update(targets)
         return t

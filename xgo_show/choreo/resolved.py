@@ -48,7 +48,9 @@ class MotionCue:
     """Move registers to physical targets along one synchronised jerk-limited trajectory.
 
     ``duration`` None means "as fast as the limits allow". ``limits`` overrides the profile's
-    per-register limits. Multi-point paths are consecutive MotionCues.
+    per-register limits. Multi-point paths are consecutive MotionCues: ``segment`` is (n, of).
+    ``given``: the length as the user wrote it, for messages, e.g. (0.25, "beats") for one
+    segment of a 1-beat four-point path; None when given in seconds or not at all.
     """
 
     start: float
@@ -57,6 +59,8 @@ class MotionCue:
     duration: float | None = None
     limits: Mapping[str, Limits] = field(default_factory=dict)
     interrupts: bool = False
+    segment: tuple[int, int] = (1, 1)
+    given: tuple[float, str] | None = None
 
 
 @dataclass(frozen=True)

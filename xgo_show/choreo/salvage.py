@@ -3,7 +3,8 @@
 One malformed cue must not hide the semantic problems of every other cue: ``xgo-show
 validate`` lists everything in one run. :func:`salvage_show` takes the parsed data, drops or
 neutralises what pydantic rejected (a bad cue becomes ``{rest: 0}`` so that the list indices,
-and so every ``file:line:col``, stay put; a bad timing field is dropped from its cue) and
+and so every ``file:line:col``, stay put; a bad timing field, or a field the cue does not
+have, e.g. a misspelt ``duraton``, is dropped from its cue) and
 validates again until the rest is a :class:`ShowFile`. What was lost is recorded, so the
 resolver and the checks stay quiet about what they can no longer know (times after a broken
 cue, phrases that failed to load, a tempo that did not parse).
@@ -53,12 +54,12 @@ def salvage_show(data: dict[str, object]) -> Salvage | None:
         try:
             info.show = ShowFile.model_validate(work)
         except ValidationError as exc:
-            locs = [data_loc(work, e["loc"]) for e in exc.errors(include_url=False)]
+            found = [(data_loc(work, e["loc"]), e["type"]) for e in exc.errors(include_url=False)]
         else:
             return info
         progress = False
-        for loc in locs:
-            progress = _prune(work, loc, info) or progress
+        for loc, kind in found:
+            progress = _prune(work, loc, info, unknown=kind == "extra_forbidden") or progress
         if not progress:
             return None
     return None
@@ -72,8 +73,9 @@ def _pop(mapping: object, key: str | int | None) -> bool:
     return False
 
 
-def _prune(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
-    """Remove what the error at ``loc`` is about; whether anything changed."""
+def _prune(work: dict[str, object], loc: Loc, info: Salvage, *, unknown: bool = False) -> bool:
+    """Remove what the error at ``loc`` is about (``unknown``: a field that is not allowed
+    there); whether anything changed."""
     if not loc:
         return False
     head = loc[0]
@@ -104,7 +106,7 @@ def _prune(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
         info.phrases_incomplete = True
         return _pop(work, "phrases")
     if head == "tracks":
-        return _prune_track(work, loc, info)
+        return _prune_track(work, loc, info, unknown)
     if head == "sections":
         # A broken wait loses only itself (its section still starts where it says, so the
         # other sections and their waits are still checked); anything else, all sections.
@@ -115,7 +117,7 @@ def _prune(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
     return _pop(work, head)  # an unknown top-level field
 
 
-def _prune_track(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
+def _prune_track(work: dict[str, object], loc: Loc, info: Salvage, unknown: bool) -> bool:
     tracks = work.get("tracks")
     if len(loc) < 2 or not isinstance(tracks, dict) or loc[1] not in tracks:
         return False
@@ -147,6 +149,12 @@ def _prune_track(work: dict[str, object], loc: Loc, info: Salvage) -> bool:
         del cue[what]
         if what in _LENGTH_FIELDS:
             info.lost_length.add(cue_loc)
+        return True
+    if unknown and isinstance(cue, dict) and len(loc) == len(cue_loc) + 1 and what in cue:
+        # A field the cue does not have: the rest of the cue is still checked. It may have
+        # been meant as its length ('duraton'), so a missing length is not reported too.
+        del cue[what]
+        info.lost_length.add(cue_loc)
         return True
     if cue == _NEUTRAL:
         return False

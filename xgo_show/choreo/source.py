@@ -18,6 +18,7 @@ import yaml
 from yaml.constructor import SafeConstructor
 from yaml.nodes import MappingNode, Node, ScalarNode, SequenceNode
 
+from xgo_show.choreo.yaml_hints import colour_comment_hints
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import FileAccessError
 from xgo_show.files import MAX_ROUTINE_BYTES, read_text_file
@@ -328,6 +329,12 @@ def _problem(exc: yaml.YAMLError) -> str:
 
 def parse_yaml(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
     """Parse ``text`` (named ``file`` in messages): the document and any errors found."""
+    doc, diags = _parse(text, file)
+    hints = colour_comment_hints(text, file)  # the cause of what the parser says, if any
+    return (doc, hints + diags) if hints else (doc, diags)
+
+
+def _parse(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
     doc = Document(file, None)
     try:
         nodes = _compose(text)

@@ -18,6 +18,7 @@ from xgo_show.cli.run import (
     play,
     play_options,
 )
+from xgo_show.cli.watch import add_watch_option
 
 __all__ = ["add_parser", "run"]
 
@@ -37,7 +38,8 @@ def add_parser(sub: Any) -> None:
             "  xgo-show dry-run choreographies/hello_mini.yaml\n"
             "  xgo-show dry-run choreographies/mixed_five.yaml --fast --start-bar 40\n"
             "  xgo-show dry-run choreographies/curtain_call.yaml --triggers "
-            "rehearsals/curtain_call.yaml"
+            "rehearsals/curtain_call.yaml\n"
+            "  xgo-show dry-run --watch --fast my_routine.yaml     # again on every save"
         ),
     )
     parser.add_argument(
@@ -46,9 +48,12 @@ def add_parser(sub: Any) -> None:
         help="do not wait between frames (every frame still reaches the simulators)",
     )
     parser.add_argument(
-        "--plot", metavar="FILE.png", help="also draw the compiled schedule into FILE.png"
+        "--plot", metavar="FILE.png|FILE.html",
+        help="also draw the compiled schedule: a PNG, or an interactive HTML timeline (zoom; "
+        "hover for each cue and its line)",
     )
     add_common_arguments(parser)
+    add_watch_option(parser, "show")
     parser.set_defaults(func=run)
 
 

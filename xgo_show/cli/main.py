@@ -30,6 +30,8 @@ COMMANDS: tuple[str, ...] = (
     "inspect",
     "run",
     "dry_run",
+    "info",
+    "new",
     "beats",
     "schema",
     "relay",
@@ -120,6 +122,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     _log_traffic()
+    if getattr(args, "watch", False):
+        from xgo_show.cli.watch import watch
+
+        return watch(args, lambda: _run(args))
+    return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         return int(args.func(args))
     except XgoShowError as exc:

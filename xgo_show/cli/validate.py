@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 import xgo_show.choreo as choreo
+from xgo_show.cli.watch import add_watch_option
 from xgo_show.compiler.artifact import (  # its loader is imported on first use
     SCHEDULE_HINT,
     is_schedule_file,
@@ -35,12 +36,14 @@ def add_parser(sub: Any) -> None:
             "file:line:col: severity: path: message, then a summary per file. Exits 1 when "
             "any file has an error, 0 otherwise (warnings are shown but do not fail)."
         ),
-        epilog="example:\n  xgo-show validate choreographies/*.yaml",
+        epilog="example:\n  xgo-show validate choreographies/*.yaml\n"
+        "  xgo-show validate --watch my_routine.yaml     # again on every save",
     )
     parser.add_argument("files", nargs="+", metavar="FILE", help="routine YAML file(s)")
     parser.add_argument(
         "-q", "--quiet", action="store_true", help="print only errors and the summaries"
     )
+    add_watch_option(parser, "files")
     parser.set_defaults(func=run)
 
 

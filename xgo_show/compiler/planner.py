@@ -92,6 +92,28 @@ def _round_up(seconds: float) -> float:
     return math.ceil(seconds * 100 - 1e-4) / 100
 
 
+def _too_short(cue: MotionCue, reg: Register, lim: Limits, exc: InfeasibleMotion) -> str:
+    """The message for a move given less time than its limits need: in the unit the user
+    wrote (beats or bars as well as seconds), naming the segment of a multi-point path. It
+    names the move, not the performer or the phrase's use, so that a phrase played by several
+    tracks or several times is said once (the compiler merges repeats)."""
+    n, of = cue.segment
+    targets = ", ".join(f"{name} {value:g}" for name, value in cue.targets.items())
+    what = (f"segment {n} of {of} of the move (to {targets})" if of > 1
+            else f"the move to {targets}")
+    # Rounded up: "at least 0.51 s" must be enough, and never read like "0.50 s" when 0.50 s
+    # was given and falls short.
+    need = f"{_round_up(exc.minimum):.2f} s"
+    given = f"{exc.requested:.2f} s"
+    if cue.given is not None and exc.requested > 0:
+        amount, unit = cue.given
+        per_second = amount / exc.requested
+        need += f" ({_round_up(exc.minimum * per_second):.2f} {unit})"
+        given = f"{amount:.3g} {unit} ({exc.requested:.2f} s)"
+    return (f"{what} needs at least {need} under its limits "
+            f"({reg.name}: {_limits_text(reg, lim)}) but is given {given}")
+
+
 def _limits_text(reg: Register, lim: Limits) -> str:
     u = reg.unit or "units"
     return (
@@ -355,15 +377,7 @@ class XgoPlanner:
             plan = plan_motion(names, cue.start, current, targets, limits, cue.duration)
         except InfeasibleMotion as exc:
             reg = regs[exc.dof]
-            diag.error(
-                cue.origin,
-                # Rounded up: "at least 0.51 s" must be enough, and never read like "0.50 s"
-                # when 0.50 s was given and falls short.
-                f"{cue_label(cue.origin)} needs at least {_round_up(exc.minimum):.2f} s under "
-                "its limits "
-                f"({reg.name}: {_limits_text(reg, limits[exc.dof])}) but is given "
-                f"{exc.requested:.2f} s",
-            )
+            diag.error(cue.origin, _too_short(cue, reg, limits[exc.dof], exc))
             return
         except TrajectoryError as exc:
             diag.error(cue.origin, f"{cue_label(cue.origin)}: {exc}")

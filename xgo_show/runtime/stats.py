@@ -16,7 +16,15 @@ from dataclasses import dataclass
 
 from xgo_show.runtime.events import Event, FrameSent
 
-__all__ = ["ErrorHistogram", "ErrorStats", "SendStats", "error_stats", "percentile"]
+__all__ = [
+    "P99_TARGET_MS",
+    "P999_TARGET_MS",
+    "ErrorHistogram",
+    "ErrorStats",
+    "SendStats",
+    "error_stats",
+    "percentile",
+]
 
 
 def percentile(values: Sequence[float], q: float) -> float:
@@ -28,6 +36,11 @@ def percentile(values: Sequence[float], q: float) -> float:
     lo = math.floor(pos)
     hi = min(lo + 1, len(ordered) - 1)
     return ordered[lo] + (ordered[hi] - ordered[lo]) * (pos - lo)
+
+
+# The send-time targets (issue 12): p99 within 0.5 ms and p99.9 within 2 ms of the plan.
+P99_TARGET_MS = 0.5
+P999_TARGET_MS = 2.0
 
 
 @dataclass(frozen=True)
@@ -42,12 +55,17 @@ class ErrorStats:
     p999: float = math.nan
 
     def format(self) -> str:
+        """The percentiles in ms; a p99 or p99.9 above its target is flagged, not just printed."""
         if not self.count:
             return "no frames sent"
-        return (
+        text = (
             f"p50 {self.p50:.3f} ms, p95 {self.p95:.3f} ms, p99 {self.p99:.3f} ms, "
             f"p99.9 {self.p999:.3f} ms, max {self.max:.3f} ms"
         )
+        over = [f"{name} {value:.3f} ms > {target:g} ms" for name, value, target in
+                (("p99", self.p99, P99_TARGET_MS), ("p99.9", self.p999, P999_TARGET_MS))
+                if value > target]
+        return text + (f"  ABOVE TARGET: {', '.join(over)}" if over else "")
 
 
 def error_stats(errors_s: Sequence[float]) -> ErrorStats:

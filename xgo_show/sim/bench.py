@@ -38,7 +38,8 @@ class SimSummary:
     changed: dict[str, Any]  # writable registers (xArm: servo_N positions) that changed
     raw: dict[str, Any]  # the raw register bytes of those
     actions: list[Any]  # preset action ids run, in order
-    action_names: list[str]  # for people: "wave (13)", "... cut after 1.20 of 7.00 s by ..."
+    # for people: "wave (action 13)", "... cut after 1.20 of 7.00 s by ..."
+    action_names: list[str]
     frames_received: int
     frames_rejected: int
     rejected: list[RejectedFrame] = field(default_factory=list)
@@ -148,7 +149,8 @@ def format_summaries(summaries: dict[str, SimSummary], *, fast: bool = False) ->
 
 
 def _action_text(action: dict[str, Any]) -> str:
-    text = f"{action.get('name') or 'action'} ({action.get('id')})"
+    # "wave (action 13)": the number is the action's id, not a count of runs.
+    text = f"{action.get('name') or 'action'} (action {action.get('id')})"
     cut, start = action.get("interrupted_at"), action.get("start")
     if cut is not None and start is not None:
         text += f" cut after {cut - start:.2f} of {action.get('duration', 0.0):.2f} s"
