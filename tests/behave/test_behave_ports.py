@@ -165,3 +165,10 @@ def test_led_beside_a_loop_and_a_phrase_on_its_own_on_a_pty(tmp_path: Path) -> N
     frames = [e for e in seen if isinstance(e, FrameSent) and e.kind == "frame"
               and e.t >= sway_at]
     assert [e.data for e in frames[: len(phrase.frames)]] == [f.data for f in phrase.frames]
+
+
+def test_a_relayed_robot_is_refused_with_a_reason(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["behave", str(EXHIBITION), "--map", "rex=zenoh:stage/rex"]) != 0
+    err = capsys.readouterr().err
+    assert "robots behind relays are not supported by behave" in err
+    assert "Traceback" not in err

@@ -62,8 +62,15 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("--log", metavar="FILE",
                         help="write the run log (JSON lines) to FILE: every rule decision, "
                              "frame, telemetry reading and state change")
+    parser.add_argument("--serve", action="store_true",
+                        help="take triggers from any Zenoh client on NS/trigger/NAME (as "
+                             "xgo-show serve does) and publish each rule decision on "
+                             "NS/event/rule")
     parser.add_argument("--map", action="append", default=[], metavar="NAME=PORT",
                         help="a performer's port (repeatable; default: port: in the file)")
+    from xgo_show.net.session import add_session_arguments
+
+    add_session_arguments(parser)
     parser.set_defaults(func=run)
 
 
@@ -91,6 +98,8 @@ def run(args: argparse.Namespace) -> int:
             raise XgoShowError("a script happens to simulated robots: add --sim (or --fast)")
     elif args.fast:
         raise XgoShowError("--fast rehearses a script: give --script EVENTS.yaml")
+    if args.fast and args.serve:
+        raise XgoShowError("--serve takes triggers in real time: leave out --fast")
     if script is not None and args.fast:
         from xgo_show.behave.rehearsal import rehearse
 
@@ -135,6 +144,7 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
     model = behaviour.model
     servers: dict[str, PtyServer] = {}
     transports = {}
+    stack = contextlib.ExitStack()
     try:
         if args.sim:
             battery = script.battery if script is not None else 100.0
@@ -145,6 +155,10 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
             ports = {n: r.port for n, r in model.performers.items() if r.port}
             for item in args.map:
                 name, sep, port = item.partition("=")
+                if port.startswith("zenoh:"):
+                    raise XgoShowError(f"--map {item}: robots behind relays are not supported "
+                                       "by behave (run it where the robots are wired, with "
+                                       "--serve for remote triggers)")
                 if not sep or name not in model.performers:
                     raise XgoShowError(f"--map {item}: give NAME=PORT for a performer of the "
                                        f"behaviour ({', '.join(model.performers)})")
@@ -166,6 +180,8 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
             behaviour, transports, events=bus,
             say=lambda t, line: print(f"{t - start:9.2f}  {line}"),
         )
+        if args.serve:
+            stack.enter_context(_serve(args, runner, model.triggers))
         if script is not None:
             feeder = threading.Thread(target=_play_script, args=(script, runner, servers, start),
                                       daemon=True)
@@ -180,10 +196,32 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
             print("stopped: every robot was safe-stopped")
         return 0
     finally:
+        stack.close()
         for transport in transports.values():
             transport.close()
         for server in servers.values():
             server.close()
+
+
+@contextlib.contextmanager
+def _serve(args: argparse.Namespace, runner: Any, triggers: list[str]) -> Iterator[None]:
+    """Take the behaviour's triggers over Zenoh while the context is open."""
+    from xgo_show.behave.remote import BehaviourService
+    from xgo_show.control.keys import event_key, trigger_key
+    from xgo_show.net.session import open_session, session_options
+
+    opts = session_options(args)
+    session = open_session(opts)
+    try:
+        service = BehaviourService(session, opts.namespace, runner, triggers)
+        print(f"serving triggers on {trigger_key(opts.namespace)}; rule decisions on "
+              f"{event_key(opts.namespace, 'rule')}")
+        try:
+            yield
+        finally:
+            service.close()
+    finally:
+        session.close()  # type: ignore[no-untyped-call]  # the stub lacks a return type
 
 
 def _play_script(script: Any, runner: Any, servers: dict[str, Any], start: float) -> None:
