@@ -122,10 +122,10 @@ class PreflightReport:
         if notes:
             floor += f" ({'; '.join(notes)})"
         out.append(f"{floor}; real-time scheduling: {self.realtime}")
-        out.append("(firmware: as the robot reports it, with the model it detects if another; "
-                   "battery: charge, or an xArm's supply in volts; latency: the serial "
-                   "adapter's low-latency mode, 'low' when set; result: ok, or every check "
-                   "that failed)")
+        out.append("(firmware: as reported, with the model it implies if another; battery: "
+                   "charge, an xArm's supply in V;")
+        out.append(" latency: the serial adapter's low-latency mode; result: ok, or every "
+                   "check that failed)")
         return "\n".join(out)
 
 

@@ -53,6 +53,8 @@ class PerformerReport:
             f"{self.reads} telemetry reads",
             f"  send-time error: {self.errors.format()}",
         ]
+        if flag := self.errors.over_target():
+            lines[-1] += f"  {flag}"
         if self.telemetry:
             tele = ", ".join(
                 f"{_NAMES.get(k, k)} {_fmt(k, v)}" for k, v in sorted(self.telemetry.items())
