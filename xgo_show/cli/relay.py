@@ -155,10 +155,6 @@ def run(args: argparse.Namespace) -> int:
         watch_parent(args.parent_pid)
     opts = session_options(args)
     name = args.name or default_name()
-    if args.realtime:
-        from xgo_show.runtime.preflight import request_realtime
-
-        request_realtime()
     ports = parse_pairs(args.map, "--map", "rex=/dev/ttyUSB0")
     models = parse_pairs(args.model, "--model", "arm=xarm")
     robots = open_robots(ports, models)
@@ -176,6 +172,7 @@ def run(args: argparse.Namespace) -> int:
                     log=log,
                     telemetry=not args.no_telemetry,
                     sync_delay=delay_from_env(),
+                    realtime=args.realtime,
                 )
                 with relay:
                     rows = ", ".join(f"{r.name} ({r.model} on {r.url})" for r in robots.values())
