@@ -35,6 +35,10 @@ Prints figures only (no asserts). Run it alone (``flock /work/land.lock``)::
 
     python benchmarks/relay_sync.py [--relays 4] [--starts 20] [--drift-seconds 60] [--scale 16]
     python benchmarks/relay_sync.py --quick     # about a minute: 5 starts, 10 s drift, no scale
+
+``--realtime`` plays the relays' and the local runner's shows under SCHED_FIFO (``relay
+--realtime``, ``run --realtime``); ``--sim-realtime`` runs the simulators under SCHED_FIFO, so
+their wake-ups (a robot has a CPU of its own) leave the figures; ``--estimates 0`` skips part 4.
 """
 
 from __future__ import annotations
@@ -48,6 +52,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -66,7 +71,9 @@ from xgo_show.relay.validate import schedule_digest
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import EventBus, EventRecorder, FrameSent
 from xgo_show.runtime.launch import local_runner
+from xgo_show.runtime.preflight import request_realtime
 from xgo_show.runtime.report import percentile
+from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 from xgo_show.transports import open_transport
 from xgo_show.wire.xgo import write_frame
 
@@ -74,6 +81,8 @@ MODEL = "mini"
 RATE = 20.0  # frames per second in the shows
 LEAD = 0.5  # seconds between the start commands and the start
 SHORT = 0.3  # seconds of show per start
+REALTIME: list[str] = []  # ["--realtime"] with --realtime: relays' show threads under SCHED_FIFO
+SIM_PREFIX: list[str] = []  # with --sim-realtime: chrt, so simulators wake at once like robots
 
 
 # ---------------------------------------------------------------------------- processes
@@ -175,8 +184,9 @@ def _free_port() -> int:
 
 def start_sim(tmp: Path, name: str) -> Sim:
     record = tmp / f"{name}.jsonl"
+    command = [sys.executable, "-m", "xgo_show", "simulate", "--model", MODEL, "--record"]
     proc = subprocess.Popen(
-        [sys.executable, "-m", "xgo_show", "simulate", "--model", MODEL, "--record", str(record)],
+        [*SIM_PREFIX, *command, str(record)],
         stdout=subprocess.PIPE,
         stderr=subprocess.DEVNULL,
         text=True,
@@ -222,6 +232,7 @@ def start_relays(
                 "--no-telemetry",
                 "--log",
                 str(log),
+                *REALTIME,
             ],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
@@ -545,7 +556,7 @@ def play_local(rig: Rig, count: int, starts: int) -> tuple[list[Relay], list[Run
             )
             sent = time.monotonic()
             start_at = sent + LEAD
-            result = runner.run(start_at=start_at, handle_signals=False)
+            result = _run_local(runner, start_at)
             if not result.completed:
                 raise SystemExit(f"the local run did not complete: {result.reason}")
             writes = {}
@@ -559,6 +570,22 @@ def play_local(rig: Rig, count: int, starts: int) -> tuple[list[Relay], list[Run
             link.close()
     # Stand-ins with the simulators, for skew() and send_errors()
     return [Relay(n, 0, s.proc, s, 0.0, 0.0) for n, s in zip(names, sims, strict=True)], runs
+
+
+def _run_local(runner: ShowRunner, start_at: float) -> ShowResult:
+    """``runner.run`` in a thread of its own, under SCHED_FIFO with ``--realtime`` (its
+    writer threads inherit it, as ``run --realtime`` gives them; this process's others not)."""
+    out: list[ShowResult] = []
+
+    def play() -> None:
+        if REALTIME:
+            request_realtime()
+        out.append(runner.run(start_at=start_at, handle_signals=False))
+
+    thread = threading.Thread(target=play, name="local show")
+    thread.start()
+    thread.join()
+    return out[0]
 
 
 def phase_delay(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
@@ -651,19 +678,36 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--relays", type=int, default=4)
     parser.add_argument("--starts", type=int, default=20)
     parser.add_argument("--drift-seconds", type=float, default=60.0)
-    parser.add_argument("--estimates", type=int, default=10, help="bursts per delayed relay")
+    parser.add_argument(
+        "--estimates", type=int, default=10, help="bursts per delayed relay (0: skip that part)"
+    )
     parser.add_argument("--scale", type=int, default=16, help="relays in the scale test (0: skip)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument(
         "--quick", action="store_true", help="5 starts, 10 s drift, 3 bursts, no scale test"
     )
+    parser.add_argument(
+        "--realtime",
+        action="store_true",
+        help="relays and the local runner play under SCHED_FIFO where permitted",
+    )
+    parser.add_argument(
+        "--sim-realtime",
+        action="store_true",
+        help="simulators under SCHED_FIFO (chrt): a robot has its own CPU; here they share ours",
+    )
     args = parser.parse_args(argv)
+    if args.realtime:
+        REALTIME.append("--realtime")
+    if args.sim_realtime:
+        SIM_PREFIX.extend(["chrt", "-f", "20"])
     if args.quick:
         args.starts, args.drift_seconds, args.estimates, args.scale = 5, 10.0, 3, 0
     rng = random.Random(args.seed)
     with tempfile.TemporaryDirectory(prefix="relay-sync-") as tmp:
         phase_main(Path(tmp), args, rng)
-        phase_delay(Path(tmp), args, rng)
+        if args.estimates > 0:
+            phase_delay(Path(tmp), args, rng)
         if args.scale > 0:
             phase_scale(Path(tmp), args, rng)
     return 0
