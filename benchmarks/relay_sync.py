@@ -260,15 +260,7 @@ def connect(relays: Sequence[Relay]) -> object:
 
 def claim(session: object, relay: Relay, *, sync: bool = True) -> None:
     client = RelayClient(session, relay.name)  # type: ignore[arg-type]
-    deadline = time.monotonic() + 10
-    while True:  # the session may still be connecting
-        try:
-            client.hello()
-            break
-        except NetworkError:
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.05)
+    client.request("hello", timeout=10.0)  # resent until the session has a route
     client.start_heartbeat(period=0.1, watchdog=0.5)
     relay.client = client
     if sync:

@@ -15,7 +15,6 @@ import sys
 import time
 from pathlib import Path
 
-from xgo_show.errors import NetworkError
 from xgo_show.net.keys import relay_key
 from xgo_show.net.session import SessionOptions, open_session
 from xgo_show.net.timesync import ClockTracker
@@ -33,15 +32,7 @@ def main(argv: list[str]) -> int:
     session = open_session(SessionOptions(connect=(endpoint,), listen=()))
     try:
         client = RelayClient(session, relay)
-        deadline = time.monotonic() + 10
-        while True:  # the session may still be connecting
-            try:
-                client.hello()
-                break
-            except NetworkError:
-                if time.monotonic() > deadline:
-                    raise
-                time.sleep(0.05)
+        client.request("hello", timeout=10.0)  # resent until the session has a route
         client.start_heartbeat(
             period=0.1,
             watchdog=0.5,
