@@ -21,7 +21,10 @@ so that a caller (a relay, a show-control server, a test) can tell them apart::
     │   └── CompileError         a valid routine that cannot become a schedule
     │       └── TrajectoryError  the trajectory planner refused a move's input
     │           └── InfeasibleMotion  a move shorter than its limits allow
-    ├── NetworkError             a Zenoh session that cannot open, a relay that refuses
+    ├── NetworkError             a Zenoh session that cannot open, a relay that does not answer
+    │   ├── MessageError         a payload that is not a valid message of the relay protocol
+    │   ├── RelayRefused         a relay that refuses a command (held by another conductor, ...)
+    │   │   └── UploadRefused    an uploaded schedule the relay will not run
     │   └── ControlFailed        a show-control server refused a command, or none answered
     ├── ControlError             a show-control command or trigger that cannot be carried out now
     ├── SetupError               a show that cannot be set up (a performer without a port, ...)
@@ -48,12 +51,14 @@ __all__ = [
     "FileAccessError",
     "FrameRejected",
     "InfeasibleMotion",
+    "MessageError",
     "NetworkError",
     "NoAudioDevice",
     "PlotError",
     "PreflightError",
     "ProfileError",
     "ProtocolError",
+    "RelayRefused",
     "RuntimeFault",
     "ScheduleError",
     "SetupError",
@@ -64,6 +69,7 @@ __all__ = [
     "TransportError",
     "TransportTimeout",
     "UnsafeScheduleError",
+    "UploadRefused",
     "UsageError",
     "ValueRangeError",
     "XgoShowError",
@@ -135,6 +141,19 @@ class CompileError(ChoreographyError):
 
 class NetworkError(XgoShowError):
     """A Zenoh session that cannot open, a relay that does not answer or refuses a request."""
+
+
+class MessageError(NetworkError):
+    """A payload that is not a valid message of the relay protocol."""
+
+
+class RelayRefused(NetworkError):
+    """A relay that refuses a command: held by another conductor, no show to start or pause,
+    an operation it does not support."""
+
+
+class UploadRefused(RelayRefused):
+    """An uploaded schedule the relay will not run; the message says why."""
 
 
 class ControlFailed(NetworkError):
