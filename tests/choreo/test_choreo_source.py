@@ -141,3 +141,16 @@ def test_the_bundled_show_is_far_under_the_cap() -> None:
     text = (Path(__file__).parents[2] / "choreographies" / "mixed_five.yaml").read_text()
     node = yaml.compose(text, Loader=yaml.SafeLoader)
     assert source._expanded_size(node, {}, set()) * 50 < source.MAX_NODES
+
+
+def test_an_explicit_key_beside_a_merge_keeps_its_own_place() -> None:
+    """A value written next to ``<<`` is located where it is written; a merged one in the
+    anchor (a problem in it is one in the anchor's text)."""
+    text = "base: &b {x: 1, y: 2}\nc:\n  <<: *b\n  y: 5\nd:\n  y: 7\n  <<: [*b]\n"
+    doc, errors = parse_yaml(text, "f")
+    assert errors == []
+    assert doc.marks[("c", "y")] == (4, 6)  # written here, not the anchor's y at 1:21
+    assert doc.key_marks[("c", "y")] == (4, 3)
+    assert doc.marks[("c", "x")] == (1, 14)  # merged: where the anchor wrote it
+    assert doc.marks[("d", "y")] == (6, 6)  # order of '<<' and the key does not matter
+    assert doc.data["d"] == {"y": 7, "x": 1}

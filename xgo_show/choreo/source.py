@@ -200,11 +200,23 @@ class _Builder:
     def build_mapping(self, node: MappingNode, loc: Loc) -> dict[str | int, object]:
         if node.tag not in ("tag:yaml.org,2002:map",):
             self.error(node, loc, f"unsupported YAML tag {node.tag}")
-        out: dict[str | int, object] = {}
-        merges: list[Node] = []
+        # "<<: *anchor" merges first: building them records their places, and the explicit
+        # keys, built after, put theirs over them (explicit keys win, as in YAML 1.1), so a
+        # problem in a key written here is reported here, not in the anchor.
+        merged: dict[str | int, object] = {}
         for key_node, value_node in node.value:
             if key_node.tag == _MERGE_TAG:
-                merges.append(value_node)
+                sources = value_node.value if isinstance(value_node, SequenceNode) else [
+                    value_node]
+                for src in sources:
+                    if not isinstance(src, MappingNode):
+                        self.error(src, loc, "'<<' merges mappings only")
+                        continue
+                    for name, value in self.build_mapping(src, loc).items():
+                        merged.setdefault(name, value)
+        out: dict[str | int, object] = {}
+        for key_node, value_node in node.value:
+            if key_node.tag == _MERGE_TAG:
                 continue
             if not isinstance(key_node, ScalarNode):
                 self.error(key_node, loc, "a mapping key must be a plain value, not a list or map")
@@ -212,28 +224,19 @@ class _Builder:
             key = self.build_key(key_node, loc)
             if key is None:
                 continue
+            here: Loc = (*loc, key)
             if key in out:
-                here: Loc = (*loc, key)
                 first = self.doc.key_marks.get(here)
                 where = f" (first at line {first[0]})" if first else ""
                 self.error(key_node, here, f"duplicate key {key!r}{where}")
                 continue
-            here = (*loc, key)
             self.doc.key_marks[here] = (
                 key_node.start_mark.line + 1,
                 key_node.start_mark.column + 1,
             )
             out[key] = self.build(value_node, here)
-        # "<<: *anchor" merges: explicit keys win, as in YAML 1.1.
-        for merge in merges:
-            sources = merge.value if isinstance(merge, SequenceNode) else [merge]
-            for src in sources:
-                if not isinstance(src, MappingNode):
-                    self.error(src, loc, "'<<' merges mappings only")
-                    continue
-                merged = self.build_mapping(src, loc)
-                for key, value in merged.items():
-                    out.setdefault(key, value)
+        for name, value in merged.items():
+            out.setdefault(name, value)
         return out
 
     def scalar(self, node: ScalarNode, loc: Loc) -> object:
