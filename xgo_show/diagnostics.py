@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
+import re
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Literal
 
 from xgo_show.text import printable
 
-__all__ = ["Diagnostic", "Origin", "Severity", "merge_repeats"]
+__all__ = ["Diagnostic", "Origin", "Severity", "once_each"]
 
 Severity = Literal["error", "warning"]
 
@@ -48,17 +51,35 @@ class Diagnostic:
         return self.severity == "error"
 
 
-def merge_repeats(diags: list[Diagnostic]) -> list[Diagnostic]:
-    """Say each finding once: diagnostics with the same severity, message and place (a phrase
-    played by several tracks, or several times) become one naming every track's path."""
-    merged: dict[tuple[object, ...], list[Diagnostic]] = {}
+# A measurement in a message ("needs at least 0.59 s", "planned at 3.250 s"): the same problem
+# met again in a later repeat differs only in these.
+_MEASURE = re.compile(r"\d+\.\d+")
+
+
+def once_each(diags: Iterable[Diagnostic]) -> list[Diagnostic]:
+    """Each distinct problem once, at its place, in the order first met.
+
+    A cue inside a repeat (or a phrase played by several tracks or several times, or an anchor
+    merged into several cues) is checked and compiled each time it is used: the same problem
+    at the same line:col, differing at most in its measurements, is one diagnostic: the first
+    one met, with every path that reached it and the count appended.
+    """
+    groups: dict[tuple[object, ...], list[Diagnostic]] = {}
     for d in diags:
         o = d.origin
-        key = (d.severity, d.message, o and (o.file, o.line, o.column))
-        merged.setdefault(key, []).append(d)
+        key = (d.severity, o and (o.file, o.line, o.column), _MEASURE.sub("#", d.message))
+        groups.setdefault(key, []).append(d)
     out = []
-    for group in merged.values():
-        paths = list(dict.fromkeys(d.path for d in group if d.path))
-        out.append(Diagnostic(group[0].severity, group[0].message, group[0].origin,
-                              ", ".join(paths)))
+    for group in groups.values():
+        first = group[0]
+        plays = len(group)
+        if plays > 1:
+            shown = "" if all(d.message == first.message for d in group) else "; the first is shown"
+            paths = list(dict.fromkeys(d.path for d in group if d.path))
+            more = f" and {len(paths) - 3} more" if len(paths) > 3 else ""
+            first = dataclasses.replace(
+                first, path=", ".join(paths[:3]) + more, message=(
+                    f"{first.message} (met {plays} times: this text is used again by a repeat, "
+                    f"phrase, include or alias{shown})"))
+        out.append(first)
     return out

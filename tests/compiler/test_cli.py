@@ -70,3 +70,21 @@ def test_inspect_bad_file(tmp_path: Path, capsys: pytest.CaptureFixture[str]) ->
     junk.write_text("{}", encoding="utf-8")
     assert main(["inspect", str(junk)]) == 2
     assert "not an xgo-show schedule" in capsys.readouterr().err
+
+
+def test_an_infeasible_move_in_a_repeat_is_reported_once_with_its_count(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    show = tmp_path / "rep.yaml"
+    show.write_text("show: t\nperformers:\n  rex: {model: mini}\ntracks:\n  rex:\n"
+                    "    - repeat: 300\n      cues:\n        - move: {body_z: 110}\n"
+                    "          duration: 0.05\n        - move: {body_z: 80}\n"
+                    "          duration: 0.05\n")
+    assert main(["compile", str(show), "-o", str(tmp_path / "o.xshow.json")]) == 2
+    compiled = capsys.readouterr().err.splitlines()
+    assert main(["validate", str(show)]) == 1
+    validated = capsys.readouterr().out.splitlines()
+    for lines in (compiled, validated):
+        located = [ln for ln in lines if ": error: " in ln and ln.startswith(str(show))]
+        assert [ln.split(": error:")[0] for ln in located] == [f"{show}:8:11", f"{show}:10:11"]
+        assert all("needs at least" in ln and "(met 300 times:" in ln for ln in located)
+    assert len(compiled) == 3 and compiled[-1].endswith("2 error(s)")

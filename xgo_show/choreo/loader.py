@@ -19,7 +19,7 @@ from xgo_show.choreo.salvage import salvage_show
 from xgo_show.choreo.section_rules import check_waits
 from xgo_show.choreo.source import Document, read_yaml
 from xgo_show.choreo.validation import validate
-from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.diagnostics import Diagnostic, Origin, once_each
 from xgo_show.errors import ChoreographyError, CompileError, XgoShowError
 from xgo_show.gcpause import paused_gc
 
@@ -27,16 +27,9 @@ __all__ = ["check_document", "check_file", "is_part", "load_show", "validate_fil
 
 
 def _sorted(diags: list[Diagnostic]) -> list[Diagnostic]:
-    """Deduplicated (a phrase played twice reports once), in file order, errors first per line."""
-    seen: set[tuple[object, ...]] = set()
-    out: list[Diagnostic] = []
-    for d in diags:
-        key = (d.severity, d.message, d.origin and (d.origin.file, d.origin.line,
-                                                     d.origin.column), d.path)
-        if key not in seen:
-            seen.add(key)
-            out.append(d)
-    return sorted(out, key=lambda d: (
+    """Each problem once (a cue in a repeat reports once, with a count), in file order, errors
+    first per line."""
+    return sorted(once_each(diags), key=lambda d: (
         d.origin.file if d.origin else "", d.origin.line if d.origin else 0,
         d.origin.column if d.origin else 0, d.severity != "error",
     ))

@@ -11,7 +11,7 @@ from xgo_show.compiler.frames import cue_label, to_us
 from xgo_show.compiler.pacing import PaceResult, pace
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
 from xgo_show.compiler.state import frame_labels
-from xgo_show.diagnostics import Diagnostic, merge_repeats
+from xgo_show.diagnostics import Diagnostic, once_each
 from xgo_show.errors import CompileError, ProfileError
 from xgo_show.families import get_family
 from xgo_show.gcpause import paused_gc
@@ -58,8 +58,9 @@ def _compile(show: ResolvedShow, *, keep: bool) -> Schedule:
         errors.extend(errs)
         warnings.extend(warns)
         performers.append(performer)
-    errors = merge_repeats(errors)
-    warnings = merge_repeats(warnings)
+    # A cue in a repeat, or a phrase several tracks play, fails the same way each time.
+    errors = once_each(errors)
+    warnings = once_each(warnings)
     if errors:
         lines = "\n".join(d.format() for d in errors)
         count = f"{len(errors)} error{'s' if len(errors) != 1 else ''}"
