@@ -66,17 +66,17 @@ CASES = [
     ("loop_missing", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
      "    do: [{loop: idle}]\n", "11:17", "no routine 'idle'"),
     ("battery_range", "rules:\n  - name: a\n    when: [{battery_below: 120}, {trigger: visitor}]\n"
-     "    do: [{play: sit}]\n", "10:28", "less than or equal to 100"),
+     "    do: [{play: sit}]\n", "10:28", "120% is too large: give 0 to 100%"),
     ("battery_clear", "rules:\n  - name: a\n    when: [{battery_below: 20, clear: 10}, "
      "{trigger: visitor}]\n    do: [{play: sit}]\n", "10:39", "must be above the level"),
     ("tilt_clear", "rules:\n  - name: a\n    when: [{tilt_beyond: 45, clear: 50}, "
      "{trigger: visitor}]\n    do: [{play: sit}]\n", "10:37", "must be below the angle"),
     ("tilt_zero", "rules:\n  - name: a\n    when: [{tilt_beyond: 0}, {trigger: visitor}]\n"
-     "    do: [{play: sit}]\n", "10:26", "greater than 0"),
+     "    do: [{play: sit}]\n", "10:26", "0 deg is too small: give more than 0 and at most 180 deg"),
     ("bad_clock", "rules:\n  - name: a\n    when: [{at: '25:00'}, {trigger: visitor}]\n"
      "    do: [{play: sit}]\n", "10:17", "not '25:00'"),
     ("every_negative", "rules:\n  - name: a\n    when: [{every: -3}, {trigger: visitor}]\n"
-     "    do: [{play: sit}]\n", "10:20", "greater than 0"),
+     "    do: [{play: sit}]\n", "10:20", "-3 s is too small: give more than 0 s"),
     ("routine_ended_missing", "rules:\n  - name: a\n    when: [{routine_ended: bow}, "
      "{trigger: visitor}]\n    do: [{play: sit}]\n", "10:28", "no routine 'bow'"),
     ("offline_performer", "rules:\n  - name: a\n    when: [{offline: 2, performers: [max]}, "
@@ -97,7 +97,7 @@ CASES = [
      "    if: {time: {after: '10:00', before: '10:00'}}\n    do: [{play: sit}]\n", "11:16",
      "an empty window"),
     ("bad_mode", GOOD_RULE + "    mode: sometimes\n", "12:11", "'single', 'restart'"),
-    ("priority_range", GOOD_RULE + "    priority: 100\n", "12:15", "less than or equal to 99"),
+    ("priority_range", GOOD_RULE + "    priority: 100\n", "12:15", "100 is too large: give 0 to 99"),
     ("duplicate_rule", GOOD_RULE + "  - name: greet\n    when: [{trigger: visitor}]\n"
      "    do: [{play: sit}]\n", "12:11", "a second rule named 'greet'"),
     ("unused_trigger", "rules:\n  - name: a\n    when: [{startup: true}]\n    do: [{play: sit}]\n",
@@ -108,7 +108,7 @@ CASES = [
     ("action_kind", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
      "    do: [{dance: greet}]\n", "11:10", "an action needs exactly one kind key"),
     ("wait_zero", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
-     "    do: [{wait: 0}, {play: sit}]\n", "11:17", "greater than 0"),
+     "    do: [{wait: 0}, {play: sit}]\n", "11:17", "0 s is too small: give more than 0 s"),
     ("not_a_mapping", None, "1:1", "a behaviour is a mapping"),
     ("led_without_leds", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
      "    do: [{led: {all: red}}]\n", "11:16", "rex: led: the XGO-Mini has no LEDs"),

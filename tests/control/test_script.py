@@ -34,10 +34,10 @@ def test_the_bundled_rehearsal_reads() -> None:
     [
         ("triggers:\n  - {trigger: go}\n", ":2:5:", "give one of 'at'"),
         ("triggers:\n  - {trigger: go, at: 1, after: 2}\n", ":2:5:", "give one of 'at'"),
-        ("triggers:\n  - {trigger: go, at: -1}\n", ":2:23:", "greater than or equal to 0"),
+        ("triggers:\n  - {trigger: go, at: -1}\n", ":2:23:", "-1 s is too small: give 0 s or more"),
         ("triggers:\n  - {triger: go, at: 1}\n", ":2:6:", "triger"),
         ("triggers: []\n", ":1:11:", "at least 1"),
-        ("- {trigger: go, at: 1}\n", ":1:1:", "dictionary"),
+        ("- {trigger: go, at: 1}\n", ":1:1:", "mapping"),
     ],
 )
 def test_a_bad_script_is_reported_at_its_place(

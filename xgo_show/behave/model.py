@@ -19,6 +19,8 @@ from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, StringConstraints, Tag
 
+from xgo_show.choreo.unit import Unit
+
 __all__ = [
     "ACTION_KINDS",
     "CONDITION_KINDS",
@@ -31,9 +33,9 @@ __all__ = [
 ]
 
 Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$")]
-Seconds = Annotated[float, Field(gt=0, allow_inf_nan=False)]
-Percent = Annotated[float, Field(ge=0, le=100, allow_inf_nan=False)]
-Degrees = Annotated[float, Field(gt=0, le=180, allow_inf_nan=False)]
+Seconds = Annotated[float, Field(gt=0, allow_inf_nan=False), Unit("s")]
+Percent = Annotated[float, Field(ge=0, le=100, allow_inf_nan=False), Unit("%")]
+Degrees = Annotated[float, Field(gt=0, le=180, allow_inf_nan=False), Unit("deg")]
 ClockTime = Annotated[
     str, StringConstraints(pattern=r"^([01][0-9]|2[0-3]):[0-5][0-9](:[0-5][0-9])?$")
 ]

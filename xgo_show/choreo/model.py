@@ -146,7 +146,8 @@ def _parse_position(value: object) -> Position:
         seconds = float(value)  # type: ignore[arg-type]
         if not _finite(seconds) or seconds < 0:
             raise PydanticCustomError(
-                "position", "a time must be a number of seconds >= 0, not {value}", {"value": value}
+                "position", "{value} s is too small: a time is 0 s or more (from the start)",
+                {"value": f"{seconds:g}"},
             )
         return Position(seconds=seconds, bare=True)
     if isinstance(value, str):
@@ -253,8 +254,10 @@ def _parse_length(value: object) -> Length:
             {},
         )
     if not _finite(amount) or amount < 0:
+        symbol = "s" if unit == "seconds" else unit
         raise PydanticCustomError(
-            "length", "a length must be >= 0, not {amount}", {"amount": amount}
+            "length", "{amount} {unit} is too small: a length is 0 {unit} or more",
+            {"amount": f"{amount:g}", "unit": symbol},
         )
     return Length(amount, unit)  # type: ignore[arg-type]
 

@@ -18,6 +18,7 @@ from pydantic import BaseModel, Tag, ValidationError
 
 from xgo_show.choreo.model import CUE_KINDS
 from xgo_show.choreo.source import Document, Loc
+from xgo_show.choreo.unit import Unit
 from xgo_show.diagnostics import Diagnostic
 
 __all__ = ["data_loc", "did_you_mean", "validate"]
@@ -121,8 +122,8 @@ _PARAM_HINT = (
 )
 
 
-def _message(err: Any, root: type[BaseModel]) -> str:
-    msg = _plain_message(err, root)
+def _message(err: Any, root: type[BaseModel], where: Loc = ()) -> str:
+    msg = _plain_message(err, root, where)
     value = err.get("input")
     if isinstance(value, str) and _PARAM_LIKE.match(value) and err["type"] not in (
         "extra_forbidden", "missing",
@@ -131,7 +132,8 @@ def _message(err: Any, root: type[BaseModel]) -> str:
     return msg
 
 
-def _plain_message(err: Any, root: type[BaseModel]) -> str:
+def _plain_message(err: Any, root: type[BaseModel], where: Loc) -> str:
+    """The error in our words: what was written, what is allowed (in the field's unit)."""
     kind = err["type"]
     raw_loc = err["loc"]
     if kind == "extra_forbidden":
@@ -161,20 +163,35 @@ def _plain_message(err: Any, root: type[BaseModel]) -> str:
     msg = str(err["msg"])
     if kind.startswith(("position", "length", "timing")):
         return msg
-    msg = msg[:1].lower() + msg[1:]
     if kind == "string_pattern_mismatch":
         pattern = str((err.get("ctx") or {}).get("pattern", ""))
         what = _PATTERNS.get(pattern, "a value in the expected form")
         return f"should be {what}, not {_describe(err['input'])}"
-    if kind in ("literal_error", "enum", "greater_than", "greater_than_equal", "less_than",
-                "less_than_equal", "too_short", "too_long"):
-        return f"{msg}, not {_describe(err['input'])}"
-    if kind.endswith("_type") or kind.endswith("_parsing"):
+    if kind in _RANGE:
+        return _range_message(err, root, where)
+    if kind in ("too_short", "too_long", "string_too_short", "string_too_long"):
+        return _length_message(err)
+    if kind in ("literal_error", "enum"):
+        expected = str((err.get("ctx") or {}).get("expected", "")) or _expected(err)
+        several = "one of " if " or " in expected else ""
+        return f"should be {several}{expected}, not {_describe(err['input'])}"
+    if kind in _EXPECTED or kind == "union_type" or kind.endswith(_TYPE_KINDS):
         hint = ""
         if isinstance(err["input"], str) and _looks_numeric(err["input"]):
             hint = " (in quotes it is text: write the number without quotes)"
-        return f"{msg}, not {_describe(err['input'])}{hint}"
-    return msg
+        return f"should be {_expected(err)}, not {_describe(err['input'])}{hint}"
+    for prefix in ("Value error, ", "Assertion failed, "):  # a validator's own message
+        if msg.startswith(prefix):
+            return msg[len(prefix):]
+    return _reword(msg)
+
+
+def _reword(msg: str) -> str:
+    """Whatever else pydantic says, without its "Input should be a valid ..." phrasing."""
+    match = _EXPECT.match(msg)
+    if match:
+        return f"should be {match[1]}"
+    return msg[:1].lower() + msg[1:]
 
 
 _NUMBER = re.compile(r"^\s*[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?\s*$")
@@ -197,6 +214,155 @@ _COMMON_FIELDS = frozenset(
 
 
 _EXPECT = re.compile(r"^Input should be (?:a valid |an? )?(.+)$")
+
+
+# -- pydantic's complaints in our words ---------------------------------------------------------
+
+# What a value should be, by pydantic's error type.
+_EXPECTED = {
+    "int_type": "a whole number", "int_parsing": "a whole number",
+    "int_from_float": "a whole number", "float_type": "a number", "float_parsing": "a number",
+    "bool_type": "true or false", "bool_parsing": "true or false", "string_type": "text",
+    "dict_type": "a mapping (name: value)", "model_type": "a mapping (name: value)",
+    "model_attributes_type": "a mapping (name: value)", "list_type": "a list",
+    "finite_number": "a finite number", "none_required": "nothing (null)",
+}
+# The unit of a field by its name, when its type carries no Unit.
+_FIELD_UNITS = {
+    "duration": "s", "after": "s", "at": "s", "fade": "s", "timeout": "s", "offset": "s",
+    "end": "s", "beats": "beats", "bars": "bars", "control_rate": "Hz", "gap_ms": "ms",
+    "battery_floor": "%", "bpm": "bpm", "beats_per_bar": "beats",
+}
+_LIMIT_UNITS = {"velocity": "per second", "acceleration": "per second²", "jerk": "per second³"}
+_LOW = ("greater_than", "greater_than_equal")
+_RANGE = (*_LOW, "less_than", "less_than_equal")
+
+
+def _number(value: object) -> str:
+    """``1e-12``, ``1e7``, ``0.001``, ``-1``: as short as a person writes it."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return _describe(value)
+    text = f"{value:g}"
+    return re.sub(r"e([+-])0*(\d)", lambda m: "e" + m[1].replace("+", "") + m[2], text)
+
+
+def _field_meta(root: type[BaseModel], loc: Sequence[str | int]) -> list[Any]:
+    """Every annotation met on the way to the field at pydantic ``loc`` (empty if lost)."""
+    tp: Any = root
+    meta: list[Any] = []
+    for part in loc:
+        tp, found = _unwrap(tp)
+        meta = found
+        origin = typing.get_origin(tp)
+        if isinstance(tp, type) and issubclass(tp, BaseModel):
+            info = next((i for n, i in tp.model_fields.items() if part in (n, i.alias)), None)
+            if info is None:
+                return []
+            tp, meta = info.annotation, list(info.metadata)
+        elif origin is dict:
+            tp = typing.get_args(tp)[1]
+        elif origin is list:
+            tp = typing.get_args(tp)[0]
+        elif origin in (typing.Union, types.UnionType):
+            # A member by its tag, or (untagged) by its type's name: pydantic's "int", "list[...]"
+            members = [_unwrap(m) for m in typing.get_args(tp)]
+            chosen = next(((inner, m) for inner, m in members
+                           if any(isinstance(x, Tag) and x.tag == part for x in m)
+                           or _type_name(inner) == str(part).split("[")[0].removeprefix(
+                               "constrained-")), None)
+            if chosen is None:
+                return []
+            tp, meta = chosen[0], meta + chosen[1]
+        else:
+            return []
+    tp, found = _unwrap(tp)
+    return meta + found
+
+
+def _type_name(tp: Any) -> str:
+    origin = typing.get_origin(tp)
+    return str(getattr(origin or tp, "__name__", ""))
+
+
+def _flat(meta: list[Any]) -> list[Any]:
+    out: list[Any] = []
+    for m in meta:
+        out.extend(getattr(m, "metadata", None) or [m])  # a FieldInfo holds its constraints
+    return out
+
+
+def _unit(meta: list[Any], data_path: Loc) -> str:
+    for m in meta:
+        if isinstance(m, Unit):
+            return m.symbol
+    names = [p for p in data_path if isinstance(p, str)]
+    if len(names) >= 2 and names[-1] in _LIMIT_UNITS and "limits" in names:
+        return f"{names[-2]}'s unit {_LIMIT_UNITS[names[-1]]}"
+    return _FIELD_UNITS.get(names[-1], "") if names else ""
+
+
+def _range_message(err: Any, root: type[BaseModel], data_path: Loc) -> str:
+    """``0 ms is too small: give 1 to 1000 ms``: the value, which way it is off, the range."""
+    meta = _flat(_field_meta(root, err["loc"]))
+    bounds = dict((err.get("ctx") or {}).items())
+    for m in meta:
+        for name in ("gt", "ge", "lt", "le"):
+            if getattr(m, name, None) is not None:
+                bounds.setdefault(name, getattr(m, name))
+    unit = _unit(meta, data_path)
+    written = _number(err["input"])
+    sep = "" if unit in ("", "%") else " "
+    per = unit.startswith(tuple(_LIMIT_UNITS)) or "'s unit" in unit
+    if per:  # "give 0.001 to 1e7 (body_z's unit per second)"
+        unit_after, unit_tail = "", f" ({unit})"
+    else:
+        unit_after, unit_tail = f"{sep}{unit}" if unit else "", ""
+    lo = (f"{_number(bounds['ge'])}", True) if "ge" in bounds else (
+        (f"{_number(bounds['gt'])}", False) if "gt" in bounds else None)
+    hi = (f"{_number(bounds['le'])}", True) if "le" in bounds else (
+        (f"{_number(bounds['lt'])}", False) if "lt" in bounds else None)
+    if lo and hi and lo[1] and hi[1]:
+        allowed = f"{lo[0]} to {hi[0]}{unit_after}"
+    elif lo and hi:
+        low = f"{lo[0]}" if lo[1] else f"more than {lo[0]}"
+        high = f"at most {hi[0]}" if hi[1] else f"less than {hi[0]}"
+        allowed = f"{low} and {high}{unit_after}"
+    elif lo:
+        allowed = f"{lo[0]}{unit_after} or more" if lo[1] else f"more than {lo[0]}{unit_after}"
+    elif hi:
+        allowed = f"at most {hi[0]}{unit_after}" if hi[1] else f"less than {hi[0]}{unit_after}"
+    else:
+        allowed = "a value in range"
+    which = "too small" if err["type"] in _LOW else "too large"
+    return f"{written}{unit_after} is {which}: give {allowed}{unit_tail}"
+
+
+def _length_message(err: Any) -> str:
+    """An empty list, mapping or text (or one too long), said as such."""
+    ctx = err.get("ctx") or {}
+    value = err["input"]
+    item = ("character" if isinstance(value, str) else
+            "entry (name: value)" if isinstance(value, dict) else "item")
+    items = "characters" if item == "character" else (
+        "entries" if isinstance(value, dict) else "items")
+    if str(err["type"]).endswith("too_short"):
+        need = int(ctx.get("min_length", 1))
+        what = (f"{_describe(value)} is empty" if not value
+                else f"{_describe(value)} has {len(value)} {items if len(value) != 1 else item}")
+        return f"{what}: give at least {need} {item if need == 1 else items}"
+    most = int(ctx.get("max_length", 0))
+    return f"{_describe(value)} has {len(value)} {items}: give at most {most}"
+
+
+def _expected(err: Any) -> str:
+    """What the value should have been, in words ("a whole number", "true or false")."""
+    kind = str(err["type"])
+    if kind == "union_type":
+        return str(err["ctx"]["expected"])
+    if kind in _EXPECTED:
+        return _EXPECTED[kind]
+    match = _EXPECT.match(str(err["msg"]))
+    return (match[1] if match else str(err["msg"])).split(",")[0]
 
 
 _TYPE_KINDS = ("_type", "_parsing")  # "not a string", "unable to parse as an integer"
@@ -241,14 +407,10 @@ def _merge_union_errors(payload: object, errors: list[Any]) -> list[Any]:
         if loc in done:
             continue
         done.add(loc)
-        kinds = []
-        for e in group:
-            match = _EXPECT.match(str(e["msg"]))
-            kind = match[1] if match else str(e["msg"])
-            if kind not in kinds:
-                kinds.append(kind)
+        kinds = list(dict.fromkeys(_expected(e) for e in group))
         merged = dict(err)
-        merged["msg"] = "Input should be " + " or ".join(f"a {k}" for k in kinds)
+        merged["type"] = "union_type"
+        merged["ctx"] = {"expected": ", ".join(kinds[:-1]) + " or " + kinds[-1]}
         out.append(merged)
     return out
 
@@ -273,7 +435,7 @@ def validate(
         loc = data_loc(payload, err["loc"])
         if wrap is not None:
             loc = loc[1:]
-        msg = _message(err, cls)
+        msg = _message(err, cls, loc)
         if loc and loc[-1] == "[key]":  # a mapping key that is not allowed: the key's place
             loc = loc[:-1]
         full = (*base, *loc)
