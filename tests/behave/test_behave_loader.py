@@ -115,7 +115,7 @@ CASES = [
     ("set_bad_value", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
      "    do: [{set: {pace: sloww}}]\n", "11:16", "unknown value 'sloww'; one of normal"),
     ("set_empty", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
-     "    do: [{set: {}}]\n", "11:16", "at least 1 item"),
+     "    do: [{set: {}}]\n", "11:16", "{} is empty: give at least 1 entry"),
     ("set_performer", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
      "    do: [{set: {gait: walk}, performers: [ivy]}]\n", "11:43", "no performer 'ivy'"),
     ("led_fade", "rules:\n  - name: a\n    when: [{trigger: visitor}]\n"
