@@ -8,7 +8,7 @@ import json
 import time
 from typing import Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UsageError
 from xgo_show.net.session import add_session_arguments, open_session, session_options
 
 __all__ = ["add_parser", "format_relays", "run"]
@@ -44,7 +44,7 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``xgo-show relays``."""
     if not 0 < args.wait <= 60:
-        raise XgoShowError(f"--wait {args.wait:g}: give 0 to 60 seconds")
+        raise UsageError(f"--wait {args.wait:g}: give 0 to 60 seconds")
     from xgo_show.relay.client import list_relays
 
     opts = session_options(args)

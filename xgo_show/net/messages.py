@@ -71,7 +71,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
-from xgo_show.errors import NetworkError
+from xgo_show.errors import MessageError
 
 __all__ = [
     "LINK_LOSS_POLICIES",
@@ -114,9 +114,6 @@ OPS: dict[str, dict[str, str]] = {
     "probe": {"performer": "str"},
 }
 
-
-class MessageError(NetworkError):
-    """A payload that is not a valid message of this protocol."""
 
 
 @dataclass(frozen=True)

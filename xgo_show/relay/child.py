@@ -30,7 +30,7 @@ import tempfile
 from collections.abc import Mapping
 from types import TracebackType
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import SetupError
 
 __all__ = ["READY_TIMEOUT", "RelayChild"]
 
@@ -106,7 +106,7 @@ class RelayChild:
             text = errors.read().decode("utf-8", "replace").strip().splitlines()
             why = text[-1].removeprefix("xgo-show: error: ") if text else "no answer in time"
             self.proc = None
-            raise XgoShowError(f"the process that owns the local ports did not start: {why}")
+            raise SetupError(f"the process that owns the local ports did not start: {why}")
 
     def close(self, timeout: float = 5.0) -> None:
         """Tell the child the conductor is done (its robots stay as the show left them)."""

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import NetworkError, UsageError, XgoShowError
 from xgo_show.net import messages as msg
 from xgo_show.net.keys import SCHEME, parse_relay_url, relay_key
 from xgo_show.net.offset import Timebase
@@ -67,11 +67,11 @@ def configure(options: ConductorOptions, *, session: zenoh.Session | None = None
     """
     global _options, _session, _conductor
     if options.link_loss not in msg.LINK_LOSS_POLICIES:
-        raise XgoShowError(
+        raise UsageError(
             f"link-loss policy {options.link_loss!r}: one of {', '.join(msg.LINK_LOSS_POLICIES)}"
         )
     if not 0.05 <= options.watchdog <= 60:
-        raise XgoShowError(f"watchdog {options.watchdog:g} s: give 0.05 to 60 seconds")
+        raise UsageError(f"watchdog {options.watchdog:g} s: give 0.05 to 60 seconds")
     _options = options
     if session is not None:
         with _lock:
@@ -267,7 +267,7 @@ class RelayEndpoint:
 
     def performers(self, ctx: PerformerContext) -> dict[str, Performer]:
         if self.client is None:
-            raise XgoShowError(f"relay {self.relay} is not open")
+            raise NetworkError(f"relay {self.relay} is not open")
         self.show = RelayShow(
             self.client,
             self.map,

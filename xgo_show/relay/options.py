@@ -14,7 +14,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UsageError
 from xgo_show.net.keys import is_relay_url
 from xgo_show.net.session import SessionOptions, add_session_arguments, session_options
 
@@ -69,7 +69,7 @@ def add_conductor_arguments(parser: argparse.ArgumentParser) -> None:
 def conductor_options(args: argparse.Namespace) -> ConductorOptions:
     """The :class:`ConductorOptions` :func:`add_conductor_arguments` parsed."""
     if not 50 <= args.watchdog_ms <= 60_000:
-        raise XgoShowError(f"--watchdog-ms {args.watchdog_ms}: give 50 to 60000")
+        raise UsageError(f"--watchdog-ms {args.watchdog_ms}: give 50 to 60000")
     return ConductorOptions(
         session=session_options(args),
         link_loss=args.link_loss,
@@ -100,7 +100,7 @@ def use_relays(
     if not relayed:
         return {}
     if fast:
-        raise XgoShowError(
+        raise UsageError(
             f"--fast cannot drive relayed performers ({', '.join(relayed)}): relays play in "
             "real time"
         )

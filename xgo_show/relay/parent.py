@@ -13,7 +13,7 @@ import os
 import signal
 import sys
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import SetupError
 
 __all__ = ["watch_parent"]
 
@@ -34,5 +34,5 @@ def watch_parent(pid: int) -> bool:
         except (OSError, AttributeError):
             armed = False
     if os.getppid() != pid:
-        raise XgoShowError(f"the conductor (pid {pid}) is gone already")
+        raise SetupError(f"the conductor (pid {pid}) is gone already")
     return armed

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from xgo_show.client import XarmClient, XgoClient, open_client
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import SetupError, UsageError, XgoShowError
 from xgo_show.profiles import get_profile
 from xgo_show.profiles.model import Profile
 from xgo_show.runtime.safety import stop_frames
@@ -95,9 +95,9 @@ def parse_pairs(items: Sequence[str], option: str, example: str) -> dict[str, st
         name, eq, value = item.partition("=")
         name, value = name.strip(), value.strip()
         if not eq or not name or not value:
-            raise XgoShowError(f"{option} {item!r}: write NAME=VALUE, e.g. {example}")
+            raise UsageError(f"{option} {item!r}: write NAME=VALUE, e.g. {example}")
         if name in out:
-            raise XgoShowError(f"{option} {item!r}: {name} is given twice")
+            raise UsageError(f"{option} {item!r}: {name} is given twice")
         out[name] = value
     return out
 
@@ -108,14 +108,14 @@ def open_robots(
     """Open every port and identify its robot; close them all again if one fails."""
     unknown = sorted(set(models) - set(ports))
     if unknown:
-        raise XgoShowError(f"--model for {', '.join(unknown)}, which no --map names")
+        raise UsageError(f"--model for {', '.join(unknown)}, which no --map names")
     robots: dict[str, OwnedRobot] = {}
     try:
         for name, url in ports.items():
             try:
                 client = open_client(url, models.get(name), timeout=timeout)
             except XgoShowError as exc:
-                raise XgoShowError(f"{name} ({url}): {exc}") from exc
+                raise SetupError(f"{name} ({url}): {exc}") from exc
             robot = OwnedRobot(name, url, client.model, client.transport)
             robots[name] = robot
             robot.refresh(timeout)

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from xgo_show.compiler.schedule import Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import RelayRefused, TimeSyncError, XgoShowError
 from xgo_show.net import messages as msg
 from xgo_show.net.keys import check_relay_name, relay_key
 from xgo_show.net.offset import Timebase
@@ -293,9 +293,9 @@ class Relay:
             holder = self._holder
             if holder is None or holder.conductor.id != request.conductor.id:
                 if request.op != "hello":
-                    raise XgoShowError(self._not_holder(request))
+                    raise RelayRefused(self._not_holder(request))
                 if holder is not None:
-                    raise XgoShowError(self._held_by(holder))
+                    raise RelayRefused(self._held_by(holder))
                 self._hold(request.conductor)
                 return {"description": self.describe()}
             holder.watchdog.heard()
@@ -318,7 +318,7 @@ class Relay:
             return {"stops": self.stop_show(request.text("reason"))}
         if op == "probe":
             return {"rows": self._probe(request.text("performer"))}
-        raise XgoShowError(f"{op}: not supported by this relay")
+        raise RelayRefused(f"{op}: not supported by this relay")
 
     def _held_by(self, holder: _Holder) -> str:
         return (
@@ -350,7 +350,7 @@ class Relay:
         with self._lock:
             holder = self._holder
             if holder is None or holder.conductor.id != conductor:
-                raise XgoShowError(
+                raise TimeSyncError(
                     f"relay {self.name}: timebase from a conductor that does not hold it"
                 )
             holder.watchdog.heard()
@@ -385,7 +385,7 @@ class Relay:
 
     def _upload(self, request: msg.Request) -> dict[str, Any]:
         if self._busy():
-            raise XgoShowError("a show is running on this relay; stop it before uploading")
+            raise RelayRefused("a show is running on this relay; stop it before uploading")
         schedule, unsafe = validate_upload(
             request.text("schedule"),
             request.text("sha256"),
@@ -455,18 +455,18 @@ class Relay:
         if start_in is not None and start_at is None:
             start_at = self.clock.now() + start_in  # the naive way: a lead after arrival
         elif start_at is None or start_in is not None:
-            raise XgoShowError("start: give start_at or start_in (not both)")
+            raise RelayRefused("start: give start_at or start_in (not both)")
         offset = request.number("offset")
         with self._lock:
             show = self._show
             if show is None or show.sha256 != sha:
-                raise XgoShowError(f"start: no uploaded show with SHA-256 {sha[:12]}...")
+                raise RelayRefused(f"start: no uploaded show with SHA-256 {sha[:12]}...")
             if show.thread is not None:
-                raise XgoShowError("start: this show has already started")
+                raise RelayRefused("start: this show has already started")
             if not 0 <= offset < show.schedule.duration:
-                raise XgoShowError(f"start: offset {offset:g} s is outside the show")
+                raise RelayRefused(f"start: offset {offset:g} s is outside the show")
             if start_at <= self.clock.now():
-                raise XgoShowError(
+                raise RelayRefused(
                     f"start: the start time passed {(self.clock.now() - start_at) * 1e3:.1f} ms "
                     "ago (give a longer lead time)"
                 )
@@ -474,7 +474,7 @@ class Relay:
             need = max(executor_lead(p, offset) for p in show.schedule.performers)
             margin = start_at - (self.clock.now() + need)
             if margin < 0:
-                raise XgoShowError(
+                raise RelayRefused(
                     f"start: the robots need {need * 1e3:.0f} ms to be ready and the start time "
                     f"is {(need + margin) * 1e3:.0f} ms away (give a longer lead time)"
                 )
@@ -530,13 +530,13 @@ class Relay:
         with self._lock:
             show = self._show
             if show is None or show.runner is None:
-                raise XgoShowError(f"{op}: no show is running")
+                raise RelayRefused(f"{op}: no show is running")
             runner = show.runner
         at = request.maybe_number("at")
         now = self.clock.now()
         if at is not None and at < now:
             # Acting late would leave this host on another frame than the others, for good.
-            raise XgoShowError(
+            raise RelayRefused(
                 f"{op}: its time passed {(now - at) * 1e3:.1f} ms before it arrived "
                 "(give a longer command lead)"
             )
@@ -569,9 +569,9 @@ class Relay:
     def _probe(self, performer: str) -> list[list[str]]:
         robot = self.robots.get(performer)
         if robot is None:
-            raise XgoShowError(f"probe: no robot {performer!r} on relay {self.name}")
+            raise RelayRefused(f"probe: no robot {performer!r} on relay {self.name}")
         if self._busy():
-            raise XgoShowError(f"probe: a show is running on relay {self.name}")
+            raise RelayRefused(f"probe: a show is running on relay {self.name}")
         from xgo_show.families import get_family
 
         rows = get_family(robot.profile).probe(robot.client(), given=robot.model)

@@ -19,7 +19,7 @@ from collections.abc import Mapping
 
 from xgo_show.compiler.artifact import schedule_from_bytes
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import UploadRefused, XgoShowError
 from xgo_show.profiles.model import Profile
 from xgo_show.relay.robots import OwnedRobot
 from xgo_show.runtime.safety import check_unsafe
@@ -29,9 +29,6 @@ __all__ = ["UploadRefused", "link_budget_problems", "schedule_digest", "validate
 # A frame may start this early against the link's budget (rounding of microsecond times).
 _BUDGET_TOLERANCE = 2e-6
 
-
-class UploadRefused(XgoShowError):
-    """An uploaded schedule the relay will not run; the message says why."""
 
 
 def schedule_digest(text: str) -> str:
