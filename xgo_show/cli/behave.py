@@ -18,7 +18,7 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
-from xgo_show.errors import XgoShowError
+from xgo_show.errors import SetupError, UsageError
 from xgo_show.runtime.events import EventBus
 
 __all__ = ["add_parser", "run"]
@@ -95,11 +95,11 @@ def run(args: argparse.Namespace) -> int:
 
         script = load_rehearsal(args.script, behaviour)
         if not args.sim and not args.fast:
-            raise XgoShowError("a script happens to simulated robots: add --sim (or --fast)")
+            raise UsageError("a script happens to simulated robots: add --sim (or --fast)")
     elif args.fast:
-        raise XgoShowError("--fast rehearses a script: give --script EVENTS.yaml")
+        raise UsageError("--fast rehearses a script: give --script EVENTS.yaml")
     if args.fast and args.serve:
-        raise XgoShowError("--serve takes triggers in real time: leave out --fast")
+        raise UsageError("--serve takes triggers in real time: leave out --fast")
     if script is not None and args.fast:
         from xgo_show.behave.rehearsal import rehearse
 
@@ -156,16 +156,16 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
             for item in args.map:
                 name, sep, port = item.partition("=")
                 if port.startswith("zenoh:"):
-                    raise XgoShowError(f"--map {item}: robots behind relays are not supported "
+                    raise UsageError(f"--map {item}: robots behind relays are not supported "
                                        "by behave (run it where the robots are wired, with "
                                        "--serve for remote triggers)")
                 if not sep or name not in model.performers:
-                    raise XgoShowError(f"--map {item}: give NAME=PORT for a performer of the "
+                    raise UsageError(f"--map {item}: give NAME=PORT for a performer of the "
                                        f"behaviour ({', '.join(model.performers)})")
                 ports[name] = port
             missing = [n for n in model.performers if n not in ports]
             if missing:
-                raise XgoShowError(f"no port for {', '.join(missing)}: give --map NAME=PORT "
+                raise SetupError(f"no port for {', '.join(missing)}: give --map NAME=PORT "
                                    "(or --sim)")
         for name, port in ports.items():
             transport = open_transport(port)
