@@ -184,8 +184,12 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
     if variant.realtime:
         policy = request_realtime()
     if variant.nice:
-        os.setpriority(os.PRIO_PROCESS, 0, variant.nice)  # Linux: this thread (and children)
-        policy = f"nice {os.getpriority(os.PRIO_PROCESS, 0)}"
+        try:  # Linux: this thread and the threads it starts
+            os.setpriority(os.PRIO_PROCESS, 0, variant.nice)
+        except OSError:  # a higher priority needs root or CAP_SYS_NICE
+            policy = f"nice {variant.nice} refused"
+        else:
+            policy = f"nice {os.getpriority(os.PRIO_PROCESS, 0)}"
     gc.callbacks.append(on_gc)
     before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
     try:
