@@ -140,7 +140,8 @@ def test_exhibition_rehearsal_trace(
     for want in [
         "0.00 rule idle: action: rex loops idle",
         "5.00 rule greet: action: rex plays greet",
-        "5.00 rex: idle cut after 1.00 s: handed over to greet through the rest posture",
+        "5.00 rex: idle cut after 1.00 s: handed over to greet through the rest and default "
+        "posture",
         "7.00 rule greet: skipped: trigger visitor: conditions do not hold",
         "13.80 rule greet: published: greeted",
         "20.00 rule fallen: fired: rex tilted 90 deg > 60",

@@ -172,3 +172,52 @@ def test_a_relayed_robot_is_refused_with_a_reason(capsys: pytest.CaptureFixture[
     err = capsys.readouterr().err
     assert "robots behind relays are not supported by behave" in err
     assert "Traceback" not in err
+
+
+def test_a_preempted_routine_hands_over_through_the_default_posture(tmp_path: Path) -> None:
+    (tmp_path / "lean.yaml").write_text(textwrap.dedent("""\
+        show: lean
+        performers: {rio: {model: rider}}
+        tracks:
+          rio: [{move: {body_z: 80}, duration: 0.6}, {move: {roll: [8, 0]}, duration: 3}]
+        """))
+    (tmp_path / "b.yaml").write_text(textwrap.dedent("""\
+        behaviour: rider
+        performers: {rio: {model: rider}}
+        routines: {lean: lean.yaml}
+        triggers: [again]
+        rules:
+          - {name: first, when: [{startup: true}], do: [{play: lean}]}
+          - {name: again, when: [{trigger: again}], do: [{play: lean}]}
+        """))
+    behaviour = load_behaviour(tmp_path / "b.yaml")
+    bus = EventBus()
+    seen: list[Event] = []
+    bus.subscribe(seen.append, FrameSent, BehaviourNote)
+    with PtyServer(create_robot("rider")) as server:
+        transport = open_transport(server.path)
+        transport.open()
+        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus)
+        thread = threading.Thread(target=runner.run, kwargs={"duration": 10.0})
+        thread.start()
+        try:
+            wait_until(lambda: sum(1 for e in list(seen) if isinstance(e, FrameSent)
+                                   and e.kind == "frame") > 5)
+            cut_at = len(seen)
+            runner.trigger("again")
+            wait_until(lambda: any(isinstance(e, FrameSent) and e.kind == "frame"
+                                   and e.index == 0 for e in list(seen)[cut_at:]))
+        finally:
+            runner.stop()
+            thread.join(5)
+            transport.close()
+    sent = [e for e in seen[cut_at:] if isinstance(e, FrameSent) and e.kind != "read"]
+    kinds = [e.kind for e in sent]
+    first = next(i for i, e in enumerate(sent) if e.kind == "frame" and e.index == 0)
+    # Cut mid-move: the rest frames (speeds to neutral), the reset action (default posture),
+    # then the routine from its first frame; nothing of the cut routine after its rest.
+    assert "rest" in kinds[:first]
+    reset = [e for e in sent[:first] if e.kind == "set"]
+    assert [e.note for e in reset] == ["action=255 (restore default posture)"]
+    assert kinds.index("rest") < kinds.index("set") < first
+    assert not any(e.kind == "frame" for e in sent[kinds.index("rest"):first])

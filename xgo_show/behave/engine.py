@@ -15,7 +15,8 @@ actions starts (or not, by ``mode``: ``single`` ignores a firing while a run is 
 starts another). ``play`` waits for the routine's end; ``loop`` does not (the performers loop
 until something else takes them). Ownership: a performer belongs to the rule that last played
 on it; a rule of lower rank (safety rules first, then ``priority``) cannot take it, a rule of
-the same or a higher rank pre-empts it (the stage hands over through the rest posture).
+the same or a higher rank pre-empts it (the stage hands over through the rest posture, then
+the default posture).
 
 Telemetry triggers have hysteresis: ``battery_below: 20, clear: 30`` fires once when the
 battery reads below 20 and again only after it has read 30 or more.

@@ -36,6 +36,7 @@ from xgo_show.runtime.events import (
     TelemetryRead,
 )
 from xgo_show.runtime.executor import ExecutorState, PerformerExecutor
+from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.show_runner import default_reach
 from xgo_show.runtime.telemetry import TelemetryPoller
 from xgo_show.transports.base import Transport
@@ -77,6 +78,10 @@ class _Seat:
         )
         self._feed: PerformerExecutor | None = None  # the latest executor (reads go to it)
         self._pending: list[tuple[bytes, str]] = []  # frames for the next executor to send
+        rest = len(rest_frames(self.profile))
+        #: the safe stop's frames after the rest ones: back to the default posture (XGO's
+        #: reset action; none for a robot whose stop only halts it)
+        self.posture = [(f.data, f.label) for f in stop_frames(self.profile)[rest:]]
         self._reader: threading.Thread | None = None
         self._reader_stop = threading.Event()
         link = next(iter(stage.behaviour.routines.values())).performers[0].link
@@ -137,7 +142,12 @@ class _Seat:
         self._start(self.idle, linger=_WATCH_FOREVER, rest=False)
 
     def play(self, part: PerformerSchedule, routine: str, play_id: int) -> None:
-        self.end(rest=self.routine is not None)
+        preempted = self.routine is not None  # a routine still playing (an ended one watches)
+        self.end(rest=preempted)
+        if preempted:
+            # Through the safe stop's posture: the next routine was compiled for a robot in
+            # its default posture, not wherever the cut one left it.
+            self._pending += self.posture
         self.routine, self.play_id = routine, play_id
         self._start(part, linger=0.0, rest=True)
 

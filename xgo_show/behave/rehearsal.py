@@ -144,7 +144,7 @@ class VirtualStage:
     def play(self, routine: str, performers: tuple[str, ...], play_id: int, t: float) -> None:
         schedule = self.behaviour.routines[routine]
         for p in performers:
-            self._cut(p, t, f"handed over to {routine} through the rest posture")
+            self._cut(p, t, f"handed over to {routine} through the rest and default posture")
             robot = self.robots[p]
             robot.routine, robot.play_id, robot.started = routine, play_id, t
             end = t + next(s.end for s in schedule.performers if s.name == p)
