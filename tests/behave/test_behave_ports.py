@@ -4,9 +4,11 @@ and never two executors write on the port."""
 
 from __future__ import annotations
 
+import contextlib
 import textwrap
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -14,6 +16,7 @@ import pytest
 from tests.conftest import wait_until
 from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote
+from xgo_show.behave.loader import Behaviour
 from xgo_show.behave.ports import BehaviourRunner
 from xgo_show.cli.main import main
 from xgo_show.runtime.events import Event, EventBus, FrameSent
@@ -23,6 +26,30 @@ from xgo_show.sim.pty_server import PtyServer
 from xgo_show.transports import open_transport
 
 EXHIBITION = Path(__file__).resolve().parents[2] / "behaviours" / "exhibition" / "exhibition.yaml"
+
+
+@contextlib.contextmanager
+def _on_a_rider(
+    behaviour: Behaviour,
+) -> Iterator[tuple[BehaviourRunner, PtyServer, list[Event]]]:
+    """``behaviour`` running (default rates, 10 s at most) on a simulated Rider on a pty; the
+    frames sent and the engine's notes collected. Stopped (and checked ended) on exit."""
+    bus = EventBus()
+    seen: list[Event] = []
+    bus.subscribe(seen.append, FrameSent, BehaviourNote)
+    with PtyServer(create_robot("rider")) as server:
+        transport = open_transport(server.path)
+        transport.open()
+        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus)
+        thread = threading.Thread(target=runner.run, kwargs={"duration": 10.0})
+        thread.start()
+        try:
+            yield runner, server, seen
+        finally:
+            runner.stop()
+            thread.join(5)
+            transport.close()
+        assert not thread.is_alive()
 
 
 def test_fall_and_offline_on_a_pty(tmp_path: Path) -> None:
@@ -41,37 +68,24 @@ def test_fall_and_offline_on_a_pty(tmp_path: Path) -> None:
           - {name: lost, when: [{offline: 0.5}], do: [{publish: lost}]}
         """))
     behaviour = load_behaviour(tmp_path / "b.yaml")
-    bus = EventBus()
-    seen: list[Event] = []
-    bus.subscribe(seen.append, FrameSent, BehaviourNote)
-    with PtyServer(create_robot("rider")) as server:
-        transport = open_transport(server.path)
-        transport.open()
-        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus)  # default rates
-        thread = threading.Thread(target=runner.run, kwargs={"duration": 10.0})
-        thread.start()
-        try:
-            time.sleep(0.2)
-            with server.lock:
-                fell = time.monotonic()
-                server.robot.fall()  # type: ignore[attr-defined]
-            wait_until(lambda: any(
-                isinstance(e, FrameSent) and e.kind == "frame" for e in list(seen)
-            ), timeout=3.0)
-            first = next(e for e in list(seen) if isinstance(e, FrameSent) and e.kind == "frame")
-            # status read every 20 ms, no wait for a reader to stop (the naive 3-item rotation
-            # at 0.25 s took 0.3-0.5 s)
-            assert first.t - fell < 0.15
-            readers = [t for t in threading.enumerate() if "reader" in t.name]
-            assert len(readers) == 1  # one reader on the port, across executors
-            server.offline = True
-            wait_until(lambda: any(
-                isinstance(e, BehaviourNote) and e.kind == "published" for e in list(seen)
-            ), timeout=3.0)
-        finally:
-            runner.stop()
-            thread.join(5)
-            transport.close()
+    with _on_a_rider(behaviour) as (_, server, seen):
+        time.sleep(0.2)
+        with server.lock:
+            fell = time.monotonic()
+            server.robot.fall()  # type: ignore[attr-defined]
+        wait_until(lambda: any(
+            isinstance(e, FrameSent) and e.kind == "frame" for e in list(seen)
+        ), timeout=3.0)
+        first = next(e for e in list(seen) if isinstance(e, FrameSent) and e.kind == "frame")
+        # status read every 20 ms, no wait for a reader to stop (the naive 3-item rotation
+        # at 0.25 s took 0.3-0.5 s)
+        assert first.t - fell < 0.15
+        readers = [t for t in threading.enumerate() if "reader" in t.name]
+        assert len(readers) == 1  # one reader on the port, across executors
+        server.offline = True
+        wait_until(lambda: any(
+            isinstance(e, BehaviourNote) and e.kind == "published" for e in list(seen)
+        ), timeout=3.0)
     notes = [f"{e.rule} {e.kind}: {e.text}" for e in seen if isinstance(e, BehaviourNote)]
     assert "fallen fired: rio tilted 90 deg > 60" in notes
     assert "fallen action: rio plays get_up" in notes
@@ -79,7 +93,6 @@ def test_fall_and_offline_on_a_pty(tmp_path: Path) -> None:
     # One writer at a time: the frames' write times never go backwards on the port.
     times = [e.t for e in seen if isinstance(e, FrameSent)]
     assert times == sorted(times)
-    assert not thread.is_alive()
 
 
 def test_cli_rehearses_a_script_in_real_time_on_ptys(
@@ -131,27 +144,14 @@ def test_led_beside_a_loop_and_a_phrase_on_its_own_on_a_pty(tmp_path: Path) -> N
     phrase = behaviour.routines["moves.sway(by=8)"].performers[0]
     assert phrase.end == pytest.approx(1.2)
     led = behaviour.writes["red.do[0]"].performers[0].frames[0].data
-    bus = EventBus()
-    seen: list[Event] = []
-    bus.subscribe(seen.append, FrameSent, BehaviourNote)
-    with PtyServer(create_robot("rider")) as server:
-        transport = open_transport(server.path)
-        transport.open()
-        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus)
-        thread = threading.Thread(target=runner.run, kwargs={"duration": 10.0})
-        thread.start()
-        try:
-            time.sleep(0.3)
-            runner.trigger("red")
-            wait_until(lambda: any(isinstance(e, FrameSent) and e.kind == "set"
-                                   for e in list(seen)))
-            assert runner.engine.playing("rio") == "moves"  # the loop was not cut
-            runner.trigger("sway")
-            wait_until(lambda: runner.engine.playing("rio") is None, timeout=3.0)
-        finally:
-            runner.stop()
-            thread.join(5)
-            transport.close()
+    with _on_a_rider(behaviour) as (runner, server, seen):
+        time.sleep(0.3)
+        runner.trigger("red")
+        wait_until(lambda: any(isinstance(e, FrameSent) and e.kind == "set"
+                               for e in list(seen)))
+        assert runner.engine.playing("rio") == "moves"  # the loop was not cut
+        runner.trigger("sway")
+        wait_until(lambda: runner.engine.playing("rio") is None, timeout=3.0)
         received = [f.data for f in server.robot.received]
     assert led in received  # the colour reached the robot
     notes = [f"{e.rule} {e.kind}: {e.text}" for e in seen if isinstance(e, BehaviourNote)]
@@ -191,26 +191,13 @@ def test_a_preempted_routine_hands_over_through_the_default_posture(tmp_path: Pa
           - {name: again, when: [{trigger: again}], do: [{play: lean}]}
         """))
     behaviour = load_behaviour(tmp_path / "b.yaml")
-    bus = EventBus()
-    seen: list[Event] = []
-    bus.subscribe(seen.append, FrameSent, BehaviourNote)
-    with PtyServer(create_robot("rider")) as server:
-        transport = open_transport(server.path)
-        transport.open()
-        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus)
-        thread = threading.Thread(target=runner.run, kwargs={"duration": 10.0})
-        thread.start()
-        try:
-            wait_until(lambda: sum(1 for e in list(seen) if isinstance(e, FrameSent)
-                                   and e.kind == "frame") > 5)
-            cut_at = len(seen)
-            runner.trigger("again")
-            wait_until(lambda: any(isinstance(e, FrameSent) and e.kind == "frame"
-                                   and e.index == 0 for e in list(seen)[cut_at:]))
-        finally:
-            runner.stop()
-            thread.join(5)
-            transport.close()
+    with _on_a_rider(behaviour) as (runner, _, seen):
+        wait_until(lambda: sum(1 for e in list(seen) if isinstance(e, FrameSent)
+                               and e.kind == "frame") > 5)
+        cut_at = len(seen)
+        runner.trigger("again")
+        wait_until(lambda: any(isinstance(e, FrameSent) and e.kind == "frame"
+                               and e.index == 0 for e in list(seen)[cut_at:]))
     sent = [e for e in seen[cut_at:] if isinstance(e, FrameSent) and e.kind != "read"]
     kinds = [e.kind for e in sent]
     first = next(i for i, e in enumerate(sent) if e.kind == "frame" and e.index == 0)

@@ -9,7 +9,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import textwrap
@@ -20,24 +19,10 @@ from typing import Any
 import zenoh
 
 from tests.conftest import wait_until
+from tests.control.test_server import _config, _free_port
 from xgo_show.control.keys import event_key, trigger_key
 
 NS = f"test-behave-{os.getpid()}"
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _config(connect: str) -> zenoh.Config:
-    config = zenoh.Config()
-    config.insert_json5("mode", '"peer"')
-    config.insert_json5("scouting/multicast/enabled", "false")
-    config.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
-    config.insert_json5("connect/endpoints", json.dumps([connect]))
-    return config
 
 
 def _get(session: zenoh.Session, key: str) -> tuple[bool, dict[str, Any]] | None:
