@@ -44,7 +44,6 @@ from xgo_show.transports.base import Transport
 __all__ = ["WATCH_INTERVAL", "BehaviourRunner", "PortStage"]
 
 _WATCH_FOREVER = 1e9  # seconds of show time a watcher lingers (until it is ended)
-_HANDOVER_TIMEOUT = 0.5  # seconds allowed for a pre-empted routine to rest the robot
 #: seconds between reads of the items a fall or tilt shows in, by default: each read is a
 #: ~20-byte exchange (~2 ms at 115200 baud, 10% of the link), and sets the reaction time
 WATCH_INTERVAL = 0.02
@@ -78,7 +77,8 @@ class _Seat:
         )
         self._feed: PerformerExecutor | None = None  # the latest executor (reads go to it)
         self._pending: list[tuple[bytes, str]] = []  # frames for the next executor to send
-        rest = len(rest_frames(self.profile))
+        self.rest = [(f.data, f.label) for f in rest_frames(self.profile)]
+        rest = len(self.rest)
         #: the safe stop's frames after the rest ones: back to the default posture (XGO's
         #: reset action; none for a robot whose stop only halts it)
         self.posture = [(f.data, f.label) for f in stop_frames(self.profile)[rest:]]
@@ -153,19 +153,16 @@ class _Seat:
 
     def end(self, *, rest: bool) -> None:
         """Stop the executor writing on the port (its writer thread has ended on return);
-        with ``rest``, through the rest posture first."""
+        with ``rest``, the next executor's first frames bring the robot to rest (speeds to
+        neutral): one writer at a time, and a rest never cut short by the stop."""
         executor, self.executor = self.executor, None
         if executor is None:
             return
-        if rest and not executor.done:
-            executor.pause()
-            deadline = self.stage.clock.now() + _HANDOVER_TIMEOUT
-            while executor.state is not ExecutorState.PAUSED and not executor.done:
-                if self.stage.clock.now() > deadline:
-                    break
-                self.stage.clock.sleep_until(self.stage.clock.now() + 0.001)
+        busy = not executor.done
         executor.abort()
         executor.join(1.0)
+        if rest and busy:
+            self._pending += self.rest
 
     def close(self) -> None:
         """End the executor and stop reading the port."""
