@@ -103,6 +103,12 @@ class Relays:
             self.ready(relay, READY_TIMEOUT * max(1, len(started) // 2))
         return started
 
+    def restart(self, old: RelayProcess, *extra: str) -> RelayProcess:
+        """A new relay process in place of ``old`` (killed): same name, port and robots."""
+        relay = self.spawn(old.name, {}, *extra, port=old.port, servers=old.servers)
+        self.ready(relay)
+        return relay
+
     def spawn(
         self,
         name: str,
@@ -110,9 +116,12 @@ class Relays:
         *extra: str,
         env: dict[str, str] | None = None,
         listen: bool = True,
+        port: int | None = None,
+        servers: dict[str, PtyServer] | None = None,
     ) -> RelayProcess:
-        port = free_port()
-        servers = {n: PtyServer(create_robot(model)).start() for n, model in robots.items()}
+        port = free_port() if port is None else port
+        if servers is None:
+            servers = {n: PtyServer(create_robot(model)).start() for n, model in robots.items()}
         cmd = [sys.executable, "-m", "xgo_show", "relay", "--name", name]
         for n, server in servers.items():
             cmd += ["--map", f"{n}={server.path}"]
@@ -156,8 +165,8 @@ class Relays:
             for stream in (relay.proc.stdout, relay.proc.stderr):
                 if stream is not None:
                     stream.close()
-            for server in relay.servers.values():
-                server.close()
+        for server in {id(s): s for r in self.started for s in r.servers.values()}.values():
+            server.close()  # once: a restarted relay shares its robots with the old one
 
 
 @pytest.fixture

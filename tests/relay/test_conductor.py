@@ -222,7 +222,7 @@ def test_eight_relays_start_together_on_a_lead_from_measured_round_trips(
         cmd += ["--map", f"{name}=zenoh:host{i}"]  # the robot is named like the performer
     for relay in started:
         cmd += ["--connect", relay.endpoint]
-    out = subprocess.run(cmd + ["--log", str(log)], capture_output=True, text=True, timeout=90)
+    out = subprocess.run([*cmd, "--log", str(log)], capture_output=True, text=True, timeout=90)
     assert out.returncode == 0, out.stdout + out.stderr
     from xgo_show.runtime.runlog import read_log
 

@@ -72,6 +72,10 @@ def test_a_second_conductor_is_refused_with_the_holders_name(relays, conductor_s
     claim(session, relay, "alice@stage")
     with pytest.raises(NetworkError, match="held by conductor 'alice@stage'"):
         claim(session, relay, "bob@booth")
+    from xgo_show.relay.client import list_relays
+
+    (listed,) = list_relays(session, timeout=2.0)  # what `xgo-show relays` shows
+    assert listed["holder"]["name"] == "alice@stage"
     other = RelayClient(session, relay.name)
     with pytest.raises(NetworkError, match="held by conductor 'alice@stage'"):
         other.command("stop", reason="bob wants it")
