@@ -70,18 +70,28 @@ def test_unsafe_frames_are_refused_unless_explicitly_allowed() -> None:
         "rex frame 1 at 0.100s: writes unsafe register servo_zero"]
 
 
-def test_the_refusal_names_three_unsafe_frames_and_counts_the_rest() -> None:
+@pytest.mark.parametrize("count", [3, 4, 5])
+def test_the_refusal_names_three_unsafe_frames_and_counts_the_rest(count: int) -> None:
     mini = get_profile("mini")
     unsafe = write_frame(mini.register("calibration").address, b"\x01")
     with pytest.raises(UnsafeScheduleError) as err:
-        check_unsafe(_schedule(mini, *[unsafe] * 5), {"rex": mini})
-    message = str(err.value)
-    assert message.count("writes unsafe register calibration") == 3
-    assert "frame 2 at 0.200s" in message and "frame 3" not in message
-    assert "(and 2 more)" in message
-    with pytest.raises(UnsafeScheduleError) as err:
-        check_unsafe(_schedule(mini, *[unsafe] * 3), {"rex": mini})
-    assert "more)" not in str(err.value)
+        check_unsafe(_schedule(mini, *[unsafe] * count), {"rex": mini})
+    named = "; ".join(f"rex frame {i} at 0.{i}00s: writes unsafe register calibration"
+                      for i in range(3))
+    more = f" (and {count - 3} more)" if count > 3 else ""
+    assert str(err.value) == f"refusing to run: {named}{more}; pass --allow-unsafe to override"
+
+
+def test_an_unsafe_frame_is_named_with_the_cue_it_came_from() -> None:
+    from xgo_show.diagnostics import Origin
+
+    mini = get_profile("mini")
+    frame = ScheduledFrame(0.25, write_frame(mini.register("servo_zero").address, b"\x01"),
+                           Origin("show.yaml", 12, 5, "rex: set servo_zero"))
+    perf = PerformerSchedule("rex", "mini", mini.link, (frame,), end=1.0)
+    found = check_unsafe(Schedule("t", "show.yaml", (perf,), 50.0), {"rex": mini},
+                         allow_unsafe=True)
+    assert found == [f"rex frame 0 at 0.250s ({frame.origin}): writes unsafe register servo_zero"]
 
 
 def test_a_write_the_profile_cannot_lay_out_is_refused_as_unknown() -> None:
