@@ -5,7 +5,8 @@ priority). Each module gets its own scratch copy of the project (``--work``), so
 parallel without sharing mutmut's ``mutants/`` folder, and mutmut's settings come from
 ``[tool.mutmut]`` in pyproject.toml plus, per module, the module (``only_mutate``) and its test
 folders (``pytest_add_cli_args_test_selection``). Test folders mirror the package:
-``xgo_show/wire/xgo.py`` runs ``tests/wire``; ``[tool.xgo-show.mutation.tests]`` adds others.
+``xgo_show/wire/xgo.py`` runs ``tests/wire``, unless ``[tool.xgo-show.mutation.tests]`` names
+the module's tests.
 
 Surviving mutants whose change nothing can observe are listed, with the reason, in
 ``scripts/mutation-equivalent.txt``; they are left out of the kill rate. The summary prints one
@@ -70,11 +71,13 @@ def _settings() -> tuple[dict[str, object], dict[str, object]]:
     return dict(tool.get("mutmut", {})), dict(tool.get("xgo-show", {}).get("mutation", {}))
 
 
-def test_folders(module: str, extra: dict[str, list[str]]) -> list[str]:
-    """``xgo_show/pkg/mod.py`` -> ``tests/pkg`` plus the folders configured for the module."""
+def test_folders(module: str, named: dict[str, list[str]]) -> list[str]:
+    """``xgo_show/pkg/mod.py`` -> ``tests/pkg``, unless the module's tests are named in the
+    configuration (folders, files or pytest options)."""
+    if module in named:
+        return named[module]
     parts = Path(module).parts
-    own = f"tests/{parts[1]}" if len(parts) > 2 else "tests"
-    return [own, *[f for f in extra.get(module, []) if f != own]]
+    return [f"tests/{parts[1]}" if len(parts) > 2 else "tests"]
 
 
 def _equivalents() -> dict[tuple[str, str], str]:
@@ -146,14 +149,32 @@ def _mutmut(work: Path, *args: str, log: Path | None = None) -> str:
     return text
 
 
+# One process for all of a module's survivors (``mutmut show`` takes seconds for each).
+_DIFFS = """
+import json, sys
+from mutmut.mutation.diff_apply import get_diff_for_mutant
+json.dump({n: get_diff_for_mutant(n) for n in json.load(sys.stdin)}, sys.stdout)
+"""
+
+
+def _diffs(work: Path, names: list[str]) -> dict[str, str]:
+    """Each mutant's diff against the original, as ``mutmut show`` prints it."""
+    if not names:
+        return {}
+    proc = subprocess.run([sys.executable, "-c", _DIFFS], cwd=work, input=json.dumps(names),
+                          text=True, stdout=subprocess.PIPE, check=True)
+    diffs: dict[str, str] = json.loads(proc.stdout)
+    return diffs
+
+
 def run_module(module: str, work_root: Path, base: dict[str, object],
-               extra: dict[str, list[str]], equivalent: dict[tuple[str, str], str]) -> Outcome:
+               named: dict[str, list[str]], equivalent: dict[tuple[str, str], str]) -> Outcome:
     """Mutate ``module`` in its own scratch copy and classify what survived."""
     outcome = Outcome(module)
     work = work_root / module.replace("/", "_").removesuffix(".py")
     start = time.monotonic()
     try:
-        _prepare(work, module, base, test_folders(module, extra))
+        _prepare(work, module, base, test_folders(module, named))
         _mutmut(work, "run", "--max-children", "1", log=work / "run.log")
         _mutmut(work, "export-cicd-stats")
         stats = json.loads((work / "mutants" / "mutmut-cicd-stats.json").read_text())
@@ -168,15 +189,13 @@ def run_module(module: str, work_root: Path, base: dict[str, object],
         outcome.counts[status] = outcome.counts.get(status, 0) + 1
     if sum(outcome.counts.values()) != stats["total"]:
         outcome.error = f"results list {sum(outcome.counts.values())} of {stats['total']} mutants"
-    for name, status in statuses:
-        if status in CAUGHT:
-            continue
-        diff = _mutmut(work, "show", name)
+    left = {name: status for name, status in statuses if status not in CAUGHT}
+    for name, diff in _diffs(work, list(left)).items():
         reason = equivalent.get(signature(name, diff))
         if reason is not None:
             outcome.equivalent.append((name, reason))
         else:
-            outcome.survivors.append((name, f"[{status}]\n{diff.strip()}"))
+            outcome.survivors.append((name, f"[{left[name]}]\n{diff.strip()}"))
     (work / "survivors.txt").write_text(
         "\n\n".join(f"{n}\n{d}" for n, d in outcome.survivors) + "\n", encoding="utf-8")
     return outcome
@@ -210,14 +229,14 @@ def main(argv: list[str] | None = None) -> int:
                         help="scratch folder (one copy of the project per module)")
     args = parser.parse_args(argv)
     base, ours = _settings()
-    extra = {k: list(v) for k, v in dict(ours.get("tests", {})).items()}  # type: ignore[call-overload]
+    named = {k: list(v) for k, v in dict(ours.get("tests", {})).items()}  # type: ignore[call-overload]
     modules = args.modules or list(ours.get("modules", []))  # type: ignore[call-overload]
     for module in modules:
         if not (ROOT / module).is_file() or not module.startswith("xgo_show/"):
             parser.error(f"{module}: not a module of the package (give xgo_show/.../name.py)")
     equivalent = _equivalents()
     with concurrent.futures.ThreadPoolExecutor(max(1, args.jobs)) as pool:
-        futures = [pool.submit(run_module, m, args.work, base, extra, equivalent)
+        futures = [pool.submit(run_module, m, args.work, base, named, equivalent)
                    for m in modules]
         outcomes = []
         for future in futures:

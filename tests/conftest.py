@@ -18,6 +18,12 @@ import time
 from collections.abc import Callable, Iterator
 
 import pytest
+from hypothesis import settings
+
+# scripts/mutation.sh runs the tests with --hypothesis-profile=mutation: mutmut's tracing slows
+# every call, so a per-example deadline would fail clean code, and derandomized examples make
+# every mutant meet the same ones (a kill rate that does not change from run to run).
+settings.register_profile("mutation", deadline=None, derandomize=True)
 
 pytest_plugins = ["pytester"]  # lets tests/test_thread_leak_check.py run this check itself
 

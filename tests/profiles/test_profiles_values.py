@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from xgo_show.choreo import check_file
 from xgo_show.errors import ValueRangeError
-from xgo_show.profiles import MODELS, Access, Encoding, Register, get_profile
+from xgo_show.profiles import MODELS, Access, Encoding, Link, Register, get_profile
 
 REGISTERS = [(model, reg) for model in MODELS for reg in get_profile(model).registers]
 ENUMS = [(m, r) for m, r in REGISTERS if r.encoding is Encoding.ENUM]
@@ -141,7 +141,7 @@ def test_decode_inverts_encode_for_every_encoding(data: st.DataObject) -> None:
         value = expect = data.draw(st.binary(min_size=reg.size, max_size=reg.size))
     raw = reg.encode_value(value)
     assert len(raw) == reg.size
-    assert reg.decode_value(raw) == expect
+    assert reg.decode_value(raw) == expect and type(reg.decode_value(raw)) is type(expect)
     assert reg.encode_value(reg.decode_value(raw)) == raw
 
 
@@ -169,3 +169,115 @@ def test_fixed_layouts_of_the_wide_encodings() -> None:
         txt.encode_value("abcdefg")
     with pytest.raises(ValueRangeError, match="three bytes"):
         rgb.encode_value((1, 2, 256))
+
+
+def test_decoded_values_have_the_documented_types() -> None:
+    # 5 and 5.0 compare equal, so the types are checked on their own: a raw byte stays an int,
+    # a physical value is a float, neutral decodes to 0.0 (never printed as "-0").
+    for _, reg in REGISTERS:
+        value = reg.decode_value(reg.encode_value(_some_value(reg)))
+        expected = {Encoding.FLOAT32: float, Encoding.INT16: int, Encoding.RGB: tuple,
+                    Encoding.ASCII: str, Encoding.BLOCK: bytes, Encoding.ENUM: str}.get(
+            reg.encoding, float if reg.linear else int)
+        assert type(value) is expected, (reg.name, value)
+    for _, reg in LINEAR:
+        if reg.encoding is Encoding.U8 and reg.zero_at_neutral and reg.minimum < 0:  # type: ignore[operator]
+            assert str(reg.decode_value(b"\x80")) == "0.0", reg.name
+    plain = Register(0x10, "raw", Access.READ_WRITE)
+    assert type(plain.to_physical(7)) is float and plain.to_physical(7) == 7.0
+
+
+def _some_value(reg: Register) -> object:
+    return {Encoding.ENUM: next(iter(reg.choices), 0), Encoding.FLOAT32: 1.5,
+            Encoding.INT16: -3, Encoding.RGB: (1, 2, 3), Encoding.ASCII: "ab",
+            Encoding.BLOCK: bytes(reg.size)}.get(reg.encoding, reg.maximum or 7)
+
+
+def test_an_unnamed_enum_code_read_back_decodes_to_its_number() -> None:
+    gait = get_profile("mini").register("gait")
+    assert gait.decode_value(b"\x07") == 7 and type(gait.decode_value(b"\x07")) is int
+
+
+def test_ascii_decoding_replaces_bytes_that_are_not_ascii() -> None:
+    txt = Register(0x07, "firmware", Access.READ, encoding=Encoding.ASCII, size=6)
+    # b"\xc3\xa9" is UTF-8 for "é": the firmware string is ASCII, so it is two unknowns.
+    assert txt.decode_value(b"M\xc3\xa9\0\0\0") == "M\ufffd\ufffd"
+    assert txt.decode_value(b"\xffabc\0\0") == "\ufffdabc"
+
+
+def test_a_range_ending_at_zero_maps_linearly() -> None:
+    # Only a range with zero strictly inside is piecewise through 0x80.
+    low = Register(0x10, "low", Access.WRITE, minimum=-10.0, maximum=0.0)
+    assert [low.to_byte(v) for v in (-10.0, -5.0, 0.0)] == [0, 128, 255]
+    assert [low.to_physical(b) for b in (0, 255)] == [-10.0, 0.0]
+
+
+def test_the_range_check_tolerates_float_noise_only() -> None:
+    reg = Register(0x10, "tilt", Access.WRITE, unit="deg", minimum=-20.0, maximum=20.0)
+    reg.check(-20.0 - 1e-9)
+    reg.check(20.0 + 1e-9)
+    for outside in (-20.0 - 1e-8, 20.0 + 1e-8):
+        with pytest.raises(ValueRangeError, match=r"^tilt = .* deg is out of range \[-20, 20\] "
+                                                  r"deg$"):
+            reg.check(outside)
+    bare = Register(0x11, "level", Access.WRITE, minimum=0.0, maximum=1.0)
+    with pytest.raises(ValueRangeError) as err:
+        bare.check(2.0)
+    assert str(err.value) == "level = 2 is out of range [0, 1]"
+
+
+def test_errors_name_the_register_and_what_it_takes() -> None:
+    raw = Register(0x10, "raw", Access.WRITE)
+    pace = get_profile("mini").register("pace")
+    block = Register(0x65, "imu_block", Access.READ, encoding=Encoding.BLOCK, size=4)
+    cases = [
+        (lambda: raw.encode_value(1.5), "raw takes a whole byte value, not 1.5"),
+        (lambda: raw.encode_value(256), "raw = 256 is not a byte (0..255)"),
+        (lambda: pace.encode_value("warp"),
+         "pace: unknown value 'warp'; one of normal, slow, fast"),
+        (lambda: pace.encode_value(True), "pace takes one of normal, slow, fast, not True"),
+        (lambda: block.encode_value(b"\x00"), "imu_block is a 4-byte block"),
+    ]
+    for call, message in cases:
+        with pytest.raises(ValueRangeError) as err:
+            call()
+        assert str(err.value) == message
+
+
+def test_profile_lookups_list_what_is_valid() -> None:
+    from xgo_show.errors import ProfileError
+
+    mini = get_profile("mini")
+    with pytest.raises(ProfileError) as err:
+        mini.register("nope")
+    valid = sorted(r.name for r in mini.registers if not r.unsafe)
+    assert str(err.value) == f"mini has no register 'nope'; valid: {', '.join(valid)}"
+    assert "servo_zero" not in str(err.value)  # unsafe registers are not offered
+    with pytest.raises(ProfileError) as err:
+        mini.action("nope")
+    first = mini.actions[0]
+    assert str(err.value).startswith(f"mini has no action 'nope'; valid: {first.id} {first.name}, ")
+    known = {r.address for r in mini.registers}
+    hole = next(a for a in range(0x100) if a not in known)
+    with pytest.raises(ProfileError, match=f"^mini has no register at 0x{hole:02X}$"):
+        mini.walk(hole, 1)
+    wide = next(r for r in mini.registers if r.size > 1)
+    with pytest.raises(ProfileError) as err:
+        mini.walk(wide.address, wide.size - 1)
+    assert str(err.value) == (f"{wide.name} at 0x{wide.address:02X} is {wide.size} bytes; "
+                              f"only {wide.size - 1} remain")
+
+
+def test_imu_block_size_is_checked_with_its_sizes_named() -> None:
+    imu = get_profile("mini").imu
+    assert imu is not None
+    with pytest.raises(ValueRangeError) as err:
+        imu.unpack(bytes(imu.size - 1))
+    assert str(err.value) == f"IMU block is {imu.size} bytes, not {imu.size - 1}"
+
+
+def test_wire_time_is_ten_bits_a_byte_at_the_baud_rate() -> None:
+    for model in MODELS:
+        link = get_profile(model).link
+        assert link.wire_time(9) == pytest.approx(9 * 10 / link.baud)
+    assert Link(115200, 0.001).wire_time(0) == 0.0
