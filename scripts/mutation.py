@@ -168,14 +168,19 @@ def _diffs(work: Path, names: list[str]) -> dict[str, str]:
 
 
 def run_module(module: str, work_root: Path, base: dict[str, object],
-               named: dict[str, list[str]], equivalent: dict[tuple[str, str], str]) -> Outcome:
-    """Mutate ``module`` in its own scratch copy and classify what survived."""
+               named: dict[str, list[str]], equivalent: dict[tuple[str, str], str],
+               *, again: bool = True) -> Outcome:
+    """Mutate ``module`` in its own scratch copy and classify what survived (``again``
+    false: only classify the last run's results, e.g. after listing equivalent mutants)."""
     outcome = Outcome(module)
     work = work_root / module.replace("/", "_").removesuffix(".py")
     start = time.monotonic()
     try:
-        _prepare(work, module, base, test_folders(module, named))
-        _mutmut(work, "run", "--max-children", "1", log=work / "run.log")
+        if again:
+            _prepare(work, module, base, test_folders(module, named))
+            _mutmut(work, "run", "--max-children", "1", log=work / "run.log")
+        elif not (work / "mutants").is_dir():
+            raise RuntimeError(f"no earlier run in {work}")
         _mutmut(work, "export-cicd-stats")
         stats = json.loads((work / "mutants" / "mutmut-cicd-stats.json").read_text())
         results = _mutmut(work, "results", "--all", "true")
@@ -227,6 +232,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--work", type=Path,
                         default=Path(os.environ.get("TMPDIR", "/tmp")) / "xgo-show-mutation",
                         help="scratch folder (one copy of the project per module)")
+    parser.add_argument("--report", action="store_true",
+                        help="do not run again: classify the last run's survivors (after "
+                        "editing scripts/mutation-equivalent.txt)")
     args = parser.parse_args(argv)
     base, ours = _settings()
     named = {k: list(v) for k, v in dict(ours.get("tests", {})).items()}  # type: ignore[call-overload]
@@ -236,8 +244,8 @@ def main(argv: list[str] | None = None) -> int:
             parser.error(f"{module}: not a module of the package (give xgo_show/.../name.py)")
     equivalent = _equivalents()
     with concurrent.futures.ThreadPoolExecutor(max(1, args.jobs)) as pool:
-        futures = [pool.submit(run_module, m, args.work, base, named, equivalent)
-                   for m in modules]
+        futures = [pool.submit(run_module, m, args.work, base, named, equivalent,
+                               again=not args.report) for m in modules]
         outcomes = []
         for future in futures:
             outcome = future.result()

@@ -222,6 +222,14 @@ def test_a_burst_goes_out_one_period_at_a_time_not_at_the_end(
     assert all(b - a >= period_us for a, b in itertools.pairwise(calls))
 
 
+def test_pacing_decimates_only_when_asked() -> None:
+    # Late samples are sent late, not dropped, unless the show allows decimation.
+    planned = [_sample_frame(0, 0x40 + a, a) for a in range(5)]
+    result = pace(planned, link=XGO, gap_us=1000, period_us=2000, remerge=_remerge)
+    assert [p.frame for p in result.frames] == planned and result.dropped == 0
+    assert [p.frame for p in result.late] == planned[2:]  # more than a period behind
+
+
 def test_a_long_decimated_burst_compiles_in_time_linear_in_its_length() -> None:
     # 200 ticks, each with more samples than a tick can carry: pending values are re-sent at
     # most once a tick, so the merger runs at most once per tick (not once per dropped frame,

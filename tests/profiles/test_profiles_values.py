@@ -167,8 +167,10 @@ def test_fixed_layouts_of_the_wide_encodings() -> None:
     assert txt.decode_value(b"ab\0cd\0") == "ab"
     with pytest.raises(ValueRangeError, match="at most 6"):
         txt.encode_value("abcdefg")
-    with pytest.raises(ValueRangeError, match="three bytes"):
-        rgb.encode_value((1, 2, 256))
+    assert rgb.encode_value((0, 128, 255)) == b"\x00\x80\xff"  # both ends are colours
+    for bad in ((1, 2, 256), (-1, 0, 0), (0, 0), (0, 0, 0, 0), (0.5, 0, 0)):
+        with pytest.raises(ValueRangeError, match="^c takes three bytes r, g, b in 0..255$"):
+            rgb.encode_value(bad)
 
 
 def test_decoded_values_have_the_documented_types() -> None:
@@ -210,6 +212,7 @@ def test_a_range_ending_at_zero_maps_linearly() -> None:
     low = Register(0x10, "low", Access.WRITE, minimum=-10.0, maximum=0.0)
     assert [low.to_byte(v) for v in (-10.0, -5.0, 0.0)] == [0, 128, 255]
     assert [low.to_physical(b) for b in (0, 255)] == [-10.0, 0.0]
+    assert low.to_physical(0x80) == pytest.approx(-10.0 + 0x80 / 0xFF * 10.0)
 
 
 def test_the_range_check_tolerates_float_noise_only() -> None:
