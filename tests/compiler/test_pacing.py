@@ -230,6 +230,16 @@ def test_pacing_decimates_only_when_asked() -> None:
     assert [p.frame for p in result.late] == planned[2:]  # more than a period behind
 
 
+def test_a_fresh_sample_supersedes_a_resend_due_at_the_same_microsecond() -> None:
+    # B=1 is dropped at t=0 and due again at t=2000, where B=2 is planned: B=2 goes out at
+    # its time and B=1, stale by then, never does.
+    a1, b1, b2 = _sample_frame(0, 0x40, 1), _sample_frame(0, 0x41, 1), _sample_frame(2000, 0x41, 2)
+    result = pace([a1, b1, b2], link=XGO, gap_us=1000, period_us=2000, decimate=True,
+                  remerge=_remerge)
+    assert [(p.start_us, p.frame) for p in result.frames] == [(0, a1), (2000, b2)]
+    assert result.dropped == 1
+
+
 def test_a_long_decimated_burst_compiles_in_time_linear_in_its_length() -> None:
     # 200 ticks, each with more samples than a tick can carry: pending values are re-sent at
     # most once a tick, so the merger runs at most once per tick (not once per dropped frame,
