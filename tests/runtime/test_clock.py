@@ -165,9 +165,13 @@ def test_timer_slack_is_tightened_for_the_calling_thread_only() -> None:
         assert tighten_timer_slack() is False
         return
     libc = ctypes.CDLL(None, use_errno=True)
-    get_slack = 30  # PR_GET_TIMERSLACK
+    set_slack, get_slack = 29, 30  # PR_SET_TIMERSLACK, PR_GET_TIMERSLACK
 
     def slack_after_tightening() -> tuple[bool, int]:
+        # A new thread inherits its creator's slack, which another test may have tightened:
+        # start from the kernel's usual 50 us.
+        libc.prctl(set_slack, 50_000, 0, 0, 0)
+        assert int(libc.prctl(get_slack, 0, 0, 0, 0)) == 50_000
         return tighten_timer_slack(), int(libc.prctl(get_slack, 0, 0, 0, 0))
 
     before = int(libc.prctl(get_slack, 0, 0, 0, 0))
@@ -177,3 +181,31 @@ def test_timer_slack_is_tightened_for_the_calling_thread_only() -> None:
     thread.join(5)
     assert out == [(True, 1)]  # 1 ns: sleeps wake on time instead of up to 50 us late
     assert int(libc.prctl(get_slack, 0, 0, 0, 0)) == before  # other threads keep theirs
+
+
+def test_a_fake_clock_waits_by_jumping_and_an_interrupt_stops_it() -> None:
+    from xgo_show.runtime.clock import FakeClock
+
+    clock = FakeClock(50.0)
+    assert clock.sleep_until(52.5) is True and clock.now() == 52.5
+    assert clock.sleep_until(51.0) is True and clock.now() == 52.5  # never backwards
+    stop = threading.Event()
+    stop.set()
+    assert clock.sleep_until(60.0, stop) is False and clock.now() == 52.5
+    assert clock.waits == [52.5, 51.0]  # the interrupted wait asked for nothing
+    quiet = FakeClock(keep_waits=False)
+    quiet.sleep_until(quiet.now() + 1.0)
+    assert quiet.waits == []
+
+
+def test_a_forked_fake_clock_starts_at_the_same_time_and_goes_its_own_way() -> None:
+    from xgo_show.runtime.clock import FakeClock
+
+    for keep in (True, False):
+        clock = FakeClock(10.0, keep_waits=keep)
+        clock.advance(2.0)
+        fork = clock.fork()
+        assert fork.now() == 12.0 and fork.keep_waits is keep
+        fork.sleep_until(20.0)
+        assert (fork.now(), clock.now()) == (20.0, 12.0)
+        assert fork.waits == ([20.0] if keep else []) and clock.waits == []
