@@ -209,3 +209,28 @@ def test_a_forked_fake_clock_starts_at_the_same_time_and_goes_its_own_way() -> N
         fork.sleep_until(20.0)
         assert (fork.now(), clock.now()) == (20.0, 12.0)
         assert fork.waits == ([20.0] if keep else []) and clock.waits == []
+
+
+class _NapLog(threading.Event):
+    """A real event that also notes how long each wait on it was asked to last."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.naps: list[float | None] = []
+
+    def wait(self, timeout: float | None = None) -> bool:
+        self.naps.append(timeout)
+        return super().wait(timeout)
+
+
+def test_a_long_wait_sleeps_to_its_margin_then_naps_short_of_the_deadline() -> None:
+    clock = MonotonicClock()
+    log = _NapLog()
+    deadline = clock.now() + 0.05
+    assert clock.sleep_until(deadline, log) is True
+    naps = [n for n in log.naps if n is not None]
+    # First one sleep that stops a margin before the deadline (a loaded machine wakes a
+    # sleeper a millisecond or so late) ...
+    assert 0.05 - clock.margin - 0.01 < naps[0] <= 0.05 - clock.margin
+    # ... then only short naps, each aiming ``aim`` before the deadline, never past it.
+    assert all(0 < n < clock.margin + clock.spin - clock.aim for n in naps[1:])
