@@ -167,29 +167,49 @@ def _diffs(work: Path, names: list[str]) -> dict[str, str]:
     return diffs
 
 
+def _statuses(work: Path) -> list[tuple[str, str]]:
+    """(mutant, status) for every mutant of the last run in ``work``."""
+    results = _mutmut(work, "results", "--all", "true")
+    return [(name, status) for name, status in
+            (line.strip().rsplit(": ", 1) for line in results.splitlines() if ": " in line)]
+
+
+def _refresh_tests(work: Path) -> None:
+    """Copy the project's current tests over the scratch copy's (mutmut copies them on)."""
+    for rel in _project_files():
+        if rel.startswith("tests/"):
+            (work / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(ROOT / rel, work / rel)
+
+
 def run_module(module: str, work_root: Path, base: dict[str, object],
                named: dict[str, list[str]], equivalent: dict[tuple[str, str], str],
-               *, again: bool = True) -> Outcome:
-    """Mutate ``module`` in its own scratch copy and classify what survived (``again``
-    false: only classify the last run's results, e.g. after listing equivalent mutants)."""
+               *, mode: str = "all") -> Outcome:
+    """Mutate ``module`` in its own scratch copy and classify what survived. ``mode``:
+    ``all`` runs every mutant afresh; ``survivors`` runs the last run's survivors again
+    against the current tests; ``report`` only classifies the last run's results."""
     outcome = Outcome(module)
     work = work_root / module.replace("/", "_").removesuffix(".py")
     start = time.monotonic()
     try:
-        if again:
+        if mode == "all":
             _prepare(work, module, base, test_folders(module, named))
             _mutmut(work, "run", "--max-children", "1", log=work / "run.log")
         elif not (work / "mutants").is_dir():
             raise RuntimeError(f"no earlier run in {work}")
+        elif mode == "survivors":
+            again = [name for name, status in _statuses(work) if status not in CAUGHT]
+            if again:
+                _refresh_tests(work)
+                _mutmut(work, "run", "--max-children", "1", *again, log=work / "rerun.log")
         _mutmut(work, "export-cicd-stats")
         stats = json.loads((work / "mutants" / "mutmut-cicd-stats.json").read_text())
-        results = _mutmut(work, "results", "--all", "true")
+        statuses = _statuses(work)
     except RuntimeError as exc:
         outcome.error = str(exc)
         return outcome
     finally:
         outcome.seconds = time.monotonic() - start
-    statuses = [line.strip().rsplit(": ", 1) for line in results.splitlines() if ": " in line]
     for _, status in statuses:
         outcome.counts[status] = outcome.counts.get(status, 0) + 1
     if sum(outcome.counts.values()) != stats["total"]:
@@ -232,9 +252,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--work", type=Path,
                         default=Path(os.environ.get("TMPDIR", "/tmp")) / "xgo-show-mutation",
                         help="scratch folder (one copy of the project per module)")
-    parser.add_argument("--report", action="store_true",
-                        help="do not run again: classify the last run's survivors (after "
-                        "editing scripts/mutation-equivalent.txt)")
+    how = parser.add_mutually_exclusive_group()
+    how.add_argument("--survivors", action="store_const", const="survivors", dest="mode",
+                     default="all", help="run only the last run's survivors again, against "
+                     "the current tests (after writing tests for them)")
+    how.add_argument("--report", action="store_const", const="report", dest="mode",
+                     help="run nothing: classify the last run's survivors again (after "
+                     "editing scripts/mutation-equivalent.txt)")
     args = parser.parse_args(argv)
     base, ours = _settings()
     named = {k: list(v) for k, v in dict(ours.get("tests", {})).items()}  # type: ignore[call-overload]
@@ -245,7 +269,7 @@ def main(argv: list[str] | None = None) -> int:
     equivalent = _equivalents()
     with concurrent.futures.ThreadPoolExecutor(max(1, args.jobs)) as pool:
         futures = [pool.submit(run_module, m, args.work, base, named, equivalent,
-                               again=not args.report) for m in modules]
+                               mode=args.mode) for m in modules]
         outcomes = []
         for future in futures:
             outcome = future.result()
