@@ -218,6 +218,12 @@ def test_a_burst_goes_out_one_period_at_a_time_not_at_the_end(
         # A re-send is planned at a period boundary after the burst and starts on it or
         # after the frame in front of it, never before.
         assert sent.frame.t_us % period_us == 0 and sent.start_us >= sent.frame.t_us
+    # Only planned frames count as dropped (a re-send dropped again is not a second loss),
+    # and the first drop is the first planned frame left out.
+    sent_ids = {id(p.frame) for p in result.frames}
+    missing = [f for f in planned if id(f) not in sent_ids]
+    assert result.dropped == len(missing)
+    assert result.first_drop_us == (missing[0].t_us if missing else None)
     # Re-sends are batched at most once a period (each batch is one call of the merger).
     assert all(b - a >= period_us for a, b in itertools.pairwise(calls))
 
