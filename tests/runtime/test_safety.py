@@ -118,3 +118,23 @@ def test_a_clean_schedule_passes_with_the_default() -> None:
     mini = get_profile("mini")
     frames = [sf.data for sf in stop_frames(mini)]  # the stop itself must be safe to send
     assert check_unsafe(_schedule(mini, *frames), {"rex": mini}) == []
+
+
+def test_each_stop_frame_says_what_it_does_for_the_report() -> None:
+    labels = [f.label for f in stop_frames(get_profile("mini"))]
+    assert labels == ["vx=0 vy=0 vyaw=0",
+                      "periodic_roll=0 periodic_pitch=0 periodic_yaw=0 mark_time=0",
+                      "periodic_x=0 periodic_y=0 periodic_z=0",
+                      "action=255 (restore default posture)"]
+
+
+def test_every_frame_packed_in_one_write_is_checked() -> None:
+    # A scheduled frame's bytes may hold several XGO frames: a read or an unknown write
+    # first must not hide an unsafe write after it.
+    mini = get_profile("mini")
+    known = {r.address for r in mini.registers}
+    nowhere = next(a for a in range(0x100) if a not in known)
+    unsafe = write_frame(mini.register("servo_zero").address, b"\x01")
+    for first in (read_frame(mini.register("body_z").address, 1), write_frame(nowhere, b"\x00")):
+        found = check_unsafe(_schedule(mini, first + unsafe), {"rex": mini}, allow_unsafe=True)
+        assert found[-1] == "rex frame 0 at 0.000s: writes unsafe register servo_zero"
