@@ -174,6 +174,13 @@ def _statuses(work: Path) -> list[tuple[str, str]]:
             (line.strip().rsplit(": ", 1) for line in results.splitlines() if ": " in line)]
 
 
+def _package_changed(work: Path) -> bool:
+    """Whether the package's source differs from the scratch copy's (unmutated) one."""
+    ours = {p.relative_to(ROOT): p.read_bytes() for p in (ROOT / "xgo_show").rglob("*.py")}
+    theirs = {p.relative_to(work): p.read_bytes() for p in (work / "xgo_show").rglob("*.py")}
+    return ours != theirs
+
+
 def _refresh_tests(work: Path) -> None:
     """Copy the project's current tests over the scratch copy's (mutmut copies them on)."""
     for rel in _project_files():
@@ -198,6 +205,8 @@ def run_module(module: str, work_root: Path, base: dict[str, object],
         elif not (work / "mutants").is_dir():
             raise RuntimeError(f"no earlier run in {work}")
         elif mode == "survivors":
+            if _package_changed(work):
+                raise RuntimeError("the package changed since the last full run: run it in full")
             again = [name for name, status in _statuses(work) if status not in CAUGHT]
             if again:
                 _refresh_tests(work)
@@ -274,9 +283,12 @@ def main(argv: list[str] | None = None) -> int:
         for future in futures:
             outcome = future.result()
             outcomes.append(outcome)
+            if outcome.error:
+                print(f"{outcome.module}: ERROR {outcome.error}", flush=True)
+                continue
             print(f"{outcome.module}: {outcome.rate:.1f} % ({outcome.caught}/"
-                  f"{outcome.total - len(outcome.equivalent)}) in {outcome.seconds:.0f} s"
-                  + (f" ERROR {outcome.error}" if outcome.error else ""), flush=True)
+                  f"{outcome.total - len(outcome.equivalent)}) in {outcome.seconds:.0f} s",
+                  flush=True)
     print()
     print(report(outcomes))
     return 1 if any(o.error for o in outcomes) else 0
