@@ -75,6 +75,10 @@ __all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "resolve_show"]
 _STAND_IN_TEMPO = TempoMap.constant(120.0, 4)  # times of a show that forgot its tempo
 MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
 MAX_SECONDS = MAX_SHOW_SECONDS  # a show longer than an hour is a typo (or needs splitting)
+#: Includes within includes at most this deep: a real routine nests two or three; deeper is a
+#: generated chain, reported at the include that passes it rather than at 1:1 when Python's
+#: recursion limit is hit.
+MAX_NESTING = 32
 
 
 @dataclass(frozen=True)
@@ -634,6 +638,10 @@ class _Resolver:
         if path in stack:
             chain = " -> ".join(p.name for p in (*stack, path))
             self.error(doc, loc, f"include cycle: {chain}")
+            return None
+        if len(stack) > MAX_NESTING:  # the stack starts with the routine itself
+            self.error(doc, loc, f"includes nest more than {MAX_NESTING} deep here (from "
+                       f"{stack[0].name}): include the parts from fewer levels")
             return None
         if path not in self.parts:
             self.parts[path] = self.parse_part(path, str(Path(doc.file).parent / name), via)
