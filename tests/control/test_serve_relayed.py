@@ -4,8 +4,8 @@ The relay owns the simulated robots (real ptys); serve reaches it through its ow
 (``--map NAME=zenoh:RELAY/ROBOT``); this test process is the operator. A triggered show plays
 to its end on the relay's robots, held at its wait until the operator's trigger.
 
-One wait only: a relayed performer sends one ``resume`` per show (RelayShow.once keeps one
-command per (op, at, value)), so a second release would never reach the relay.
+Two waits: ``go`` released by the operator, ``encore`` taken by its timeout (a seek to ``d``),
+so the director's second and third commands to the relay's robots reach them too.
 """
 
 from __future__ import annotations
@@ -25,22 +25,6 @@ from xgo_show.errors import ControlFailed
 from xgo_show.net.session import SessionOptions, open_session
 
 NS = f"test-serve-relayed-{os.getpid()}"
-ONE_WAIT = """\
-show: One wait
-performers:
-  rex: {model: mini}
-  ivy: {model: lite}
-sections:
-  - {name: a}
-  - {name: b, at: 0.6, wait: {trigger: go}}
-tracks:
-  rex:
-    - {move: {pitch: 6}, duration: 0.5}
-    - {at: 0.6, move: {pitch: 0}, duration: 0.5}
-  ivy:
-    - {move: {pitch: -6}, duration: 0.5}
-    - {at: 0.6, move: {pitch: 0}, duration: 0.5}
-"""
 
 
 @pytest.fixture
@@ -59,9 +43,10 @@ def _until_status(client: ControlClient, states: tuple[str, ...], timeout: float
         time.sleep(0.02)
 
 
-def test_serve_plays_a_triggered_show_on_relayed_robots(relays: Relays, tmp_path: Path) -> None:
-    show = tmp_path / "one_wait.yaml"
-    show.write_text(ONE_WAIT, encoding="utf-8")
+def test_serve_plays_a_triggered_show_on_relayed_robots(
+    relays: Relays, triggered_path: Path
+) -> None:
+    show = triggered_path
     relay = relays.start("stage", {"rex": "mini", "ivy": "lite"}, "--namespace", NS)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     serve = subprocess.Popen(

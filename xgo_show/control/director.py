@@ -2,7 +2,7 @@
 
 A :class:`Director` sits beside a :class:`~xgo_show.runtime.show_runner.ShowRunner` and steers
 its performers only through the :class:`~xgo_show.runtime.performer.Performer` primitives
-(``pause(at=)``, ``resume()``, ``seek()``); it learns where each performer is from the
+(``pause(at=)``, ``resume(at=)``, ``seek(at=)``); it learns where each performer is from the
 :class:`~xgo_show.runtime.events.StateChanged` events they publish. Nothing here runs inside an
 executor.
 
@@ -303,19 +303,27 @@ class Director:
     def _performer(self, name: str) -> Any:
         return self.runner.performers[name]
 
+    def _when(self) -> float:
+        """The clock time a command given now takes effect: now plus the runner's lead (0
+        for local robots; room for the network with relayed ones). Always a time, never
+        None: a relayed performer sends one command per (operation, time), so two releases
+        must carry two times, and every robot of a release acts at the same one."""
+        return self.clock.now() + self.runner.command_lead
+
     def _release(self, w: _Wait, how: str, goto: str) -> None:
         """End wait ``w`` (held or ahead): every performer plays on; the next wait is ahead."""
         w.released = True
+        when = self._when()
         for name, tr in self._s.tracks.items():
             if tr.done:
                 continue
             if tr.held:
                 tr.held = False
-                self._performer(name).resume()
+                self._performer(name).resume(at=when)
             elif tr.armed is w.section:
                 # Not at its hold yet (a few ms behind the others): resume it on arrival.
                 p = self._performer(name)
-                tr.on_hold = p.resume
+                tr.on_hold = lambda p=p: p.resume(at=self._when())
         self.events.publish(WaitReleased(self.clock.now(), w.section.name, _trigger(w.section),
                                          how, goto))
         self._s.wait = self._wait_from(w.section.start, after=True)
@@ -348,9 +356,10 @@ class Director:
             tr.anchor = None
 
             def jump(p: Any = p, paused: bool = paused) -> None:
-                p.seek(show_time)
+                when = self._when()
+                p.seek(show_time, at=when)
                 if not paused:
-                    p.resume()
+                    p.resume(at=when)
 
             if tr.held or paused:
                 tr.held = False
@@ -363,7 +372,7 @@ class Director:
                 tr.on_hold = jump
             else:
                 # Playing: pause now, jump, go on.
-                p.pause()
+                p.pause(at=self._when())
                 jump()
         s.wait = self._wait_from(show_time)
         if s.phase == "waiting":

@@ -121,10 +121,6 @@ class ShowServer:
         #: what came in and what became of it (status replies carry them)
         self.counters = dict.fromkeys(_COUNTERS, 0)
         self.publisher = EventPublisher(self.ns, self._put, clock=self.clock)
-        if any(_relayed(url) for url in opts.maps.values()):
-            from xgo_show.relay.conductor import configure
-
-            configure(opts.conductor, session=session)
         if load is not None:  # before answering anyone: a client never sees it unloaded
             self._cmd_load(load)
         self._worker = threading.Thread(target=self._work, name="xgo-show control", daemon=True)
@@ -304,7 +300,12 @@ class ShowServer:
         if missing:
             raise ControlError(f"no robot for performer(s) {', '.join(missing)}: start serve "
                                "with --map NAME=PORT (or --sim)")
-        relayed = use_relays(urls, self.opts.conductor, fast=False)
+        relayed = use_relays(urls, self.opts.conductor, fast=False, schedule=schedule,
+                             simulated=sim_names)
+        if relayed:  # through this server's own session, not one opened for them
+            from xgo_show.relay.conductor import configure
+
+            configure(self.opts.conductor, session=self.session)
         sims = SimBench(schedule, sim_names) if sim_names else None
         bus = EventBus()
         bus.subscribe(self.publisher.listen(schedule))
@@ -492,10 +493,6 @@ def _disarm(run: _Run) -> None:
     run.launch.close()
     if run.sims is not None:
         run.sims.close()
-
-
-def _relayed(url: str) -> bool:
-    return url.strip().lower().startswith("zenoh:")
 
 
 def _payload(query: Any) -> bytes | None:
