@@ -68,10 +68,10 @@ from xgo_show.net.timesync import ClockTracker, measure
 from xgo_show.profiles import get_profile
 from xgo_show.relay.client import RelayClient
 from xgo_show.relay.validate import schedule_digest
+from xgo_show.runtime import realtime
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import EventBus, EventRecorder, FrameSent
 from xgo_show.runtime.launch import local_runner
-from xgo_show.runtime.preflight import request_realtime
 from xgo_show.runtime.report import percentile
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 from xgo_show.transports import open_transport
@@ -81,7 +81,8 @@ MODEL = "mini"
 RATE = 20.0  # frames per second in the shows
 LEAD = 0.5  # seconds between the start commands and the start
 SHORT = 0.3  # seconds of show per start
-REALTIME: list[str] = []  # ["--realtime"] with --realtime: relays' show threads under SCHED_FIFO
+# The relays' writer threads: normal priority, or SCHED_FIFO required with --realtime.
+REALTIME: list[str] = ["--no-realtime"]
 SIM_PREFIX: list[str] = []  # with --sim-realtime: chrt, so simulators wake at once like robots
 
 
@@ -570,13 +571,16 @@ def _run_local(runner: ShowRunner, start_at: float) -> ShowResult:
     out: list[ShowResult] = []
 
     def play() -> None:
-        if REALTIME:
-            request_realtime()
         out.append(runner.run(start_at=start_at, handle_signals=False))
+
+    # As run does: the writer threads raise themselves (this thread stays normal).
+    saved = realtime.policy()
+    realtime.configure("required" if REALTIME == ["--realtime"] else "off")
 
     thread = threading.Thread(target=play, name="local show")
     thread.start()
     thread.join()
+    realtime.restore(saved)
     return out[0]
 
 
@@ -690,7 +694,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     if args.realtime:
-        REALTIME.append("--realtime")
+        REALTIME[:] = ["--realtime"]
     if args.sim_realtime:
         SIM_PREFIX.extend(["chrt", "-f", "20"])
     if args.quick:

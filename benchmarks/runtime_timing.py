@@ -44,10 +44,10 @@ from pathlib import Path
 
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
 from xgo_show.profiles import get_profile
+from xgo_show.runtime import realtime
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import Event, FrameSent
 from xgo_show.runtime.launch import local_runner
-from xgo_show.runtime.preflight import request_realtime
 from xgo_show.runtime.report import percentile
 from xgo_show.transports import open_transport
 from xgo_show.transports.base import Transport
@@ -142,7 +142,7 @@ class Variant:
     name: str
     hold_gc: bool = True
     telemetry: bool = True
-    realtime: bool = False
+    realtime: bool = True  # the default: SCHED_FIFO writers (False: --no-realtime)
     nice: int = 0  # this thread's nice value during the show (the writers inherit it)
     clock: MonotonicClock | None = None
 
@@ -180,9 +180,9 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
             pauses.append((began.pop(), time.monotonic()))
 
     runner.events.subscribe(on_frame, FrameSent)
-    policy = "normal priority"
-    if variant.realtime:
-        policy = request_realtime()
+    saved = realtime.policy()
+    # As the commands do: the writer threads raise themselves; this thread stays normal.
+    policy = realtime.configure("required" if variant.realtime else "off").summary
     if variant.nice:
         try:  # Linux: this thread and the threads it starts
             os.setpriority(os.PRIO_PROCESS, 0, variant.nice)
@@ -197,9 +197,8 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
     finally:
         involuntary = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
         gc.callbacks.remove(on_gc)
-        if variant.realtime:
-            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
-        if variant.realtime or variant.nice:
+        realtime.restore(saved)
+        if variant.nice:
             os.setpriority(os.PRIO_PROCESS, 0, 0)
     if not result.completed:
         raise SystemExit(f"our run did not complete: {result.reason}")
@@ -291,14 +290,14 @@ def measure(
 
 
 def variants(diagnose: bool) -> list[Variant]:
-    out = [Variant("ours")]
+    out = [Variant("ours (default)"), Variant("ours --no-realtime", realtime=False)]
     if diagnose:
         out += [
             Variant("  gc on (no hold)", hold_gc=False),
             Variant("  no telemetry", telemetry=False),
-            Variant("  SCHED_FIFO", realtime=True),
-            Variant("  nice -10", nice=-10),
-            Variant("  no final spin", clock=MonotonicClock(aim=0.0, spin=0.0)),
+            Variant("  no-rt, nice -10", realtime=False, nice=-10),
+            Variant("  no-rt, no final spin", realtime=False,
+                    clock=MonotonicClock(aim=0.0, spin=0.0)),
         ]
     return out
 
@@ -336,7 +335,7 @@ def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
             line += (f" |{p(issued, 0.99):>7.3f}{p(issued, 0.999):>8.3f}{p(issued, 1.0):>7.2f}"
                      f"{late:>6}{bursts(run.issued):>7}{run.gc_late:>5} {gcs:>9}"
                      f"{run.involuntary:>7}")
-            if variant is not None and (variant.realtime or variant.nice):
+            if variant is not None:
                 line += f"  ({run.policy})"
         print(line)
 

@@ -13,6 +13,7 @@ is still alive.
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -26,6 +27,24 @@ from hypothesis import settings
 settings.register_profile("mutation", deadline=None, derandomize=True)
 
 pytest_plugins = ["pytester"]  # lets tests/test_thread_leak_check.py run this check itself
+
+# Commands raise their writer threads to SCHED_FIFO by default where permitted (root here): the
+# suite opts out, for itself and every command it starts as a process, because eight suites
+# share this machine and the tests check behaviour, not timing. tests/runtime/test_realtime.py
+# and the tests that pass --realtime opt back in. XGO_SHOW_REALTIME=auto runs the suite with it.
+os.environ.setdefault("XGO_SHOW_REALTIME", "off")
+
+
+@pytest.fixture(autouse=True)
+def _realtime_policy_restored() -> Iterator[None]:
+    """A test that configured real-time scheduling leaves the process's policy as it was."""
+    from xgo_show.runtime import realtime
+
+    before = realtime.policy()
+    yield
+    if realtime.policy() is not before:
+        realtime.restore(before)
+
 
 # A thread that is shutting down as the test ends gets this long to finish.
 _GRACE_S = 1.0

@@ -1,4 +1,4 @@
-"""``xgo-show relay --realtime``: the show's threads run under SCHED_FIFO, Zenoh's do not (a
+"""``xgo-show relay --realtime``: the writer threads run under SCHED_FIFO, Zenoh's do not (a
 real-time Zenoh thread answering heartbeats would compete with the writers at their own
 priority). Read from the relay process's threads in /proc, before and during a show."""
 
@@ -43,8 +43,8 @@ def test_only_the_show_threads_are_real_time(
     text, sha = as_upload(show)
     client.upload(text, sha)
     client.start(sha, time.monotonic() + 0.3)
-    # the show thread and the writer it starts (its reader too, with telemetry)
-    assert until(lambda: fifo_threads(relay.proc.pid) >= 2, 2.0)
+    # the writer thread (and the guard that watches it); not the show thread, not Zenoh's
+    assert until(lambda: fifo_threads(relay.proc.pid) >= 1, 2.0)
     until(lambda: client.command("heartbeat")["show"]["state"] == "ended", 5.0)
-    assert fifo_threads(relay.proc.pid) == 0
+    assert until(lambda: fifo_threads(relay.proc.pid) == 0, 1.0)  # the guard ends with them
     client.stop_heartbeat()

@@ -7,7 +7,7 @@ import io
 import pytest
 
 from xgo_show.runtime.clock import FakeClock
-from xgo_show.runtime.preflight import countdown, open_ports, preflight, request_realtime
+from xgo_show.runtime.preflight import countdown, open_ports, preflight
 from xgo_show.wire.xgo import TYPE_READ
 
 
@@ -92,12 +92,3 @@ def test_countdown_counts_whole_seconds_from_one_start() -> None:
     assert clock.now() == start + 2.5
     countdown(0, out=out, clock=clock)
     assert clock.now() == start + 2.5
-
-
-def test_realtime_request_says_what_was_granted() -> None:
-    text = request_realtime(priority=1)
-    assert "SCHED_FIFO" in text or "not available" in text
-    import os
-
-    if "granted" in text:  # give the test process its normal policy back
-        os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))

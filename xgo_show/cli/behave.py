@@ -20,6 +20,7 @@ from typing import Any
 
 from xgo_show.errors import SetupError, UsageError
 from xgo_show.runtime.events import EventBus
+from xgo_show.runtime.realtime import add_realtime_arguments, decide
 
 __all__ = ["add_parser", "run"]
 
@@ -54,11 +55,7 @@ def add_parser(sub: Any) -> None:
                         help="on simulated robots (one pseudo-terminal each)")
     parser.add_argument("--fast", action="store_true",
                         help="rehearse the script on virtual time, without waiting")
-    parser.add_argument(
-        "--realtime", action="store_true",
-        help="run the behaviour's threads under SCHED_FIFO where permitted (else nice -10): "
-             "reactions stay quick although other programs keep the CPUs busy",
-    )
+    add_realtime_arguments(parser)
     parser.add_argument("--log", metavar="FILE",
                         help="write the run log (JSON lines) to FILE: every rule decision, "
                              "frame, telemetry reading and state change")
@@ -108,6 +105,7 @@ def run(args: argparse.Namespace) -> int:
         with _run_log(args.log) as bus:
             rehearse(behaviour, script, lambda t, line: print(f"{t:9.2f}  {line}"), bus)
         return 0
+    decide(args.realtime)  # the writer threads raise themselves (docs/realtime.md)
     return _run_live(args, behaviour, script)
 
 
@@ -171,10 +169,6 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
             transport = open_transport(port)
             transport.open()
             transports[name] = transport
-        if args.realtime:  # after the simulators started: their threads keep normal priority
-            from xgo_show.runtime.preflight import request_realtime
-
-            print(f"real-time: {request_realtime()}")
         start = time.monotonic()
         runner = BehaviourRunner(
             behaviour, transports, events=bus,

@@ -22,6 +22,7 @@ from xgo_show.net.session import add_session_arguments, open_session, session_op
 from xgo_show.net.testhooks import clock_from_env, delay_from_env
 from xgo_show.relay.robots import close_robots, open_robots, parse_pairs
 from xgo_show.relay.server import Relay
+from xgo_show.runtime.realtime import add_realtime_arguments, decide
 from xgo_show.runtime.runlog import RunLog
 
 __all__ = ["PARENT_DONE", "PARENT_GONE", "add_parser", "default_name", "run"]
@@ -85,11 +86,7 @@ def add_parser(sub: Any) -> None:
         action="store_true",
         help="do not poll battery, status and attitude during shows",
     )
-    parser.add_argument(
-        "--realtime",
-        action="store_true",
-        help="run the show's threads under SCHED_FIFO where permitted (see run --realtime)",
-    )
+    add_realtime_arguments(parser)
     # Set by xgo-show run for the relay child that owns its local ports.
     parser.add_argument("--parent-pid", type=int, help=argparse.SUPPRESS)
     add_session_arguments(parser)
@@ -157,6 +154,7 @@ def run(args: argparse.Namespace) -> int:
     name = args.name or default_name()
     ports = parse_pairs(args.map, "--map", "rex=/dev/ttyUSB0")
     models = parse_pairs(args.model, "--model", "arm=xarm")
+    decide(args.realtime)  # before the ports open: --realtime refused leaves them untouched
     robots = open_robots(ports, models)
     try:
         session = open_session(opts)
@@ -172,7 +170,6 @@ def run(args: argparse.Namespace) -> int:
                     log=log,
                     telemetry=not args.no_telemetry,
                     sync_delay=delay_from_env(),
-                    realtime=args.realtime,
                 )
                 with relay:
                     rows = ", ".join(f"{r.name} ({r.model} on {r.url})" for r in robots.values())

@@ -36,7 +36,8 @@ from xgo_show.relay.options import (
 from xgo_show.runtime.clock import FakeClock, MonotonicClock
 from xgo_show.runtime.events import ProgressTick
 from xgo_show.runtime.launch import Launch
-from xgo_show.runtime.preflight import countdown, request_realtime
+from xgo_show.runtime.preflight import countdown
+from xgo_show.runtime.realtime import add_realtime_arguments, decide
 from xgo_show.runtime.report import ProgressPrinter, format_report
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.sim.bench import SimBench, format_summaries
@@ -95,16 +96,6 @@ def add_parser(sub: Any) -> None:
         help="seconds of countdown before the start (default 3)",
     )
     parser.add_argument(
-        "--realtime",
-        action="store_true",
-        help=(
-            "run the show's threads under SCHED_FIFO priority 10 where permitted (root or "
-            "CAP_SYS_NICE), else at nice -10: frames then leave on time although other "
-            "programs keep the CPUs busy; helps most with USB serial adapters (a pty's bytes "
-            "are moved by a kernel worker that real-time threads do not speed up)"
-        ),
-    )
-    parser.add_argument(
         "--in-process",
         action="store_true",
         help="drive local ports from this process instead of a relay child: starts about a "
@@ -118,6 +109,7 @@ def add_parser(sub: Any) -> None:
 def add_common_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments shared by ``run`` and ``dry-run`` (:func:`play_options` reads them)."""
     parser.add_argument("show", metavar="SHOW", help="SHOW.yaml or SCHEDULE.xshow.json")
+    add_realtime_arguments(parser)
     parser.add_argument(
         "--map",
         action="append",
@@ -276,7 +268,7 @@ class PlayOptions:
     offset: float = 0.0
     battery_floor: float | None = None
     log: str | None = None
-    realtime: bool = False
+    realtime: str | None = None  # --realtime / --no-realtime (None: auto, or XGO_SHOW_REALTIME)
     allow_unsafe: bool = False
     telemetry: bool = True
     music: bool = True
@@ -306,6 +298,7 @@ def play_options(args: argparse.Namespace, schedule: Schedule, **own: Any) -> Pl
         timecode_origin=parse_timecode(args.timecode_origin),
         latency=args.latency,
         relays=conductor_options(args),
+        realtime=args.realtime,
         **own,
     )
 
@@ -315,6 +308,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
     the report (and, on simulators, what each robot did)."""
     out = sys.stdout
     script = check_triggers(schedule, opts.triggers)  # before anything opens
+    decide(opts.realtime, virtual=opts.fast)  # the writer threads raise themselves
     sim_names = [p.name for p in schedule.performers if p.name not in opts.maps] if opts.sim else []
     music = prepare_music(schedule, enabled=opts.music, fast=opts.fast, device=opts.audio_device)
     outputs = [p.name for p in schedule.performers] + ([music.name] if music.build else [])
@@ -365,9 +359,8 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
             log.event("unsafe_allowed", writes=launch.unsafe)
         if music.note:
             print(music.note, file=out)
-        realtime = request_realtime() if opts.realtime else "not requested"
         launch.open()
-        report = launch.preflight(realtime=realtime)
+        report = launch.preflight()  # its table says what real-time scheduling was decided
         print(report.table(), file=out, flush=True)
         runner = launch.arm(force=opts.force)
         if not report.ok:
@@ -421,7 +414,6 @@ def run(args: argparse.Namespace) -> int:
         sim=args.sim,
         force=args.force,
         countdown=args.countdown,
-        realtime=args.realtime,
         guard=not args.in_process,
     )
     return play(schedule, opts)

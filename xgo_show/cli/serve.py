@@ -12,6 +12,7 @@ import threading
 from typing import Any
 
 from xgo_show.errors import UsageError
+from xgo_show.runtime.realtime import add_realtime_arguments, decide
 
 __all__ = ["add_parser", "parse_robot_maps", "run"]
 
@@ -48,6 +49,7 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("--allow-unsafe", action="store_true",
                         help="allow schedules that write unsafe registers")
     add_conductor_arguments(parser)
+    add_realtime_arguments(parser)
     parser.set_defaults(func=run)
 
 
@@ -71,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     from xgo_show.net.session import open_session
     from xgo_show.relay.options import conductor_options
 
+    decide(args.realtime)  # the writer threads of every show it plays raise themselves
     conductor = conductor_options(args)
     sopts = conductor.session
     opts = ServeOptions(

@@ -61,7 +61,7 @@ class RelayChild:
         namespace: str,
         telemetry: bool = True,
         allow_unsafe: bool = False,
-        realtime: bool = False,
+        realtime: str | None = None,
         log: str | None = None,
     ) -> None:
         self.name = f"local-{socket.gethostname().split('.')[0][:40]}-{os.getpid()}"
@@ -76,8 +76,8 @@ class RelayChild:
             cmd.append("--no-telemetry")
         if allow_unsafe:
             cmd.append("--allow-unsafe")
-        if realtime:
-            cmd.append("--realtime")
+        if realtime is not None:  # the conductor's --realtime / --no-realtime
+            cmd.append("--realtime" if realtime == "required" else "--no-realtime")
         if log:
             cmd += ["--log", log]
         self.cmd = cmd

@@ -47,7 +47,8 @@ from xgo_show.relay.validate import validate_upload
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.runtime.events import EventBus
 from xgo_show.runtime.launch import local_runner
-from xgo_show.runtime.preflight import preflight, request_realtime
+from xgo_show.runtime.preflight import preflight
+from xgo_show.runtime.realtime import policy
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 
@@ -111,7 +112,6 @@ class Relay:
         log: RunLog | None = None,
         telemetry: bool = True,
         sync_delay: DelayInjector | None = None,
-        realtime: bool = False,
     ) -> None:
         self.session = session
         self.name = check_relay_name(name)
@@ -130,8 +130,6 @@ class Relay:
         self._log_sub = self.log.attach(self.events)
         self._collector = EventCollector(self.events)  # sent back in heartbeat answers
         self.telemetry = telemetry
-        #: play shows under SCHED_FIFO where permitted: the show's threads only, not Zenoh's
-        self.realtime = realtime
         self.instance = uuid.uuid4().hex[:12]  # tells a restarted relay from the old one
         self._lock = threading.RLock()
         self._holder: _Holder | None = None
@@ -498,8 +496,8 @@ class Relay:
     def _play(self, show: _Show) -> None:
         runner = show.runner
         assert runner is not None and show.start_at is not None
-        if self.realtime:  # this thread and the writers it starts; Zenoh's threads stay normal
-            self.log.event("realtime", granted=request_realtime())
+        # The writer threads raise themselves (runtime/realtime.py); Zenoh's stay normal.
+        self.log.event("realtime", granted=policy().summary)
         try:
             result = runner.run(
                 offset=show.offset, lead=0.0, start_at=show.start_at, handle_signals=False

@@ -3,7 +3,8 @@
 Every deadline the runtime waits for is ``start + offset`` from one monotonic start, never
 ``previous + interval``, so sleep errors never add up. :class:`MonotonicClock` sleeps until a
 little before a deadline and then spins, which hits the deadline to some microseconds on an
-idle machine; it waits the same way in a real-time (SCHED_FIFO) thread, which then calls
+idle machine. In a real-time (SCHED_FIFO) thread it never spins: the wait blocks in the kernel
+to the deadline (such a thread runs as soon as its timer fires), and the thread calls
 :func:`hand_off_cpu` after each write. :class:`FakeClock` jumps straight to each deadline, so
 tests and ``dry-run --fast`` run schedules without waiting.
 
@@ -53,7 +54,8 @@ class MonotonicClock:
     wakes ~0.1 ms late), and spins only the last ``spin``. Spinning longer would be more exact
     on an idle machine but, on a busy one, a spinning thread is the first to lose its CPU to
     another process for a whole time slice; short sleeps keep the thread a "sleeper" that the
-    scheduler runs as soon as it wakes.
+    scheduler runs as soon as it wakes. A real-time thread only sleeps (see
+    :func:`_block_until`).
 
     On Linux ``time.monotonic`` is ``CLOCK_MONOTONIC``, shared by every process on the machine,
     which lets a simulator in another process timestamp what it receives on the same base.
@@ -70,9 +72,8 @@ class MonotonicClock:
         return time.monotonic()
 
     def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
-        # The same waits at any scheduling policy: a real-time (SCHED_FIFO) thread also
-        # spins the last ``spin`` seconds. Sleeping to the deadline instead left it waking
-        # 0.05-0.1 ms late, and a spin this short keeps no kernel worker waiting for long.
+        if is_realtime():
+            return _block_until(deadline, interrupt)
         now = time.monotonic
         spin = self.spin
         while True:
@@ -89,6 +90,22 @@ class MonotonicClock:
                 return False
             time.sleep(0)  # release the GIL so other writer threads keep their deadlines
         return not (interrupt is not None and interrupt.is_set())
+
+
+def _block_until(deadline: float, interrupt: threading.Event | None) -> bool:
+    """A real-time thread's wait: blocked in the kernel until the deadline, never spinning.
+
+    A SCHED_FIFO thread that spins keeps every normal thread (the kernel worker that moves
+    its bytes included) off its CPU; it needs no spin either, since it runs the moment its
+    timer fires (with the timer slack at 1 ns it wakes some tens of microseconds late).
+    """
+    now = time.monotonic
+    while (left := deadline - now()) > 0:
+        if interrupt is None:
+            time.sleep(left)
+        elif interrupt.wait(left):
+            return False
+    return not (interrupt is not None and interrupt.is_set())
 
 
 #: Seconds a real-time thread sleeps after a write (see :func:`hand_off_cpu`).

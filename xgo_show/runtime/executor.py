@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
 from xgo_show.errors import TransportError, XgoShowError
 from xgo_show.profiles.model import Profile
-from xgo_show.runtime.clock import Clock, hand_off_cpu, tighten_timer_slack
+from xgo_show.runtime.clock import Clock, FakeClock, hand_off_cpu, tighten_timer_slack
 from xgo_show.runtime.events import (
     EventBus,
     FaultRaised,
@@ -42,6 +42,7 @@ from xgo_show.runtime.events import (
     StateChanged,
     TelemetryRead,
 )
+from xgo_show.runtime.realtime import enter_show_thread, leave_show_thread
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryItem, TelemetryPoller
 from xgo_show.transports.base import Transport
@@ -363,6 +364,9 @@ class PerformerExecutor:
 
     def _run_guarded(self, start_at: float, offset: float) -> None:
         tighten_timer_slack()
+        # SCHED_FIFO for this thread when the process's real-time policy grants it; a
+        # writer on a fake clock never waits, so it must never be raised.
+        raised = not isinstance(self.clock, FakeClock) and enter_show_thread()
         try:
             self._run(start_at, offset)
         except (TransportError, OSError) as exc:
@@ -371,6 +375,9 @@ class PerformerExecutor:
             self._report_fault(str(exc))
         except Exception as exc:  # any writer crash must still stop the robot
             self._report_fault(f"internal error in the executor: {exc!r}")
+        finally:
+            if raised:
+                leave_show_thread()
 
     def _first_index(self, show_time: float) -> int:
         frames = self.schedule.frames

@@ -41,6 +41,7 @@ from xgo_show.runtime.preflight import (
     open_ports,
     preflight,
 )
+from xgo_show.runtime.realtime import policy
 from xgo_show.runtime.safety import check_unsafe
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner, default_reach
 from xgo_show.runtime.telemetry import TelemetryPoller
@@ -308,14 +309,18 @@ class Launch(Closing):
         self.open_errors = errors
         return errors
 
-    def preflight(self, *, realtime: str = "not requested") -> PreflightReport:
-        """Check every robot; one table for every endpoint, in the show's performer order."""
+    def preflight(self, *, realtime: str | None = None) -> PreflightReport:
+        """Check every robot; one table for every endpoint, in the show's performer order.
+
+        ``realtime``: what the report says of real-time scheduling (default: this process's
+        :func:`~xgo_show.runtime.realtime.policy`)."""
         rows: dict[str, PreflightRow] = {}
         for endpoint in self.endpoints:
             for row in endpoint.preflight(battery_floor=self.battery_floor):
                 rows[row.performer] = row
         ordered = [rows[p.name] for p in self.schedule.performers if p.name in rows]
-        self.report = PreflightReport(ordered, self.battery_floor, realtime)
+        said = realtime if realtime is not None else policy().summary
+        self.report = PreflightReport(ordered, self.battery_floor, said)
         return self.report
 
     def arm(self, *, force: bool = False) -> ShowRunner:

@@ -6,13 +6,12 @@ performer's model (an XGO robot's firmware string names it), its battery is abov
 floor (the xArm, which reports volts, against the floor mapped onto its 6.0..8.4 V range). The
 result is a table; a show starts only when every row passes (``force`` overrides the robot
 checks with a warning, never a port that does not open). Low-latency mode is asked for on every
-port (USB serial adapters otherwise hold bytes for up to 16 ms), and :func:`request_realtime`
-asks for real-time scheduling when the operator opts in.
+port (USB serial adapters otherwise hold bytes for up to 16 ms); the report also says what
+real-time scheduling the writer threads get (:mod:`xgo_show.runtime.realtime`).
 """
 
 from __future__ import annotations
 
-import os
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -32,7 +31,6 @@ __all__ = [
     "countdown",
     "open_ports",
     "preflight",
-    "request_realtime",
 ]
 
 Opener = Callable[..., Transport]
@@ -188,40 +186,6 @@ def preflight(
 def _check_robot(row: PreflightRow, transport: Transport, floor: float, timeout: float) -> None:
     profile = get_profile(row.model)
     get_family(profile).preflight(row, transport, profile, floor, timeout)
-
-
-def request_realtime(priority: int = 10, *, nice: int = -10) -> str:
-    """Ask for real-time scheduling for this thread and the threads it starts.
-
-    SCHED_FIFO at ``priority`` first; where that is refused, a higher CPU share (``nice``) if
-    permitted. Call before the show's threads start (they inherit it), and after starting any
-    child process that must not inherit it. Returns what was granted, for the pre-flight
-    report.
-
-    What it helps: the writer threads then issue each write on time even when other programs
-    keep every CPU busy (measured: the 99th percentile of the lateness of our writes falls
-    from ~0.2 to ~0.04 ms). On a USB serial adapter the write goes to the driver in the
-    writer's own call, so that is the gain. On a pseudo-terminal a normal-priority kernel
-    worker moves the bytes, which real-time threads cannot speed up but can delay: each
-    writer gives its CPU away briefly after a write
-    (:func:`~xgo_show.runtime.clock.hand_off_cpu`), which makes pty delivery about as timely
-    as at normal priority.
-    """
-    setter = getattr(os, "sched_setscheduler", None)
-    fifo = getattr(os, "SCHED_FIFO", None)
-    if setter is None or fifo is None:
-        return f"not available on {sys.platform}"
-    try:
-        setter(0, fifo, os.sched_param(priority))
-    except OSError as exc:
-        refused = f"SCHED_FIFO refused ({exc.strerror or exc})"
-    else:
-        return f"SCHED_FIFO priority {priority} granted"
-    try:
-        os.nice(nice)
-    except OSError:
-        return f"{refused}; running with normal priority"
-    return f"{refused}; nice {nice} granted instead"
 
 
 def countdown(seconds: float, *, out: TextIO | None = None, clock: Clock | None = None) -> None:
