@@ -5,7 +5,7 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from xgo_show.diagnostics import Diagnostic, Origin, once_each
+from xgo_show.diagnostics import Diagnostic, Origin, at_most_each_kind, once_each
 
 
 def _at(line: int, message: str, path: str = "tracks.rex") -> Diagnostic:
@@ -48,3 +48,23 @@ def test_once_each_keeps_first_order_and_loses_no_place(
     assert sum(int(d.message.split("met ")[1].split()[0]) if "(met" in d.message else 1
                for d in found) == len(diags)
     assert once_each(found) == found  # applying it again changes nothing
+
+
+def test_at_most_each_kind_keeps_the_first_and_counts_the_rest() -> None:
+    found = at_most_each_kind(
+        [_at(i, f"the Mini has no register 'reg_{i}'; did you mean 'x{i}'?") for i in range(50)]
+        + [_at(99, "body_z = 500 mm is out of range")], limit=5)
+    assert [d.origin.line for d in found if d.origin] == [0, 1, 2, 3, 4, 5, 99]
+    assert found[5].unlisted == 44 and found[5].count == 45
+    assert found[5].message.endswith("(and 44 more like it, not listed)")
+    assert sum(d.count for d in found) == 51
+
+
+@given(st.lists(st.sampled_from(["no register 'a'", "no register 'b_c'", "value 3.5 too big",
+                                 "value 7 too big", "unknown phrase 'p'"]), max_size=60),
+       st.integers(1, 10))
+def test_at_most_each_kind_never_loses_a_count(messages: list[str], limit: int) -> None:
+    diags = [_at(i + 1, m) for i, m in enumerate(messages)]
+    found = at_most_each_kind(diags, limit=limit)
+    assert sum(d.count for d in found) == len(diags)
+    assert len(found) <= 3 * (limit + 1)

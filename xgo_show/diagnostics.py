@@ -10,7 +10,7 @@ from typing import Literal
 
 from xgo_show.text import printable
 
-__all__ = ["Diagnostic", "Origin", "Severity", "once_each"]
+__all__ = ["MAX_EACH_KIND", "Diagnostic", "Origin", "Severity", "at_most_each_kind", "once_each"]
 
 Severity = Literal["error", "warning"]
 
@@ -37,6 +37,7 @@ class Diagnostic:
     message: str
     origin: Origin | None = None
     path: str = ""  # field path inside the document, e.g. "tracks.rex[3].to.body_z"
+    unlisted: int = 0  # more problems of this kind, summed up in this one (at_most_each_kind)
 
     def format(self) -> str:
         """``file:line:col: severity: path: message``, one printable line (any control
@@ -49,6 +50,11 @@ class Diagnostic:
     @property
     def is_error(self) -> bool:
         return self.severity == "error"
+
+    @property
+    def count(self) -> int:
+        """The problems this diagnostic stands for: itself and those it sums up."""
+        return 1 + self.unlisted
 
 
 # A measurement in a message ("needs at least 0.59 s", "planned at 3.250 s"): the same problem
@@ -82,4 +88,41 @@ def once_each(diags: Iterable[Diagnostic]) -> list[Diagnostic]:
                     f"{first.message} (met {plays} times: this text is used again by a repeat, "
                     f"phrase, include or alias{shown})"))
         out.append(first)
+    return out
+
+
+#: Problems of one kind listed in full; more are summed up in one line. Thousands of the same
+#: mistake (a generated file, a find-and-replace gone wrong) are fixed the same way, and a
+#: screenful of them would hide every other kind.
+MAX_EACH_KIND = 20
+
+# What makes two messages the same kind: the text with names, quoted values and numbers taken
+# out, up to the first ';' (a did-you-mean or a listing differs from name to name).
+_NAMES = re.compile(r"'[^']*'|\"[^\"]*\"|-?\d+(?:\.\d+)?(?:e-?\d+)?|\b\w+_\w+\b")
+
+
+def _kind(d: Diagnostic) -> tuple[str, str]:
+    return d.severity, _NAMES.sub("#", d.message.split(";")[0])
+
+
+def at_most_each_kind(diags: Iterable[Diagnostic], limit: int = MAX_EACH_KIND) -> list[Diagnostic]:
+    """The first ``limit`` diagnostics of each kind (the same message but for names and
+    numbers), in order; the rest of a kind become one diagnostic at the first one left out,
+    saying how many more there are."""
+    out: list[Diagnostic] = []
+    counts: dict[tuple[str, str], int] = {}
+    summary: dict[tuple[str, str], int] = {}  # kind -> index in out of its summary line
+    for d in diags:
+        kind = _kind(d)
+        n = counts[kind] = counts.get(kind, 0) + 1
+        if n <= limit:
+            out.append(d)
+        elif n == limit + 1:
+            summary[kind] = len(out)
+            out.append(d)
+    for kind, i in summary.items():
+        more = counts[kind] - limit
+        if more > 1:
+            out[i] = dataclasses.replace(out[i], unlisted=more - 1, message=(
+                f"{out[i].message} (and {more - 1:,} more like it, not listed)"))
     return out

@@ -4,11 +4,13 @@ at its own line:col, nesting bounded; random input never raises."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from xgo_show.choreo import validate_file
 from xgo_show.choreo.source import MAX_DEPTH, parse_yaml
 
 
@@ -133,3 +135,40 @@ def test_random_nesting_never_raises(value: object) -> None:
     import json
     doc, errors = parse_yaml("v: " + json.dumps(value), "f.yaml")
     assert all(e.origin is not None for e in errors)
+
+
+@pytest.mark.parametrize(("bad", "column"), [
+    ("{<<: [*b, 3], body_z: 100}", 24),  # a merge of something not a mapping: the 3
+    ("{pitch: 0500}", 22),  # a leading zero
+    ("{pitch: !!python/object:os.system 1}", 22),  # a Python tag
+    ("{pitch: 1e400}", 22),  # infinite
+    ("{pitch: 123456789012345678901234567890}", 22),  # past 2^53
+    ("{pitch: \"\\e[2J\"}", 22),  # a terminal escape
+])
+def test_a_value_the_reader_refuses_hides_nothing_else(
+    tmp_path: Path, bad: str, column: int
+) -> None:
+    """The reader's error and the later checks' errors, in one run: a bad setting and an
+    unknown top-level key before it, an unknown register and a value out of range after it,
+    a misspelt key in another track."""
+    path = tmp_path / "show.yaml"
+    path.write_text(
+        "show: t\n"
+        "settings: {control_rate: 0}\n"
+        "base: &b {pitch: 5}\n"
+        "performers:\n"
+        "  rex: {model: mini}\n"
+        "  ace: {model: mini}\n"
+        "tracks:\n"
+        "  rex:\n"
+        f"    - {{move: {bad}, duration: 1}}\n"
+        "    - {move: {bodyz: 90}, duration: 1}\n"
+        "    - {move: {roll: 99}, duration: 1}\n"
+        "  ace:\n"
+        "    - {move: {pitch: 5}, duraton: 1}\n", encoding="utf-8")
+    found = [(d.origin.line, d.origin.column, d.message) for d in validate_file(path)
+             if d.is_error and d.origin]
+    assert {line for line, _, _ in found} == {2, 3, 9, 10, 11, 13}, found
+    [refused] = [f for f in found if f[0] == 9]  # the refused value, once, at its place
+    assert refused[1] == column, found
+    assert not any("refused" in m for _, _, m in found), found

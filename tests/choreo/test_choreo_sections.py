@@ -78,7 +78,7 @@ def test_a_wait_at_a_bar_line_and_one_at_the_start(tmp_path: Path) -> None:
     ("sections", "message"),
     [
         ('  - {name: a}\n  - {name: b, at: 5, wait: {trigger: "no/slash"}}', "should be a name of letters"),
-        ("  - {name: a, wait: {trigger: go, timeout: 0}}", "0 s is too small: give more than 0 s"),
+        ("  - {name: a, wait: {trigger: go, timeout: 0}}", "0 s is too small: give more than 0 and at most 3600 s"),
         ("  - {name: a, wait: {trigger: go, timeout: 1, else: a}}", "back to this same wait"),
         ("  - {name: continue}", "keyword of else:"),
         ("  - {name: a, at: 60}", "after the show's end"),

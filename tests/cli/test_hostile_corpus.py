@@ -65,16 +65,22 @@ SCHEDULES: dict[str, Callable[[Schedule], Schedule]] = {
 }
 
 
-def _corpus(tmp: Path) -> tuple[list[Path], list[Path]]:
+# Paths that are not a routine at all, named to every command: each is one located error.
+ODD = ["missing.yaml", "folder.yaml", "pipe.yaml", "loop.yaml", "binary.yaml", "/dev/zero"]
+
+
+def _corpus(tmp: Path) -> tuple[list[Path], list[Path], list[Path]]:
     folder = tmp / "hostile"
     shutil.copytree(CORPUS, folder)
     os.mkfifo(folder / "pipe.yaml")
     (folder / "loop.yaml").symlink_to(folder / "loop.yaml")
+    (folder / "folder.yaml").mkdir()
+    (folder / "binary.yaml").write_bytes(bytes(range(256)))
     routines = [folder / p.name for p in ROUTINES]
     base = _schedule()
     schedules = [save_schedule(change(base), folder / f"{name}.xshow.json")
                  for name, change in SCHEDULES.items()]
-    return routines, schedules
+    return routines, schedules, [folder / name for name in ODD]
 
 
 COMMANDS: dict[str, list[str]] = {
@@ -89,9 +95,9 @@ COMMANDS: dict[str, list[str]] = {
 @pytest.fixture(scope="module")
 def results(tmp_path_factory: pytest.TempPathFactory) -> dict[tuple[str, str], dict[str, Any]]:
     tmp = tmp_path_factory.mktemp("hostile")
-    routines, schedules = _corpus(tmp)
+    routines, schedules, odd = _corpus(tmp)
     calls = []
-    for path in [*routines, *schedules]:
+    for path in [*routines, *schedules, *odd]:
         for command, args in COMMANDS.items():
             out = str(tmp / f"{path.stem}.{command}.xshow.json")
             calls.append([a.format(file=path, out=out) for a in args])
@@ -158,8 +164,28 @@ def test_hand_edited_schedule(results: dict[tuple[str, str], dict[str, Any]], na
     row = results[(f"{name}.xshow.json", command)]
     text = _check_common(row)
     lines = [ln for ln in text.splitlines() if ln]
-    if command == "validate":  # documented: exit 1, "FILE: error: is a compiled schedule"
-        assert row["code"] == 1 and len(lines) == 1 and "compiled schedule" in lines[0]
+    if command == "validate":  # documented: exit 1, "FILE:1:1: error: is a compiled schedule"
+        path = row["argv"][1]
+        assert row["code"] == 1 and lines[0].startswith(f"{path}:1:1: error: ") and (
+            "compiled schedule" in lines[0]), text
+        assert lines[1:] == [f"{path}: FAILED: 1 error(s), 0 warning(s)"], text
         return
     assert row["code"] == 2, text
     assert len(lines) == 1 and lines[0].startswith("xgo-show: error: "), text
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+@pytest.mark.parametrize("name", ODD)
+def test_a_path_that_is_no_routine(results: dict[tuple[str, str], dict[str, Any]], name: str,
+                                   command: str) -> None:
+    row = results[(Path(name).name, command)]
+    text = _check_common(row)
+    lines = [ln for ln in text.splitlines() if ln]
+    path = row["argv"][1]
+    if command == "validate":  # a diagnostic at the file's start (or its bad byte), a summary
+        assert row["code"] == 1, text
+        assert re.match(rf"^{re.escape(path)}:\d+:\d+: error: \S", lines[0]), text
+        assert lines[1:] == [f"{path}: FAILED: 1 error(s), 0 warning(s)"], text
+        return
+    assert row["code"] == 2, text
+    assert lines[-1].startswith("xgo-show: error: ") and path in text, text

@@ -32,5 +32,5 @@ def test_validate_says_it_is_a_schedule(
 ) -> None:
     assert main(["validate", str(schedule), str(ROUTINE)]) == 1
     out = capsys.readouterr().out
-    assert f"{schedule}: error: is a compiled schedule already" in out
+    assert f"{schedule}:1:1: error: is a compiled schedule already" in out
     assert "hello_mini.yaml: ok" in out

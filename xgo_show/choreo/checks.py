@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 from xgo_show.choreo.resolve import CueSource, Resolution
 from xgo_show.choreo.resolved import ActionCue, ArmCue, Cue, FadeCue, MotionCue, SetCue
-from xgo_show.choreo.validation import did_you_mean
+from xgo_show.choreo.validation import Suggestions
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ValueRangeError
 from xgo_show.families import get_family
@@ -63,6 +63,7 @@ class _Checker:
     def __init__(self, res: Resolution) -> None:
         self.res = res
         self.diags: list[Diagnostic] = []
+        self.suggest = Suggestions()  # did-you-mean hints, bounded in number
 
     def error(self, message: str, origin: Origin, src: CueSource, sub: str = "") -> None:
         path = src.paths.get(sub, src.path)
@@ -96,7 +97,7 @@ class _Checker:
                 r.name for r in profile.registers
                 if r.access.writable and not r.unsafe and r.name != "action"
             )
-            self.error(f"the {profile.title} has no register {name!r}{did_you_mean(name, valid)}; "
+            self.error(f"the {profile.title} has no register {name!r}{self.suggest(name, valid)}; "
                        f"valid: {', '.join(valid)}", origin, src, name)
             return None
         if reg.unsafe:

@@ -17,9 +17,9 @@ from xgo_show.choreo.resolve import resolve_show
 from xgo_show.choreo.resolved import ResolvedShow
 from xgo_show.choreo.salvage import salvage_show
 from xgo_show.choreo.section_rules import check_waits
-from xgo_show.choreo.source import Document, read_yaml
+from xgo_show.choreo.source import REFUSED, Document, read_yaml
 from xgo_show.choreo.validation import validate
-from xgo_show.diagnostics import Diagnostic, Origin, once_each
+from xgo_show.diagnostics import Diagnostic, Origin, at_most_each_kind, once_each
 from xgo_show.errors import ChoreographyError, CompileError, XgoShowError
 from xgo_show.gcpause import paused_gc
 
@@ -28,11 +28,11 @@ __all__ = ["check_document", "check_file", "is_part", "load_show", "validate_fil
 
 def _sorted(diags: list[Diagnostic]) -> list[Diagnostic]:
     """Each problem once (a cue in a repeat reports once, with a count), in file order, errors
-    first per line."""
-    return sorted(once_each(diags), key=lambda d: (
+    first per line, and at most :data:`MAX_EACH_KIND` of each kind (then how many more)."""
+    return at_most_each_kind(sorted(once_each(diags), key=lambda d: (
         d.origin.file if d.origin else "", d.origin.line if d.origin else 0,
         d.origin.column if d.origin else 0, d.severity != "error",
-    ))
+    )))
 
 
 def check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]]:
@@ -47,9 +47,18 @@ def check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]]
 
 def _check_file(path: str | Path) -> tuple[ResolvedShow | None, list[Diagnostic]]:
     doc, diags = read_yaml(Path(path), str(path))
-    if diags:
+    if not diags:
+        return check_document(doc)
+    if doc.data is None:  # unreadable, or not YAML at all: nothing more to check
         return None, _sorted(diags)
-    return check_document(doc)
+    # Values the reader refused (a number too large, a Python tag, a bad merge...) are built
+    # as REFUSED, which no model accepts: the rest of the file is checked as well, and what
+    # complains about a refused value again, at its place, was said already.
+    said = {d.origin for d in diags}
+    _, more = check_document(doc)
+    again = repr(REFUSED)  # a complaint about a refused value inside the value checked
+    return None, _sorted(diags + [d for d in more if d.origin not in said
+                                  and again not in d.message])
 
 
 def check_document(doc: Document) -> tuple[ResolvedShow | None, list[Diagnostic]]:
@@ -137,9 +146,10 @@ def _check_param_cues(doc: Document, part: ParamPartMapping) -> list[Diagnostic]
 
 def _summary(path: str | Path, diags: list[Diagnostic]) -> str:
     errors = [d for d in diags if d.is_error]
+    count = sum(d.count for d in errors)
     first = errors[0].format() if errors else ""
-    more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
-    return f"{path}: {len(errors)} error(s): {first}{more}"
+    more = f" (and {count - 1} more)" if count > 1 else ""
+    return f"{path}: {count} error(s): {first}{more}"
 
 
 def load_show(path: str | Path) -> ResolvedShow:

@@ -28,7 +28,25 @@ from pydantic import (
 )
 from pydantic_core import PydanticCustomError
 
+from xgo_show.choreo.unit import Unit
 from xgo_show.errors import NetworkError
+from xgo_show.limits import (
+    MAX_BARS,
+    MAX_BEATS,
+    MAX_BEATS_PER_BAR,
+    MAX_BPM,
+    MAX_CONTROL_RATE,
+    MAX_GAP_MS,
+    MAX_LIMIT,
+    MAX_MUSIC_OFFSET,
+    MAX_REPEAT,
+    MAX_SHOW_SECONDS,
+    MIN_BPM,
+    MIN_CONTROL_RATE,
+    MIN_GAP_MS,
+    MIN_LIMIT,
+    MIN_MUSIC_OFFSET,
+)
 from xgo_show.net.keys import is_relay_url, parse_relay_url
 
 __all__ = [
@@ -70,13 +88,20 @@ __all__ = [
     "cue_kind",
 ]
 
-Number = Annotated[float, Field(allow_inf_nan=False)]
-NonNegative = Annotated[float, Field(ge=0, allow_inf_nan=False)]
-Positive = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+# A value for a register, servo or axis: its own range is the robot's, checked once the
+# performer's model is known; here only what any number must be (the YAML loader already
+# refuses magnitudes past 2^53, which the bounds restate for the schema).
+Number = Annotated[float, Field(ge=-(2.0**53), le=2.0**53, allow_inf_nan=False)]
+# Every time and length in seconds lies within one show (xgo_show.limits).
+Seconds = Annotated[float, Field(ge=0, le=MAX_SHOW_SECONDS, allow_inf_nan=False), Unit("s")]
+Beats = Annotated[float, Field(ge=0, le=MAX_BEATS, allow_inf_nan=False)]
+Bars = Annotated[float, Field(ge=0, le=MAX_BARS, allow_inf_nan=False)]
+Bpm = Annotated[float, Field(ge=MIN_BPM, le=MAX_BPM, allow_inf_nan=False)]
+BeatsPerBar = Annotated[int, Field(ge=1, le=MAX_BEATS_PER_BAR)]
 # A trajectory limit: what the planner handles (xgo_show.profiles.model.LIMIT_RANGE).
-LimitValue = Annotated[float, Field(ge=1e-3, le=1e7, allow_inf_nan=False)]
+LimitValue = Annotated[float, Field(ge=MIN_LIMIT, le=MAX_LIMIT, allow_inf_nan=False)]
 Name = Annotated[str, StringConstraints(pattern=r"^[A-Za-z_][A-Za-z0-9_-]*$")]
-Scalar = Union[float, str, bool]  # noqa: UP007  (a runtime union for pydantic)
+Scalar = Union[Number, str, bool]  # noqa: UP007  (a runtime union for pydantic)
 
 
 def _param_value(value: object) -> object:
@@ -137,23 +162,23 @@ def _is_number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def _g(value: float) -> str:
+    """``1e9``, ``0.001``, ``60000``: a number as a person writes it."""
+    text = f"{value:g}" if abs(value) < 1e6 or not value.is_integer() else f"{value:.6g}"
+    return text.replace("e+0", "e").replace("e+", "e").replace("e-0", "e-")
+
+
 def _finite(value: float) -> bool:
     return value == value and value not in (float("inf"), float("-inf"))
 
 
 def _parse_position(value: object) -> Position:
     if _is_number(value):
-        seconds = float(value)  # type: ignore[arg-type]
-        if not _finite(seconds) or seconds < 0:
-            raise PydanticCustomError(
-                "position", "{value} s is too small: a time is 0 s or more (from the start)",
-                {"value": f"{seconds:g}"},
-            )
-        return Position(seconds=seconds, bare=True)
+        return Position(seconds=_seconds(float(value)), bare=True)  # type: ignore[arg-type]
     if isinstance(value, str):
         seconds_match = _SECONDS.match(value)
         if seconds_match:
-            return Position(seconds=float(seconds_match[1]))
+            return Position(seconds=_seconds(float(seconds_match[1])))
         match = _BAR_BEAT.match(value)
         if not match:
             # A parameter is a whole value, never a piece of a string.
@@ -188,11 +213,28 @@ def _parse_position(value: object) -> Position:
     )
 
 
+def _seconds(seconds: float) -> float:
+    if not _finite(seconds) or not 0 <= seconds <= MAX_SHOW_SECONDS:
+        which = "too large" if seconds > MAX_SHOW_SECONDS else "too small"
+        raise PydanticCustomError(
+            "position", "{value} s is {which}: a time is 0 to {most} s from the start",
+            {"value": _g(seconds), "which": which, "most": _g(MAX_SHOW_SECONDS)},
+        )
+    return seconds
+
+
 def _bar_beat(bar: int, beat: float) -> Position:
     if bar < 1 or not _finite(beat) or beat < 1:
         raise PydanticCustomError(
             "position", "bars and beats count from 1 (bar {bar}, beat {beat})",
-            {"bar": bar, "beat": f"{beat:g}"},
+            {"bar": bar if abs(bar) < 10**9 else f"{bar:.3g}", "beat": f"{beat:g}"},
+        )
+    if bar > MAX_BARS or beat >= MAX_BEATS_PER_BAR + 1:
+        raise PydanticCustomError(
+            "position", "bar {bar} beat {beat} is too late: bars go up to {bars} and a bar "
+            "has at most {beats} beats",
+            {"bar": bar if bar < 10**9 else f"{bar:.3g}", "beat": _g(beat),
+             "bars": f"{MAX_BARS:,}", "beats": MAX_BEATS_PER_BAR},
         )
     return Position(bar=bar, beat=beat)
 
@@ -201,14 +243,15 @@ _POSITION_SCHEMA: dict[str, Any] = {
     "description": "Seconds from the start of the block (number, or \"12.5s\"), \"BAR.BEAT\" "
     "(string) or {bar, beat}; bars and beats count from 1.",
     "anyOf": [
-        {"type": "number", "minimum": 0},
+        {"type": "number", "minimum": 0, "maximum": MAX_SHOW_SECONDS},
         {"type": "string", "pattern": r"^\s*\d+\s*\.\s*\d+\s*$"},
         {"type": "string", "pattern": r"^\s*\d+(\.\d+)?\s*s\s*$"},
         {
             "type": "object",
             "properties": {
-                "bar": {"type": "integer", "minimum": 1},
-                "beat": {"type": "number", "minimum": 1},
+                "bar": {"type": "integer", "minimum": 1, "maximum": MAX_BARS},
+                "beat": {"type": "number", "minimum": 1,
+                         "exclusiveMaximum": MAX_BEATS_PER_BAR + 1},
             },
             "required": ["bar"],
             "additionalProperties": False,
@@ -233,6 +276,7 @@ class Length:
 
 
 _LENGTH_UNITS = ("seconds", "beats", "bars")
+_LENGTH_MOST = {"seconds": MAX_SHOW_SECONDS, "beats": float(MAX_BEATS), "bars": float(MAX_BARS)}
 
 
 def _parse_length(value: object) -> Length:
@@ -253,11 +297,13 @@ def _parse_length(value: object) -> Length:
             "a length is seconds (1.5) or one of {beats: N}, {bars: N}, {seconds: N}",
             {},
         )
-    if not _finite(amount) or amount < 0:
+    most = _LENGTH_MOST[unit]
+    if not _finite(amount) or not 0 <= amount <= most:
         symbol = "s" if unit == "seconds" else unit
         raise PydanticCustomError(
-            "length", "{amount} {unit} is too small: a length is 0 {unit} or more",
-            {"amount": f"{amount:g}", "unit": symbol},
+            "length", "{amount} {unit} is {which}: a length is 0 to {most} {unit}",
+            {"amount": _g(amount), "unit": symbol, "most": _g(most),
+             "which": "too large" if amount > most else "too small"},
         )
     return Length(amount, unit)  # type: ignore[arg-type]
 
@@ -265,11 +311,11 @@ def _parse_length(value: object) -> Length:
 _LENGTH_SCHEMA: dict[str, Any] = {
     "description": "Seconds (number) or {beats: N} / {bars: N} / {seconds: N}.",
     "anyOf": [
-        {"type": "number", "minimum": 0},
+        {"type": "number", "minimum": 0, "maximum": MAX_SHOW_SECONDS},
         *(
             {
                 "type": "object",
-                "properties": {u: {"type": "number", "minimum": 0}},
+                "properties": {u: {"type": "number", "minimum": 0, "maximum": _LENGTH_MOST[u]}},
                 "required": [u],
                 "additionalProperties": False,
             }
@@ -315,9 +361,9 @@ class _Timing(_Model):
     after: LengthField | None = Field(
         None, description="Gap after the previous cue's end (default 0)."
     )
-    duration: NonNegative | None = Field(None, description="Length in seconds.")
-    beats: NonNegative | None = Field(None, description="Length in beats (needs a tempo).")
-    bars: NonNegative | None = Field(None, description="Length in bars (needs a tempo).")
+    duration: Seconds | None = Field(None, description="Length in seconds.")
+    beats: Beats | None = Field(None, description="Length in beats (needs a tempo).")
+    bars: Bars | None = Field(None, description="Length in bars (needs a tempo).")
     interrupt: bool = Field(
         False, description="May cut a preset action that is still running (on purpose)."
     )
@@ -389,7 +435,7 @@ PeriodicAxis = Literal["roll", "pitch", "yaw", "x", "y", "z"]
 class PeriodicCueModel(_Timing):
     """Periodic body motion: axis -> period in seconds; 0 stops it."""
 
-    periodic: Annotated[dict[PeriodicAxis, NonNegative], Field(min_length=1)]
+    periodic: Annotated[dict[PeriodicAxis, Seconds], Field(min_length=1)]
 
 
 class LedCueModel(_Timing):
@@ -421,7 +467,7 @@ class ArmCueModel(_Timing):
 class PoseCueModel(_Timing):
     """xArm: servo id -> position 0..1000."""
 
-    pose: Annotated[dict[int, int], Field(min_length=1)]
+    pose: Annotated[dict[int, Annotated[int, Field(ge=-(2**53), le=2**53)]], Field(min_length=1)]
 
 
 class PoseDegCueModel(_Timing):
@@ -450,7 +496,7 @@ class PhraseCueModel(_BlockTiming):
 class RepeatCueModel(_BlockTiming):
     """Play ``cues`` ``repeat`` times in a row."""
 
-    repeat: Annotated[int, Field(ge=1, le=10000)]
+    repeat: Annotated[int, Field(ge=1, le=MAX_REPEAT)]
     cues: Annotated[list[CueModel], Field(min_length=1)]
 
 
@@ -542,16 +588,16 @@ RepeatCueModel.model_rebuild()
 class TempoConstant(_Model):
     """One tempo for the whole show."""
 
-    bpm: Positive
-    beats_per_bar: Annotated[int, Field(ge=1, le=64)] = 4
+    bpm: Bpm
+    beats_per_bar: BeatsPerBar = 4
 
 
 class TempoEntry(_Model):
     """From ``bar`` on, this tempo (and meter; default: the previous entry's)."""
 
-    bar: Annotated[int, Field(ge=1)]
-    bpm: Positive
-    beats_per_bar: Annotated[int, Field(ge=1, le=64)] | None = None
+    bar: Annotated[int, Field(ge=1, le=MAX_BARS)]
+    bpm: Bpm
+    beats_per_bar: BeatsPerBar | None = None
 
 
 class TempoFile(_Model):
@@ -588,7 +634,8 @@ class MusicModel(_Model):
     file: Annotated[str, Field(min_length=1)] = Field(
         description="WAV, FLAC, MP3 or OGG file, relative to this routine."
     )
-    offset: Annotated[float, Field(ge=-3600, le=86400)] = Field(
+    offset: Annotated[float, Field(ge=MIN_MUSIC_OFFSET, le=MAX_MUSIC_OFFSET,
+                                   allow_inf_nan=False)] = Field(
         0.0,
         description="Seconds into the recording at bar 1 beat 1 (negative: the music starts "
         "that long after the show).",
@@ -598,10 +645,12 @@ class MusicModel(_Model):
 class SettingsModel(_Model):
     """Show-wide settings for the compiler and the runtime."""
 
-    control_rate: Annotated[float, Field(gt=0, le=1000)] = Field(
+    control_rate: Annotated[float, Field(ge=MIN_CONTROL_RATE, le=MAX_CONTROL_RATE,
+                                         allow_inf_nan=False)] = Field(
         50.0, description="Trajectory samples per second (Hz)."
     )
-    gap_ms: Annotated[float, Field(ge=1, le=1000)] | None = Field(
+    gap_ms: Annotated[float, Field(ge=MIN_GAP_MS, le=MAX_GAP_MS,
+                                   allow_inf_nan=False)] | None = Field(
         None, description="Silence between frames in ms (default: the robot's own)."
     )
     decimate: bool = Field(
@@ -646,7 +695,7 @@ class WaitModel(_Model):
     """Hold the show at the section's start until a trigger arrives (or the timeout passes)."""
 
     trigger: Name = Field(description="The trigger's name (any client may fire it).")
-    timeout: Positive | None = Field(
+    timeout: Annotated[float, Field(gt=0, le=MAX_SHOW_SECONDS, allow_inf_nan=False)] | None = Field(
         None, description="Seconds to wait at most (default: until the trigger comes)."
     )
     else_: Name | None = Field(

@@ -59,7 +59,7 @@ from xgo_show.choreo.resolved import (
 from xgo_show.choreo.section_rules import resolve_sections
 from xgo_show.choreo.source import Document, Loc, parse_yaml, read_text
 from xgo_show.choreo.timebase import Segment, TempoMap
-from xgo_show.choreo.validation import did_you_mean, validate
+from xgo_show.choreo.validation import Suggestions, validate
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProfileError, ValueRangeError
 from xgo_show.families import get_family
@@ -70,7 +70,7 @@ from xgo_show.profiles.xarm import degrees_to_position
 if TYPE_CHECKING:
     from xgo_show.choreo.salvage import Salvage
 
-__all__ = ["MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "resolve_show"]
+__all__ = ["MAX_BLOCK_DEPTH", "MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "resolve_show"]
 
 _STAND_IN_TEMPO = TempoMap.constant(120.0, 4)  # times of a show that forgot its tempo
 MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
@@ -79,6 +79,12 @@ MAX_SECONDS = MAX_SHOW_SECONDS  # a show longer than an hour is a typo (or needs
 #: generated chain, reported at the include that passes it rather than at 1:1 when Python's
 #: recursion limit is hit.
 MAX_NESTING = 32
+#: Blocks (repeats, phrases, includes) within blocks at most this deep. Repeats nest only as
+#: deep as the YAML does, but a phrase that plays a phrase that plays a phrase... chains by
+#: name, with no YAML nesting at all: a real routine nests three or four, and each level
+#: costs the resolver some stack, so a generated chain of hundreds is refused at the cue that
+#: passes the limit (rather than at 1:1 when Python's recursion limit is hit).
+MAX_BLOCK_DEPTH = 64
 
 
 @dataclass(frozen=True)
@@ -167,6 +173,9 @@ class _Resolver:
         self.too_many = False
         self.no_tempo = False  # bars or beats were used without a tempo (see need_tempo)
         self.phrase_stack: list[str] = []
+        self.suggest = Suggestions()  # did-you-mean hints, bounded in number
+        self.blocks: list[str] = []  # the blocks being played, outermost first
+        self.cut = False  # a chain too deep was not played: what it plays is not unused
         self.played: set[tuple[str, str]] = set()  # (file, phrase) actually played
 
     # -- diagnostics ----------------------------------------------------------------------
@@ -267,7 +276,7 @@ class _Resolver:
                 self.warning(doc, ("tracks", name), f"the track of {name} is empty: "
                              f"{name} does nothing in this show")
             if name not in performers:
-                hint = did_you_mean(name, list(performers))
+                hint = self.suggest(name, list(performers))
                 self.error(doc, ("tracks", name),
                            f"no performer named {name!r}{hint}; performers: "
                            f"{', '.join(performers)}", key=True)
@@ -276,7 +285,8 @@ class _Resolver:
             self.sequence(performers[name], cues, block)
         salvage = self.salvage  # parts were cut away: what looks unused may not be
         for phrase in phrases.values():
-            if (phrase.doc.file, phrase.name) not in self.played and salvage is None:
+            unplayed = (phrase.doc.file, phrase.name) not in self.played
+            if unplayed and salvage is None and not self.cut:
                 self.warning(phrase.doc, phrase.loc, f"phrase {phrase.name!r} is never played")
         for name in performers:
             if name not in show.tracks and salvage is None:
@@ -341,7 +351,7 @@ class _Resolver:
         untimed = sorted({a.name for p in profiles for a in p.actions if a.duration is None})
         for i, name in enumerate(self.show.settings.timed_by_hand):
             if name not in untimed:
-                hint = did_you_mean(name, untimed)
+                hint = self.suggest(name, untimed)
                 valid = ", ".join(untimed) or "none in this show"
                 self.error(self.doc, ("settings", "timed_by_hand", i),
                            f"{name!r} is not an action without a documented duration on any "
@@ -497,6 +507,30 @@ class _Resolver:
             return None
         if isinstance(cue, RestCueModel):
             return start + (self.length(cue.rest, start, block.doc, (*loc, "rest")) or 0.0)
+        if isinstance(cue, (RepeatCueModel, PhraseCueModel, IncludeCueModel)):
+            label = (f"phrase {cue.phrase}" if isinstance(cue, PhraseCueModel) else
+                     f"include {cue.include}" if isinstance(cue, IncludeCueModel) else "repeat")
+            if len(self.blocks) >= MAX_BLOCK_DEPTH:
+                chain = [*self.blocks[:3], "...", *self.blocks[-2:], label]
+                self.cut = True
+                self.error(block.doc, (*loc, kind), f"blocks nest more than {MAX_BLOCK_DEPTH} "
+                           f"deep here ({' -> '.join(chain)}): flatten the chain of phrases, "
+                           "repeats and includes")
+                return None
+            self.blocks.append(label)
+            try:
+                return self.block(perf, cue, start, block, loc)
+            finally:
+                self.blocks.pop()
+        origin = block.doc.origin(loc, _describe(perf.name, kind, cue, block.context))
+        emit = _Emitter(self, perf, kind, block, loc, origin)
+        return emit.cue(cue, start)
+
+    def block(
+        self, perf: _Performer, cue: RepeatCueModel | PhraseCueModel | IncludeCueModel,
+        start: float, block: _Block, loc: Loc,
+    ) -> float | None:
+        """Play a repeat, a phrase or an include: the end of what it played."""
         if isinstance(cue, RepeatCueModel):
             cursor = start
             for _ in range(cue.repeat):
@@ -508,11 +542,7 @@ class _Resolver:
             return cursor
         if isinstance(cue, PhraseCueModel):
             return self.phrase(perf, cue, start, block, loc)
-        if isinstance(cue, IncludeCueModel):
-            return self.include(perf, cue, start, block, loc)
-        origin = block.doc.origin(loc, _describe(perf.name, kind, cue, block.context))
-        emit = _Emitter(self, perf, kind, block, loc, origin)
-        return emit.cue(cue, start)
+        return self.include(perf, cue, start, block, loc)
 
     def phrase(
         self, perf: _Performer, cue: PhraseCueModel, start: float, block: _Block, loc: Loc
@@ -527,7 +557,7 @@ class _Resolver:
             names = list(block.phrases)
             listing = f"; phrases: {', '.join(names)}" if names else "; no phrases are defined"
             self.error(doc, (*loc, "phrase"), f"unknown phrase {cue.phrase!r}"
-                       f"{did_you_mean(cue.phrase, names)}{listing}")
+                       f"{self.suggest(cue.phrase, names)}{listing}")
             return None
         self.played.add((found.doc.file, found.name))
         if cue.phrase in self.phrase_stack:
@@ -565,7 +595,7 @@ class _Resolver:
                 if not names and body.label.startswith("include"):
                     listing += " (a part file declares them under params:)"
                 self.error(doc, (*loc, "with", name), f"{body.title} has no parameter {name!r}"
-                           f"{did_you_mean(name, names)}; parameters: {listing}", key=True)
+                           f"{self.suggest(name, names)}; parameters: {listing}", key=True)
                 ok = False
                 continue
             args[name] = Argument(value, doc, (*loc, "with", name))
@@ -782,7 +812,7 @@ class _Emitter:
             act = self.profile.action(cue.action)
         except ProfileError:
             names = [a.name for a in self.profile.actions]
-            hint = did_you_mean(str(cue.action), names)
+            hint = self.res.suggest(str(cue.action), names)
             valid = ", ".join(f"{a.name} ({a.id})" for a in self.profile.actions)
             self.error(f"the {self.profile.title} has no action {cue.action!r}{hint}; "
                        f"valid: {valid}", "action")
@@ -953,7 +983,7 @@ class _Emitter:
         for key, value in cue.led.items():
             targets = leds if key == "all" else [key]
             if key != "all" and key not in leds:
-                self.error(f"no LED {key!r}{did_you_mean(key, leds)}; "
+                self.error(f"no LED {key!r}{self.res.suggest(key, leds)}; "
                            f"LEDs: {', '.join(leds)} or all", "led", key, key=True)
                 ok = False
                 continue

@@ -25,7 +25,8 @@ from xgo_show.files import MAX_ROUTINE_BYTES, read_text_file
 from xgo_show.text import control_characters, printable
 
 __all__ = [
-    "MAX_NODES", "Document", "Link", "Loc", "format_path", "parse_yaml", "read_text", "read_yaml",
+    "MAX_NODES", "REFUSED", "Document", "Link", "Loc", "Refused", "format_path", "parse_yaml",
+    "read_text", "read_yaml",
 ]
 
 Loc = tuple[str | int, ...]
@@ -165,6 +166,23 @@ def format_path(loc: Sequence[str | int]) -> str:
     return out
 
 
+class Refused:
+    """What a value the reader refused (reported at its place: a number too large, a leading
+    zero, a control character, a Python tag...) is built as. No model accepts it, so the rest
+    of the file is still checked (one error does not hide the others) and whatever complains
+    about it again complains at the same place, which the loader drops as said already."""
+
+    def __repr__(self) -> str:
+        return "<refused value>"
+
+    def __deepcopy__(self, memo: dict[int, object]) -> Refused:
+        return self
+
+
+#: The one :class:`Refused` value.
+REFUSED = Refused()
+
+
 class _Builder:
     def __init__(self, doc: Document) -> None:
         self.doc = doc
@@ -181,7 +199,7 @@ class _Builder:
         self.doc.marks[loc] = (node.start_mark.line + 1, node.start_mark.column + 1)
         if id(node) in self._active:  # an alias that contains itself
             self.error(node, loc, "recursive YAML alias")
-            return None
+            return REFUSED
         if isinstance(node, ScalarNode):
             return self.scalar(node, loc)
         if isinstance(node, SequenceNode) and node.tag != _SEQ_TAG:
@@ -195,7 +213,7 @@ class _Builder:
         finally:
             self._active.discard(id(node))
         self.error(node, loc, f"unsupported YAML node {node.tag}")
-        return None
+        return REFUSED
 
     def build_mapping(self, node: MappingNode, loc: Loc) -> dict[str | int, object]:
         if node.tag not in ("tag:yaml.org,2002:map",):
@@ -241,7 +259,7 @@ class _Builder:
 
     def scalar(self, node: ScalarNode, loc: Loc) -> object:
         """A plain value: numbers as YAML 1.2 (and within range), text without control
-        characters; an error (and None) otherwise."""
+        characters; an error (and :data:`REFUSED`) otherwise."""
         tag = node.tag
         if tag == _INT_TAG:
             return self.integer(node, loc)
@@ -255,44 +273,49 @@ class _Builder:
             value = float(node.value)
         else:
             value = self.construct(node, loc)
-            if value is None:
-                return None
+            if value is None or value is REFUSED:
+                return value
         if isinstance(value, float) and not math.isfinite(value):
             what = "infinite" if math.isinf(value) else "not a number"
             self.error(node, loc, f"{node.value} is {what}: give a finite number")
-            return None
+            return REFUSED
         if isinstance(value, float) and abs(value) > MAX_INT:
             self.error(node, loc, f"{node.value} is too large (at most about 9e15)")
-            return None
+            return REFUSED
         if isinstance(value, str):
             bad = control_characters(value)
             if bad is not None:
                 self.error(node, loc, f"the text holds the control character {bad}: "
                            "write plain text")
-                return None
+                return REFUSED
         return value
 
     def construct(self, node: ScalarNode, loc: Loc) -> object:
-        """Any other scalar through PyYAML's constructor; None (reported) when it fails or
-        makes something a routine does not hold."""
+        """Any other scalar through PyYAML's constructor; :data:`REFUSED` (reported) when it
+        fails or makes something a routine does not hold."""
         try:
             value = self.constructor.construct_object(node, deep=True)
         except yaml.YAMLError as exc:
-            self.error(node, loc, _problem(exc))
-            return None
+            problem = _problem(exc)
+            if "could not determine a constructor" in problem:  # !!python/..., !custom
+                tag = node.tag.replace("tag:yaml.org,2002:", "!!", 1)
+                problem = (f"the tag {printable(tag)} is not allowed: a routine holds "
+                           "plain values (numbers, text, true/false, lists and mappings)")
+            self.error(node, loc, problem)
+            return REFUSED
         except ValueError:  # an explicit tag on a value it does not fit (!!float abc)
             self.error(node, loc, f"{printable(node.value)!r} is not a {node.tag.rsplit(':')[-1]}")
-            return None
+            return REFUSED
         if value is not None and not isinstance(value, (str, int, float)):  # !!binary, ...
             self.error(node, loc, f"unsupported YAML tag {printable(node.tag)}")
-            return None
+            return REFUSED
         return value
 
-    def integer(self, node: ScalarNode, loc: Loc) -> int | None:
+    def integer(self, node: ScalarNode, loc: Loc) -> int | Refused:
         text = node.value
         if not _INT_12.match(text):  # an explicit !!int on something else
             self.error(node, loc, f"{printable(text)!r} is not a whole number")
-            return None
+            return REFUSED
         sign = -1 if text.startswith("-") else 1
         digits = text.lstrip("+-")
         if digits.startswith(("0x", "0o")):
@@ -300,22 +323,21 @@ class _Builder:
         elif len(digits) > 1 and digits.startswith("0"):
             self.error(node, loc, f"{node.value}: a number with a leading zero is ambiguous "
                        f"(YAML 1.1 reads it as octal); write {int(digits)}")
-            return None
+            return REFUSED
         elif len(digits) > 16:
             self.error(node, loc, f"{digits[:8]}... ({len(digits)} digits) is too large "
                        "(at most about 9e15)")
-            return None
+            return REFUSED
         else:
             value = int(digits)
         if value > MAX_INT:
             self.error(node, loc, f"{node.value} is too large (at most about 9e15)")
-            return None
+            return REFUSED
         return sign * value
 
     def build_key(self, node: ScalarNode, loc: Loc) -> str | int | None:
         key = self.scalar(node, loc)
-        if key is None and self.errors and self.errors[-1].origin == Origin(
-                self.doc.file, node.start_mark.line + 1, node.start_mark.column + 1):
+        if key is REFUSED:
             return None  # reported
         if isinstance(key, bool) or not isinstance(key, (str, int)):
             # Booleans as keys ("on:", "yes:") are a classic YAML trap; make them explicit.

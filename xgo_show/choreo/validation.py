@@ -20,14 +20,40 @@ from xgo_show.choreo.model import CUE_KINDS
 from xgo_show.choreo.source import Document, Loc
 from xgo_show.choreo.unit import Unit
 from xgo_show.diagnostics import Diagnostic
+from xgo_show.profiles.model import limit_unit
+from xgo_show.profiles.registry import register_units
 
-__all__ = ["data_loc", "did_you_mean", "validate"]
+__all__ = ["MAX_SUGGESTIONS", "Suggestions", "data_loc", "did_you_mean", "validate"]
 
 M = TypeVar("M", bound=BaseModel)
 
 
+#: Fuzzy searches one check may make. Each costs about a millisecond over a robot's fifty
+#: registers; a generated file with thousands of unknown names would spend seconds on hints
+#: nobody reads (only the first MAX_EACH_KIND of a kind are listed).
+MAX_SUGGESTIONS = 100
+#: Choices searched at most: a longer list (thousands of phrases) gets no suggestion.
+_MAX_CHOICES = 500
+
+
+class Suggestions:
+    """:func:`did_you_mean` for one check of one file, up to :data:`MAX_SUGGESTIONS` times;
+    then ``""``, so that the cost of a file follows its errors only up to a bound."""
+
+    def __init__(self, limit: int = MAX_SUGGESTIONS) -> None:
+        self.left = limit
+
+    def __call__(self, word: str, choices: Sequence[str]) -> str:
+        if self.left <= 0:
+            return ""
+        self.left -= 1
+        return did_you_mean(word, choices)
+
+
 def did_you_mean(word: str, choices: Sequence[str]) -> str:
     """``"; did you mean 'duration'?"`` or ``""``."""
+    if len(choices) > _MAX_CHOICES:
+        return ""
     close = difflib.get_close_matches(word, list(choices), n=2, cutoff=0.6)
     if not close:
         return ""
@@ -140,7 +166,7 @@ def _plain_message(err: Any, root: type[BaseModel], where: Loc) -> str:
         name = str(raw_loc[-1])
         allowed = _model_fields_at(root, raw_loc[:-1]) or []
         hint = did_you_mean(name, allowed)
-        if not hint:
+        if not hint and "after" in allowed:  # in a cue: perhaps a misspelt kind
             kinds = did_you_mean(name, CUE_KINDS)
             hint = kinds.replace("did you mean", "a cue kind is one key; did you mean", 1)
         listing = f" (allowed: {', '.join(allowed)})" if allowed else ""
@@ -297,7 +323,9 @@ def _unit(meta: list[Any], data_path: Loc) -> str:
             return m.symbol
     names = [p for p in data_path if isinstance(p, str)]
     if len(names) >= 2 and names[-1] in _LIMIT_UNITS and "limits" in names:
-        return f"{names[-2]}'s unit {_LIMIT_UNITS[names[-1]]}"
+        # The register's own unit (the model is not known yet: the units it has on any).
+        units = [limit_unit(u, names[-1]) for u in register_units(names[-2])]
+        return " or ".join(units) if units else f"{names[-2]}'s unit {_LIMIT_UNITS[names[-1]]}"
     return _FIELD_UNITS.get(names[-1], "") if names else ""
 
 
@@ -312,8 +340,8 @@ def _range_message(err: Any, root: type[BaseModel], data_path: Loc) -> str:
     unit = _unit(meta, data_path)
     written = _number(err["input"])
     sep = "" if unit in ("", "%") else " "
-    per = unit.startswith(tuple(_LIMIT_UNITS)) or "'s unit" in unit
-    if per:  # "give 0.001 to 1e7 (body_z's unit per second)"
+    per = " or " in unit or "unit" in unit
+    if per:  # "give 0.001 to 1e7 (mm/step/s or m/s²)": the unit depends on the model
         unit_after, unit_tail = "", f" ({unit})"
     else:
         unit_after, unit_tail = f"{sep}{unit}" if unit else "", ""

@@ -115,7 +115,8 @@ def _report(exc: XgoShowError) -> None:
     errors = [d for d in diags if d.is_error]
     first = next((d.origin.file for d in errors if d.origin), "")
     where = f"{first}: " if first else ""
-    print(f"xgo-show: error: {printable(where)}{len(errors)} error(s)", file=sys.stderr)
+    count = sum(d.count for d in errors)
+    print(f"xgo-show: error: {printable(where)}{count} error(s)", file=sys.stderr)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

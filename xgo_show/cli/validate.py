@@ -19,7 +19,7 @@ from xgo_show.compiler.artifact import (  # its loader is imported on first use
     SCHEDULE_HINT,
     is_schedule_file,
 )
-from xgo_show.diagnostics import Diagnostic
+from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.files import file_problem
 from xgo_show.text import printable
 
@@ -49,8 +49,8 @@ def add_parser(sub: Any) -> None:
 
 def report(path: str, diags: list[Diagnostic], out: TextIO, *, quiet: bool = False) -> bool:
     """Print ``diags`` for ``path`` and its summary line; True when there is no error."""
-    errors = sum(1 for d in diags if d.is_error)
-    warnings = len(diags) - errors
+    errors = sum(d.count for d in diags if d.is_error)
+    warnings = sum(d.count for d in diags) - errors
     for d in diags:
         if d.is_error or not quiet:
             print(d.format(), file=out)
@@ -63,14 +63,12 @@ def run(args: argparse.Namespace) -> int:
     ok = True
     for name in args.files:
         path = Path(name)
+        # A file that cannot be read is a diagnostic at its start like any other, so that
+        # every line is file:line:col: severity: ... or a summary (editors and scripts parse it).
         reason = file_problem(path)
-        if reason is not None:
-            print(printable(f"{name}: error: {reason}"), file=sys.stdout)
-            ok = False
-            continue
-        if is_schedule_file(path):
-            print(printable(f"{name}: error: {SCHEDULE_HINT}"), file=sys.stdout)
-            ok = False
-            continue
-        ok = report(name, choreo.validate_file(path), sys.stdout, quiet=args.quiet) and ok
+        if reason is None and is_schedule_file(path):
+            reason = SCHEDULE_HINT
+        diags = ([Diagnostic("error", reason, Origin(name, 1, 1))] if reason is not None
+                 else choreo.validate_file(path))
+        ok = report(name, diags, sys.stdout, quiet=args.quiet) and ok
     return 0 if ok else 1

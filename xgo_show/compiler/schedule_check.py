@@ -16,7 +16,18 @@ from collections.abc import Iterator
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.errors import ScheduleError
-from xgo_show.limits import MAX_PERFORMERS, MAX_SHOW_SECONDS
+from xgo_show.limits import (
+    MAX_BARS,
+    MAX_BEATS_PER_BAR,
+    MAX_BPM,
+    MAX_CONTROL_RATE,
+    MAX_MUSIC_OFFSET,
+    MAX_PERFORMERS,
+    MAX_SHOW_SECONDS,
+    MIN_BPM,
+    MIN_CONTROL_RATE,
+    MIN_MUSIC_OFFSET,
+)
 from xgo_show.text import control_characters
 
 __all__ = [
@@ -30,16 +41,11 @@ __all__ = [
     "schedule_problems",
 ]
 
-#: Samples per second, as for a routine's ``settings.control_rate``.
-MAX_CONTROL_RATE = 1000.0
 #: The fastest serial link any profile uses is 115200 baud; 10 Mbaud leaves room for others.
 MAX_BAUD = 10_000_000
 #: The largest frame either protocol sends is some 60 bytes.
 MAX_FRAME_BYTES = 1024
-#: Bars in a tempo map (an hour at 1000 bpm in 1/4 is 15,000 bars).
-MAX_BARS = 1_000_000
-#: Beats per bar and bpm, as for a routine's tempo.
-MAX_BEATS_PER_BAR = 64
+# Rates, tempi, bars and offsets: the same ranges as a routine's (xgo_show.limits).
 _NAME_CHARS = frozenset("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-")
 
 
@@ -54,8 +60,8 @@ def _text(where: str, value: str) -> Iterator[str]:
 
 
 def _tempo(s: Schedule) -> Iterator[str]:
-    if s.bpm is not None and not _finite(s.bpm, 1e-9, MAX_CONTROL_RATE * 60):
-        yield f"show.bpm: {s.bpm!r} is not a tempo (a positive number of beats per minute)"
+    if s.bpm is not None and not _finite(s.bpm, MIN_BPM, MAX_BPM):
+        yield f"show.bpm: {s.bpm!r} is not a tempo ({MIN_BPM:g} to {MAX_BPM:g} bpm)"
     if not 1 <= s.beats_per_bar <= MAX_BEATS_PER_BAR:
         yield (f"show.beats_per_bar: {s.beats_per_bar} is not a meter "
                f"(1 to {MAX_BEATS_PER_BAR} beats per bar)")
@@ -64,8 +70,8 @@ def _tempo(s: Schedule) -> Iterator[str]:
         if not 1 <= bar <= MAX_BARS:
             yield f"{where}: bar {bar} is outside 1..{MAX_BARS:,}"
             return
-        if not _finite(bpm, 1e-9, MAX_CONTROL_RATE * 60):
-            yield f"{where}: bpm {bpm!r} is not a tempo (a positive number of beats per minute)"
+        if not _finite(bpm, MIN_BPM, MAX_BPM):
+            yield f"{where}: bpm {bpm!r} is not a tempo ({MIN_BPM:g} to {MAX_BPM:g} bpm)"
             return
         if not 1 <= per_bar <= MAX_BEATS_PER_BAR:
             yield f"{where}: {per_bar} beats per bar is not a meter (1 to {MAX_BEATS_PER_BAR})"
@@ -119,9 +125,9 @@ def schedule_problems(schedule: Schedule) -> list[str]:
     out: list[str] = []
     out += _text("show.name", s.name)
     out += _text("show.source", s.source)
-    if not _finite(s.control_rate, 1e-9, MAX_CONTROL_RATE):
-        out.append(f"show.control_rate: {s.control_rate!r} Hz is outside 0..{MAX_CONTROL_RATE:g}"
-                   " (exclusive of 0)")
+    if not _finite(s.control_rate, MIN_CONTROL_RATE, MAX_CONTROL_RATE):
+        out.append(f"show.control_rate: {s.control_rate!r} Hz is outside "
+                   f"{MIN_CONTROL_RATE:g}..{MAX_CONTROL_RATE:g}")
     if s.on_failure not in ("halt_all", "continue"):
         out.append(f"show.on_failure: unknown policy {s.on_failure!r}")
     if not 0 <= s.battery_floor <= 100:
@@ -142,9 +148,9 @@ def schedule_problems(schedule: Schedule) -> list[str]:
     if s.music is not None:
         out += _text("show.music.file", s.music.file)
         out += _text("show.music.path", s.music.path)
-        if not _finite(s.music.offset, -MAX_SHOW_SECONDS, MAX_SHOW_SECONDS):
+        if not _finite(s.music.offset, MIN_MUSIC_OFFSET, MAX_MUSIC_OFFSET):
             out.append(f"show.music.offset: {s.music.offset!r} s is outside "
-                       f"-{MAX_SHOW_SECONDS:.0f}..{MAX_SHOW_SECONDS:.0f} s")
+                       f"{MIN_MUSIC_OFFSET:.0f}..{MAX_MUSIC_OFFSET:.0f} s")
     for k, sec in enumerate(s.sections):
         out += _text(f"show.sections[{k}].name", sec.name)
         if not _finite(sec.start, 0.0, MAX_SHOW_SECONDS):

@@ -26,6 +26,7 @@ __all__ = [
     "Link",
     "Profile",
     "Register",
+    "limit_unit",
 ]
 
 
@@ -69,6 +70,22 @@ class Limits:
     velocity: float
     acceleration: float
     jerk: float
+
+
+_POWERS = {1: "", 2: "²", 3: "³", 4: "⁴"}
+_ORDERS = {"velocity": 1, "acceleration": 2, "jerk": 3}
+
+
+def limit_unit(unit: str | None, kind: str) -> str:
+    """The unit of a register's ``velocity``, ``acceleration`` or ``jerk`` limit: ``mm/s``,
+    ``deg/s²``; a register already in a rate goes one power up (``deg/s`` -> ``deg/s³`` for
+    its acceleration)."""
+    order = _ORDERS[kind]
+    if not unit:
+        return f"its unit per second{_POWERS[order]}"
+    if unit.endswith("/s"):
+        return f"{unit[:-2]}/s{_POWERS[order + 1]}"
+    return f"{unit}/s{_POWERS[order]}"
 
 
 @dataclass(frozen=True)

@@ -21,6 +21,7 @@ __all__ = [
     "get_profile",
     "model_from_firmware",
     "register_profile",
+    "register_units",
     "unregister_profile",
 ]
 
@@ -82,6 +83,13 @@ def unregister_profile(model: str) -> None:
     _PROFILES.pop(model, None)
     for alias in [a for a, m in _ALIASES.items() if m == model]:
         del _ALIASES[alias]
+
+
+def register_units(name: str) -> tuple[str, ...]:
+    """The units a register called ``name`` has on the known models (one for nearly all;
+    ``vx`` is mm/step on a dog and m/s on the Rider), in model order."""
+    units = (r.unit or "" for p in PROFILES.values() for r in p.registers if r.name == name)
+    return tuple(dict.fromkeys(units))
 
 
 def model_from_firmware(firmware: str) -> str | None:
