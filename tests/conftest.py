@@ -1,7 +1,9 @@
 """Suite-wide fixtures.
 
 ``wait(predicate)`` polls for something another thread or process does (a pty server, a
-vendor library that does not wait for its replies).
+vendor library that does not wait for its replies). ``relays`` starts ``xgo-show relay``
+processes (for the relay, control and behave tests) and ``conductor_session`` connects to them;
+tests/loopback.py puts Zenoh on 127.0.0.1 with explicit endpoints.
 
 Every test must clean up the threads it starts (pty servers, reader threads, runtimes): a
 non-daemon thread left running keeps the interpreter alive and leaks into later tests, and one
@@ -19,7 +21,11 @@ import time
 from collections.abc import Callable, Iterator
 
 import pytest
+import zenoh
 from hypothesis import settings
+
+from tests.relay.processes import RelayProcess, Relays
+from xgo_show.net.session import SessionOptions, open_session
 
 # scripts/mutation.sh runs the tests with --hypothesis-profile=mutation: mutmut's tracing slows
 # every call, so a per-example deadline would fail clean code, and derandomized examples make
@@ -74,16 +80,45 @@ def _new_live_threads(before: set[threading.Thread]) -> list[threading.Thread]:
     ]
 
 
-def wait_until(predicate: Callable[[], bool], timeout: float = 2.0) -> None:
-    """Poll ``predicate`` every 5 ms until it holds; fail after ``timeout`` seconds."""
+def wait_until(predicate: Callable[[], object], timeout: float = 2.0) -> float:
+    """Poll ``predicate`` every 5 ms until it holds; fail after ``timeout`` seconds. Returns
+    the monotonic time it was first seen to hold."""
     deadline = time.monotonic() + timeout
     while not predicate():
         if time.monotonic() > deadline:
             raise AssertionError("the condition did not hold in time")
         time.sleep(0.005)
+    return time.monotonic()
 
 
 @pytest.fixture
 def wait() -> Callable[[Callable[[], bool]], None]:
     """``wait(predicate, timeout=2.0)``: :func:`wait_until` as a fixture."""
     return wait_until
+
+
+@pytest.fixture
+def relays() -> Iterator[Relays]:
+    """Starts ``xgo-show relay`` processes; stops them and their simulators at the end."""
+    r = Relays()
+    try:
+        yield r
+    finally:
+        r.close()
+
+
+@pytest.fixture
+def conductor_session() -> Iterator[Callable[..., zenoh.Session]]:
+    """``open(*relays)``: a Zenoh session connected to those relays (closed at the end)."""
+    opened: list[zenoh.Session] = []
+
+    def open_(*targets: RelayProcess) -> zenoh.Session:
+        session = open_session(
+            SessionOptions(connect=tuple(r.endpoint for r in targets), listen=())
+        )
+        opened.append(session)
+        return session
+
+    yield open_
+    for session in opened:
+        session.close()

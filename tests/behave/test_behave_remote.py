@@ -19,7 +19,7 @@ from typing import Any
 import zenoh
 
 from tests.conftest import wait_until
-from tests.control.test_server import _config, _free_port
+from tests.loopback import client_config, free_port
 from xgo_show.control.keys import event_key, trigger_key
 
 NS = f"test-behave-{os.getpid()}"
@@ -50,7 +50,7 @@ def test_a_zenoh_client_fires_a_behaviours_trigger(tmp_path: Path) -> None:
         rules:
           - {name: greet, when: [{trigger: visitor}], do: [{play: wave}]}
         """))
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     proc = subprocess.Popen(
         [sys.executable, "-m", "xgo_show", "behave", str(tmp_path / "b.yaml"), "--sim",
          "--serve", "--listen", endpoint, "--namespace", NS],
@@ -58,7 +58,7 @@ def test_a_zenoh_client_fires_a_behaviours_trigger(tmp_path: Path) -> None:
     )
     events: list[dict[str, Any]] = []
     try:
-        with zenoh.open(_config(endpoint)) as session:
+        with zenoh.open(client_config(endpoint)) as session:
             sub = session.declare_subscriber(
                 event_key(NS), lambda s: events.append(json.loads(s.payload.to_bytes())))
             deadline = time.monotonic() + 20

@@ -19,7 +19,7 @@ from typing import Any
 import pytest
 import zenoh
 
-from tests.net.conftest import free_port
+from tests.loopback import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
 ACL = ROOT / "examples" / "zenoh-acl"

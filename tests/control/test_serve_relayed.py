@@ -14,26 +14,15 @@ import os
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
-import pytest
-
-from tests.relay.conftest import Relays, free_port
+from tests.loopback import free_port
+from tests.relay.processes import Relays
 from xgo_show.control.client import ControlClient
 from xgo_show.errors import ControlFailed
 from xgo_show.net.session import SessionOptions, open_session
 
 NS = f"test-serve-relayed-{os.getpid()}"
-
-
-@pytest.fixture
-def relays() -> Iterator[Relays]:
-    r = Relays()
-    try:
-        yield r
-    finally:
-        r.close()
 
 
 def _until_status(client: ControlClient, states: tuple[str, ...], timeout: float) -> None:

@@ -10,7 +10,6 @@ from __future__ import annotations
 import functools
 import json
 import os
-import socket
 import subprocess
 import sys
 import threading
@@ -23,6 +22,7 @@ import jsonschema
 import pytest
 import zenoh
 
+from tests.loopback import client_config, free_port
 from xgo_show.control.client import ControlClient, ControlFailed
 from xgo_show.control.keys import control_key, event_key, trigger_key
 from xgo_show.control.schemas import definition
@@ -31,27 +31,12 @@ ROOT = Path(__file__).resolve().parents[2]
 NS = f"test-serve-{os.getpid()}"
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def _config(connect: str) -> zenoh.Config:
-    config = zenoh.Config()
-    config.insert_json5("mode", '"peer"')
-    config.insert_json5("scouting/multicast/enabled", "false")
-    config.insert_json5("listen/endpoints", '["tcp/127.0.0.1:0"]')
-    config.insert_json5("connect/endpoints", json.dumps([connect]))
-    return config
-
-
 @pytest.fixture(scope="module")
 def server(triggered_path: Path) -> Iterator[str]:
     """A serve process with simulated robots and the short triggered show loaded; yields its
     endpoint."""
     show = triggered_path
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     proc = subprocess.Popen(
         [sys.executable, "-m", "xgo_show", "serve", "--sim", "--load",
          str(show), "--listen", endpoint, "--namespace", NS],
@@ -68,7 +53,7 @@ def server(triggered_path: Path) -> Iterator[str]:
 
 @pytest.fixture(scope="module")
 def session(server: str) -> Iterator[zenoh.Session]:
-    s = zenoh.open(_config(server))
+    s = zenoh.open(client_config(server))
     try:
         client = ControlClient(s, NS, timeout=1.0)
         deadline = time.monotonic() + 20.0

@@ -7,33 +7,15 @@ and the second connected to it, the way a relay and its conductor meet on one ma
 
 from __future__ import annotations
 
-import json
-import socket
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 
 import pytest
 import zenoh
 
+from tests.loopback import free_port, peer_config
 from tests.net.netns import two_hosts  # the fixture, for every net test
 
-__all__ = ["free_port", "peer_config", "two_hosts", "zenoh_pair"]
-
-
-def free_port() -> int:
-    """A TCP port nobody listens on right now (the OS picks it)."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
-def peer_config(*, listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zenoh.Config:
-    """A peer that stays on the endpoints it is given: no multicast, no gossip beyond them."""
-    conf = zenoh.Config()
-    conf.insert_json5("mode", '"peer"')
-    conf.insert_json5("scouting/multicast/enabled", "false")
-    conf.insert_json5("listen/endpoints", json.dumps(list(listen)))
-    conf.insert_json5("connect/endpoints", json.dumps(list(connect)))
-    return conf
+__all__ = ["two_hosts", "zenoh_pair"]
 
 
 @pytest.fixture

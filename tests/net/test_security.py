@@ -16,7 +16,7 @@ from typing import Any
 import pytest
 import zenoh
 
-from tests.net.conftest import free_port
+from tests.loopback import free_port
 from xgo_show.net.timesync import TimeSyncError, measure, serve_time
 from xgo_show.runtime.clock import MonotonicClock
 

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import argparse
 import json
-import socket
 import time
 from pathlib import Path
 
 import pytest
 
+from tests.loopback import free_port
 from xgo_show.errors import NetworkError
 from xgo_show.net.session import (
     DEFAULT_HUB,
@@ -20,12 +20,6 @@ from xgo_show.net.session import (
     open_session,
     session_options,
 )
-
-
-def free_port() -> int:
-    with socket.socket() as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
 
 
 def get(config: object, key: str) -> object:

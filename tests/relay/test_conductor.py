@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.relay.conftest import claim
 from xgo_show.compiler.artifact import save_schedule
 
 
@@ -56,19 +57,8 @@ def test_dry_run_mixes_a_relayed_robot_with_a_local_one_in_one_table(
 def test_a_held_relay_fails_the_preflight_with_the_holders_name(
     relays, conductor_session, walk, tmp_path: Path
 ) -> None:
-    from xgo_show.relay.client import RelayClient, new_conductor
-
     left = relays.start("left", {"rex": "mini"})
-    holder = RelayClient(conductor_session(left), "left", conductor=new_conductor("alice@desk"))
-    deadline = time.monotonic() + 5
-    while True:
-        try:
-            holder.hello()
-            break
-        except Exception:
-            assert time.monotonic() < deadline
-            time.sleep(0.05)
-    holder.start_heartbeat(period=0.05, watchdog=0.5)
+    holder = claim(conductor_session(left), left, "alice@desk", watchdog=0.5)
     save_schedule(walk(0.3, rex="mini"), tmp_path / "s.xshow.json")
     proc = conduct(tmp_path / "s.xshow.json", "--map", "rex=zenoh:left/rex", relay=left)
     stdout, stderr = proc.communicate(timeout=60)

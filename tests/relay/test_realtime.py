@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.relay.test_relay_server import claim
+from tests.relay.conftest import claim
 
 
 def fifo_threads(pid: int) -> int:

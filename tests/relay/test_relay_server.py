@@ -8,30 +8,13 @@ import time
 
 import pytest
 
+from tests.relay.conftest import claim
 from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.errors import NetworkError
 from xgo_show.relay.client import RelayClient
 from xgo_show.wire.xgo import write_frame
 
 LEAD = 0.3  # seconds between the start command and the start
-
-
-def claim(session, relay, name: str = "tester", *, beat: bool = True) -> RelayClient:  # type: ignore[no-untyped-def]
-    """Hold ``relay`` as conductor ``name`` (heartbeats every 50 ms unless ``beat`` is false)."""
-    from xgo_show.relay.client import new_conductor
-
-    client = RelayClient(session, relay.name, conductor=new_conductor(name))
-    deadline = time.monotonic() + 5
-    while True:  # the session may still be connecting
-        try:
-            client.hello()
-            if beat:
-                client.start_heartbeat(period=0.05, watchdog=0.3)
-            return client
-        except NetworkError:
-            if time.monotonic() > deadline:
-                raise
-            time.sleep(0.05)
 
 
 def test_a_two_relay_show_arrives_complete_at_every_simulator(

@@ -9,8 +9,10 @@ import json
 from pathlib import Path
 from typing import Any
 
+from tests.loopback import free_port
 from tests.net.test_security import usrpwd_configs
-from tests.relay.conftest import Relays, free_port, wait_for
+from tests.relay.conftest import wait_for
+from tests.relay.processes import Relays
 from xgo_show.errors import NetworkError
 from xgo_show.net.session import SessionOptions, open_session
 from xgo_show.relay.client import RelayClient, list_relays

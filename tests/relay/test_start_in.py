@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from tests.relay.test_relay_server import claim
+from tests.relay.conftest import claim
 from xgo_show.errors import NetworkError
 
 
