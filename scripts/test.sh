@@ -4,4 +4,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source scripts/venv.sh
+# Compiled bytecode, even where PYTHONDONTWRITEBYTECODE is set (this machine sets it): the suite
+# starts dozens of Python processes (relays, serve, the CLI), each compiling xgo_show from
+# source again (+0.3 s each), and pytest would rewrite every test module's asserts again (+8 s).
+# Kept under .venv, so no __pycache__ appears beside the sources.
+unset PYTHONDONTWRITEBYTECODE
+export PYTHONPYCACHEPREFIX="$PWD/.venv/pycache"
 exec python -m pytest "$@"
