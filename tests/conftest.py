@@ -40,6 +40,10 @@ pytest_plugins = ["pytester"]  # lets tests/test_thread_leak_check.py run this c
 # and the tests that pass --realtime opt back in. XGO_SHOW_REALTIME=auto runs the suite with it.
 os.environ.setdefault("XGO_SHOW_REALTIME", "off")
 
+# A child process that hangs is sent SIGABRT (tests/children.py): with this, every child the
+# suite starts prints all its threads' stacks then, which says where it hung.
+os.environ.setdefault("PYTHONFAULTHANDLER", "1")
+
 
 @pytest.fixture(autouse=True)
 def _realtime_policy_restored() -> Iterator[None]:

@@ -12,12 +12,12 @@ import signal
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 from typing import Any
 
 import zenoh
 
+from tests.children import exited, first_answer
 from tests.conftest import wait_until
 from tests.loopback import client_config, free_port
 from xgo_show.control.keys import event_key, trigger_key
@@ -61,10 +61,7 @@ def test_a_zenoh_client_fires_a_behaviours_trigger(tmp_path: Path) -> None:
         with zenoh.open(client_config(endpoint)) as session:
             sub = session.declare_subscriber(
                 event_key(NS), lambda s: events.append(json.loads(s.payload.to_bytes())))
-            deadline = time.monotonic() + 20
-            while (answer := _get(session, trigger_key(NS, "doorbell"))) is None:
-                assert time.monotonic() < deadline and proc.poll() is None, "behave never answered"
-            ok, body = answer
+            ok, body = first_answer(lambda: _get(session, trigger_key(NS, "doorbell")), proc)
             assert not ok and body["error"] == "unknown_trigger"
             assert "no rule of the behaviour waits for it (its triggers: visitor)" in (
                 body["message"])
@@ -73,7 +70,7 @@ def test_a_zenoh_client_fires_a_behaviours_trigger(tmp_path: Path) -> None:
                                    for e in list(events)), timeout=5.0)
             sub.undeclare()
         proc.send_signal(signal.SIGINT)  # Ctrl-C: every robot safe-stopped, exit 0
-        out, _ = proc.communicate(timeout=20)
+        out = exited(proc)
     finally:
         if proc.poll() is None:
             proc.kill()
