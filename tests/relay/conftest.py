@@ -32,20 +32,19 @@ def claim(
     name: str = "tester",
     *,
     beat: bool = True,
-    watchdog: float = 0.3,
 ) -> RelayClient:
-    """Hold ``relay`` as conductor ``name`` (heartbeats every 50 ms, the relay letting go after
-    ``watchdog`` seconds without one, unless ``beat`` is false)."""
+    """Hold ``relay`` as conductor ``name`` (heartbeats every 50 ms unless ``beat`` is false)."""
     client = RelayClient(session, relay.name, conductor=new_conductor(name))
     deadline = time.monotonic() + 5
-    while True:  # the session may still be connecting
+    while True:
         try:
             client.hello()
             if beat:
-                client.start_heartbeat(period=0.05, watchdog=watchdog)
+                client.start_heartbeat(period=0.05, watchdog=0.3)
             return client
-        except NetworkError:
-            if time.monotonic() > deadline:
+        except NetworkError as exc:
+            # Unanswered: the session may still be connecting. A refusal is final.
+            if "did not answer" not in str(exc) or time.monotonic() > deadline:
                 raise
             time.sleep(0.05)
 
