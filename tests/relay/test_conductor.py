@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.relay.conftest import claim
+from tests.relay.conftest import claim, upload_text
 from xgo_show.compiler.artifact import save_schedule
 
 
@@ -58,8 +58,12 @@ def test_a_held_relay_fails_the_preflight_with_the_holders_name(
     relays, conductor_session, walk, tmp_path: Path
 ) -> None:
     left = relays.start("left", {"rex": "mini"})
-    holder = claim(conductor_session(left), left, "alice@desk", watchdog=0.5)
-    save_schedule(walk(0.3, rex="mini"), tmp_path / "s.xshow.json")
+    holder = claim(conductor_session(left), left, "alice@desk")
+    show = walk(0.3, rex="mini")
+    # alice uploads her show with a long watchdog: the relay keeps her the holder even while
+    # a loaded machine holds up this process's heartbeats for more than the default 0.5 s.
+    assert holder.upload(*upload_text(show), watchdog_ms=30_000)["preflight_ok"]
+    save_schedule(show, tmp_path / "s.xshow.json")
     proc = conduct(tmp_path / "s.xshow.json", "--map", "rex=zenoh:left/rex", relay=left)
     stdout, stderr = proc.communicate(timeout=60)
     holder.stop_heartbeat()
