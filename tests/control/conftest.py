@@ -15,6 +15,7 @@ import pytest
 from xgo_show.choreo import load_show
 from xgo_show.compiler import compile_show
 from xgo_show.compiler.schedule import Schedule
+from xgo_show.control.client import ControlClient
 from xgo_show.control.director import Director
 from xgo_show.runtime.clock import Clock, FakeClock, MonotonicClock
 from xgo_show.runtime.events import Event, FrameSent
@@ -46,6 +47,16 @@ tracks:
     - {at: 1.2, move: {pitch: -6}, duration: 0.5}
     - {at: 1.8, move: {pitch: 0}, duration: 0.5}
 """
+
+
+def status_or_none(client: ControlClient) -> dict[str, Any] | None:
+    """The server's status, or None while no server answers (it is still starting)."""
+    from xgo_show.errors import ControlFailed
+
+    try:
+        return client.status()
+    except ControlFailed:
+        return None
 
 
 @pytest.fixture(scope="session")

@@ -19,11 +19,15 @@ from typing import Any
 import pytest
 import zenoh
 
+from tests.children import exited, first_answer
+from tests.conftest import wait_until
 from tests.loopback import free_port
 
 ROOT = Path(__file__).resolve().parents[2]
 ACL = ROOT / "examples" / "zenoh-acl"
 NS = "xgo-show"  # the namespace the example's rules name
+# Seconds an ask that must go unanswered waits: an answer on loopback takes milliseconds.
+REFUSED = 0.3
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +63,7 @@ def server(configs: Path, triggered_path: Path) -> Iterator[subprocess.Popen[str
         yield proc
     finally:
         proc.terminate()
-        out, _ = proc.communicate(timeout=10)
+        out = exited(proc, 10)
         assert proc.returncode == 0 and "Traceback" not in out, out
 
 
@@ -86,6 +90,11 @@ class Client:
         self.session.close()
 
 
+def _seen(client: Client) -> set[tuple[str, str | None]]:
+    """(event, state) of every event ``client`` received."""
+    return {(e["event"], e.get("state")) for e in list(client.events)}
+
+
 def _xgo(configs: Path, who: str, *args: str, timeout: float = 10.0
          ) -> subprocess.CompletedProcess[str]:
     """``xgo-show ARGS`` as another process, connecting as ``who``."""
@@ -101,39 +110,34 @@ def test_roles_operator_viewer_and_strangers(configs: Path, server: subprocess.P
                                                       "wrong")}
     try:
         operator, viewer = clients["operator"], clients["viewer"]
-        deadline = time.monotonic() + 20.0
-        while operator.ask("status", timeout=0.5) is None:  # serve is up
-            assert time.monotonic() < deadline and server.poll() is None
+        first_answer(lambda: operator.ask("status", timeout=0.5), server)  # serve is up
         status = viewer.ask("status")
         assert status is not None and status["state"] == "loaded"
         for who in ("guest", "stranger", "wrong"):
-            assert clients[who].ask("status") is None, who
+            assert clients[who].ask("status", timeout=REFUSED) is None, who
         refused = _xgo(configs, "viewer", "ctl", "start", timeout=1.0)
         assert refused.returncode == 2
         assert "no xgo-show serve answered" in refused.stderr, refused.stderr
-        assert viewer.ask("control/start") is None
+        assert viewer.ask("control/start", timeout=REFUSED) is None
         started = _xgo(configs, "operator", "ctl", "start")
         assert started.returncode == 0, started.stderr
-        deadline = time.monotonic() + 10.0
-        while (operator.ask("status") or {}).get("state") != "waiting":
-            assert time.monotonic() < deadline
+        wait_until(lambda: (operator.ask("status") or {}).get("state") == "waiting", 10.0)
         for who in ("viewer", "guest", "stranger", "wrong"):  # puts that must reach nobody
             clients[who].session.put(f"{NS}/trigger/go", b"{}",
                                      congestion_control=zenoh.CongestionControl.BLOCK)
-        assert viewer.ask("trigger/go") is None
+        assert viewer.ask("trigger/go", timeout=REFUSED) is None
         time.sleep(0.3)
         assert (viewer.ask("status") or {}).get("state") == "waiting"
         fired = _xgo(configs, "operator", "trigger", "go")
         assert fired.returncode == 0, fired.stderr
         assert fired.stdout.strip() == "trigger 'go': released section 'b'"
-        deadline = time.monotonic() + 10.0
-        while (viewer.ask("status") or {}).get("state") != "loaded":
-            assert time.monotonic() < deadline
-        time.sleep(0.2)  # the last events on their way
+        wait_until(lambda: (viewer.ask("status") or {}).get("state") == "loaded", 10.0)
+        wait_until(lambda: all(("state", "ended") in _seen(clients[who])  # the last events
+                               for who in ("operator", "viewer")), 5.0)
     finally:
         for client in clients.values():
             client.close()
-    seen = {who: {(e["event"], e.get("state")) for e in c.events} for who, c in clients.items()}
+    seen = {who: _seen(c) for who, c in clients.items()}
     for who in ("operator", "viewer"):
         assert {("state", "playing"), ("wait", "waiting"), ("state", "ended")} <= seen[who], who
     triggers = [(e["trigger"], e["accepted"]) for e in viewer.events if e["event"] == "trigger"]

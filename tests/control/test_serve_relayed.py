@@ -16,10 +16,11 @@ import sys
 import time
 from pathlib import Path
 
+from tests.children import exited, first_answer
+from tests.control.conftest import status_or_none
 from tests.loopback import free_port
 from tests.relay.processes import Relays
 from xgo_show.control.client import ControlClient
-from xgo_show.errors import ControlFailed
 from xgo_show.net.session import SessionOptions, open_session
 
 NS = f"test-serve-relayed-{os.getpid()}"
@@ -48,13 +49,7 @@ def test_serve_plays_a_triggered_show_on_relayed_robots(
     session = open_session(SessionOptions(connect=(endpoint,), namespace=NS))
     try:
         client = ControlClient(session, NS, timeout=1.0)
-        deadline = time.monotonic() + 20.0
-        while True:  # the handshake: a query answered means serve is up
-            try:
-                client.status()
-                break
-            except ControlFailed:
-                assert time.monotonic() < deadline and serve.poll() is None
+        first_answer(lambda: status_or_none(client), serve)  # the handshake: serve is up
         client.timeout = 10.0
         reply = client.command("start")
         assert [r["performer"] for r in reply["preflight"]["rows"]] == ["rex", "ivy"]
@@ -67,13 +62,13 @@ def test_serve_plays_a_triggered_show_on_relayed_robots(
             _until_status(client, ("loaded",), 10.0)
         except AssertionError:
             serve.terminate()
-            raise AssertionError(serve.communicate(timeout=10)[0]) from None
+            raise AssertionError(exited(serve, 10)) from None
         last = client.status()["last_result"]
         assert last["completed"] is True, last
         assert len(relay.received("rex")) > held and len(relay.received("ivy")) > held / 2
     finally:
         session.close()
         serve.terminate()
-        out, _ = serve.communicate(timeout=10)
+        out = exited(serve, 10)
     assert serve.returncode == 0, out
     assert "Traceback" not in out

@@ -22,6 +22,8 @@ import jsonschema
 import pytest
 import zenoh
 
+from tests.children import exited, first_answer
+from tests.control.conftest import status_or_none
 from tests.loopback import client_config, free_port
 from xgo_show.control.client import ControlClient, ControlFailed
 from xgo_show.control.keys import control_key, event_key, trigger_key
@@ -32,8 +34,8 @@ NS = f"test-serve-{os.getpid()}"
 
 
 @pytest.fixture(scope="module")
-def server(triggered_path: Path) -> Iterator[str]:
-    """A serve process with simulated robots and the short triggered show loaded; yields its
+def serve_process(triggered_path: Path) -> Iterator[tuple[subprocess.Popen[str], str]]:
+    """A serve process with simulated robots and the short triggered show loaded, and its
     endpoint."""
     show = triggered_path
     endpoint = f"tcp/127.0.0.1:{free_port()}"
@@ -43,27 +45,27 @@ def server(triggered_path: Path) -> Iterator[str]:
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
     try:
-        yield endpoint
+        yield proc, endpoint
     finally:
         proc.terminate()
-        out, _ = proc.communicate(timeout=10)
+        out = exited(proc, 10)
         assert proc.returncode == 0, out
         assert "serve stopped" in out
 
 
 @pytest.fixture(scope="module")
-def session(server: str) -> Iterator[zenoh.Session]:
-    s = zenoh.open(client_config(server))
+def server(serve_process: tuple[subprocess.Popen[str], str]) -> str:
+    """The serve process's endpoint."""
+    return serve_process[1]
+
+
+@pytest.fixture(scope="module")
+def session(serve_process: tuple[subprocess.Popen[str], str]) -> Iterator[zenoh.Session]:
+    proc, endpoint = serve_process
+    s = zenoh.open(client_config(endpoint))
     try:
-        client = ControlClient(s, NS, timeout=1.0)
-        deadline = time.monotonic() + 20.0
-        while True:  # the handshake: a query answered means the server is up
-            try:
-                client.status()
-                break
-            except ControlFailed:
-                if time.monotonic() > deadline:
-                    raise
+        # the handshake: a query answered means the server is up
+        first_answer(lambda: status_or_none(ControlClient(s, NS, timeout=1.0)), proc)
         yield s
     finally:
         s.close()
