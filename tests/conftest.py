@@ -16,6 +16,7 @@ is still alive.
 from __future__ import annotations
 
 import os
+import signal
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -43,6 +44,13 @@ os.environ.setdefault("XGO_SHOW_REALTIME", "off")
 # A child process that hangs is sent SIGABRT (tests/children.py): with this, every child the
 # suite starts prints all its threads' stacks then, which says where it hung.
 os.environ.setdefault("PYTHONFAULTHANDLER", "1")
+
+# Tests send SIGINT to the commands they start, as Ctrl-C would. A non-interactive shell starts
+# a background job (`flock ... &`) with SIGINT ignored, and an ignored SIGINT is inherited by
+# every child: Python then never raises KeyboardInterrupt, and `behave`, `run` and the rest
+# would never see their Ctrl-C. With a handler here, each child starts with SIGINT's default.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(autouse=True)
