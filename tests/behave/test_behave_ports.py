@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import wait_until
+from tests.relay.conftest import free_port
 from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote
 from xgo_show.behave.loader import Behaviour
@@ -169,10 +170,12 @@ def test_led_beside_a_loop_and_a_phrase_on_its_own_on_a_pty(tmp_path: Path) -> N
     assert [e.data for e in frames[: len(phrase.frames)]] == [f.data for f in phrase.frames]
 
 
-def test_a_relayed_robot_is_refused_with_a_reason(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["behave", str(EXHIBITION), "--map", "rex=zenoh:stage/rex"]) != 0
+def test_a_relay_that_does_not_answer_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    port = free_port()
+    assert main(["behave", str(EXHIBITION), "--map", "rex=zenoh:nowhere/rex",
+                 "--listen", f"tcp/127.0.0.1:{port}"]) != 0
     err = capsys.readouterr().err
-    assert "robots behind relays are not supported by behave" in err
+    assert "relay nowhere did not answer hello" in err
     assert "Traceback" not in err
 
 

@@ -210,6 +210,18 @@ class Engine:
                 if trig.routine_ended == routine and self._covers(trig.performers, performer):
                     self._fire(rule, f"{routine} ended on {performer}", now)
 
+    def lost(self, performer: str, cause: str, now: float) -> None:
+        """The performer cannot be reached any more (its relay went silent): it is offline
+        now, whatever seconds without telemetry its ``offline`` triggers wait for."""
+        if performer not in self.readings:
+            return
+        self.offline.add(performer)
+        for rule, t, trig in self._triggers(Offline):
+            armed = (self.model.rules.index(rule), t, performer)
+            if self._covers(trig.performers, performer) and self._armed.get(armed, True):
+                self._armed[armed] = False
+                self._fire(rule, f"{performer} offline ({cause})", now)
+
     def advance(self, now: float) -> None:
         """Run everything due at or before ``now``: timers, waits, offline checks."""
         for key, due in sorted(self._timers.items(), key=lambda kv: kv[1]):

@@ -21,10 +21,11 @@ import queue
 import threading
 from collections.abc import Callable, Mapping
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 from xgo_show.behave.engine import BehaviourNote, Engine
 from xgo_show.behave.loader import Behaviour
-from xgo_show.compiler.schedule import PerformerSchedule
+from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.errors import TransportError
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, MonotonicClock
@@ -40,6 +41,9 @@ from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.show_runner import default_reach
 from xgo_show.runtime.telemetry import TelemetryPoller
 from xgo_show.transports.base import Transport
+
+if TYPE_CHECKING:
+    from xgo_show.behave.relayed import RelayAccess, RelayedStage
 
 __all__ = ["WATCH_INTERVAL", "BehaviourRunner", "PortStage"]
 
@@ -84,14 +88,16 @@ class _Seat:
         self.posture = [(f.data, f.label) for f in stop_frames(self.profile)[rest:]]
         self._reader: threading.Thread | None = None
         self._reader_stop = threading.Event()
-        link = next(iter(stage.behaviour.routines.values())).performers[0].link
-        for schedule in stage.behaviour.routines.values():
+        link = self.profile.link
+        for schedule in stage.routines.values():
             for part in schedule.performers:
                 if part.name == name:
                     link = part.link
         self.idle = PerformerSchedule(name, model, link, (), 0.0)
 
-    def _start(self, part: PerformerSchedule, *, linger: float, rest: bool) -> None:
+    def _start(
+        self, part: PerformerSchedule, *, linger: float, rest: bool, at: float | None = None
+    ) -> None:
         st = self.stage
         executor = PerformerExecutor(
             part,
@@ -113,8 +119,10 @@ class _Seat:
             self._reader = threading.Thread(target=self._read_loop, daemon=True,
                                             name=f"xgo-show behave reader {self.name}")
             self._reader.start()
-        # Now: the writer waits for the link itself, and nothing precedes the first frame.
-        executor.start(st.clock.now())
+        # Now (or at the time a relay was given): the writer waits for the link itself, and
+        # nothing precedes the first frame.
+        now = st.clock.now()
+        executor.start(now if at is None else max(at, now))
 
     def _read_loop(self) -> None:
         while not self._reader_stop.is_set():
@@ -141,7 +149,9 @@ class _Seat:
         self.routine = None
         self._start(self.idle, linger=_WATCH_FOREVER, rest=False)
 
-    def play(self, part: PerformerSchedule, routine: str, play_id: int) -> None:
+    def play(
+        self, part: PerformerSchedule, routine: str, play_id: int, at: float | None = None
+    ) -> None:
         preempted = self.routine is not None  # a routine still playing (an ended one watches)
         self.end(rest=preempted)
         if preempted:
@@ -149,7 +159,7 @@ class _Seat:
             # its default posture, not wherever the cut one left it.
             self._pending += self.posture
         self.routine, self.play_id = routine, play_id
-        self._start(part, linger=0.0, rest=True)
+        self._start(part, linger=0.0, rest=True, at=at)
 
     def end(self, *, rest: bool) -> None:
         """Stop the executor writing on the port (its writer thread has ended on return);
@@ -178,11 +188,19 @@ class _Seat:
 
 
 class PortStage:
-    """The engine's stage over open transports (see the module doc)."""
+    """The engine's stage over open transports (see the module doc).
+
+    ``routines`` and ``writes`` are the compiled schedules by name (a behaviour's, or on a
+    relay those uploaded by SHA-256); ``models`` the performer of each transport's model.
+    ``at`` (on ``clock``) starts a routine at a given time instead of now (a relay is given
+    one); a time already past means now.
+    """
 
     def __init__(
         self,
-        behaviour: Behaviour,
+        routines: Mapping[str, Schedule],
+        writes: Mapping[str, Schedule],
+        models: Mapping[str, str],
         transports: Mapping[str, Transport],
         *,
         clock: Clock,
@@ -190,25 +208,28 @@ class PortStage:
         telemetry_interval: float = 0.25,
         watch_interval: float | None = WATCH_INTERVAL,
     ) -> None:
-        self.behaviour = behaviour
+        self.routines = routines
+        self.writes = writes
         self.watch_interval = watch_interval
         self.clock = clock
         self.events = events
         self.telemetry_interval = telemetry_interval
         self.seats = {
-            name: _Seat(name, ref.model, transports[name], self)
-            for name, ref in behaviour.model.performers.items()
+            name: _Seat(name, model, transports[name], self) for name, model in models.items()
         }
 
     def start(self) -> None:
         for seat in self.seats.values():
             seat.watch()
 
-    def play(self, routine: str, performers: tuple[str, ...], play_id: int, t: float) -> None:
-        schedule = self.behaviour.routines[routine]
+    def play(
+        self, routine: str, performers: tuple[str, ...], play_id: int, t: float,
+        at: float | None = None,
+    ) -> None:
+        schedule = self.routines[routine]
         for part in schedule.performers:
             if part.name in performers:
-                self.seats[part.name].play(replace(part), routine, play_id)
+                self.seats[part.name].play(replace(part), routine, play_id, at)
 
     def rest(self, performers: tuple[str, ...], t: float) -> None:
         for p in performers:
@@ -220,7 +241,7 @@ class PortStage:
             self.seats[p].safe_stop(reason)
 
     def write(self, key: str, performers: tuple[str, ...], t: float) -> None:
-        for part in self.behaviour.writes[key].performers:
+        for part in self.writes[key].performers:
             if part.name in performers:
                 self.seats[part.name].send([(f.data, f.label) for f in part.frames])
 
@@ -238,11 +259,44 @@ class PortStage:
             seat.close()
 
 
+class _Stages:
+    """The engine's one stage over the local seats and the performers behind relays."""
+
+    def __init__(self, local: PortStage, remote: RelayedStage | None) -> None:
+        self.local = local
+        self.remote = remote
+
+    def _here(self, performers: tuple[str, ...]) -> tuple[str, ...]:
+        return tuple(p for p in performers if p in self.local.seats)
+
+    def play(self, routine: str, performers: tuple[str, ...], play_id: int, t: float) -> None:
+        if self.remote is not None:  # first: its command is in flight while ours hand over
+            self.remote.play(routine, performers, play_id, t)
+        self.local.play(routine, self._here(performers), play_id, t)
+
+    def rest(self, performers: tuple[str, ...], t: float) -> None:
+        if self.remote is not None:
+            self.remote.rest(performers, t)
+        self.local.rest(self._here(performers), t)
+
+    def safe_stop(self, performers: tuple[str, ...], reason: str, t: float) -> None:
+        if self.remote is not None:
+            self.remote.safe_stop(performers, reason, t)
+        self.local.safe_stop(self._here(performers), reason, t)
+
+    def write(self, key: str, performers: tuple[str, ...], t: float) -> None:
+        if self.remote is not None:
+            self.remote.write(key, performers, t)
+        self.local.write(key, self._here(performers), t)
+
+
 class BehaviourRunner:
-    """Runs a behaviour on open transports in real time (see the module doc).
+    """Runs a behaviour on open transports (and relays) in real time (see the module doc).
 
     ``say(t, line)`` gets each decision for people; every
     :class:`~xgo_show.behave.engine.BehaviourNote` is also published on ``events``.
+    ``relays`` reaches the performers that are not in ``transports``: robots behind relays
+    (:class:`~xgo_show.behave.relayed.RelayedStage`), opened when :meth:`run` starts.
     """
 
     def __init__(
@@ -255,14 +309,31 @@ class BehaviourRunner:
         say: Callable[[float, str], None] | None = None,
         telemetry_interval: float = 0.25,
         watch_interval: float | None = WATCH_INTERVAL,
+        relays: RelayAccess | None = None,
     ) -> None:
         self.clock: Clock = clock if clock is not None else MonotonicClock()
         self.events = events if events is not None else EventBus()
         self.say = say
-        self.stage = PortStage(behaviour, transports, clock=self.clock, events=self.events,
+        models = {p: ref.model for p, ref in behaviour.model.performers.items()}
+        self.stage = PortStage(behaviour.routines, behaviour.writes,
+                               {p: m for p, m in models.items() if p in transports},
+                               transports, clock=self.clock, events=self.events,
                                telemetry_interval=telemetry_interval,
                                watch_interval=watch_interval)
-        self.engine = Engine(behaviour, self.stage, emit=self._emit, wall=self._wall)
+        self.remote: RelayedStage | None = None
+        if relays is not None and relays.urls:
+            from xgo_show.behave.relayed import RelayedStage
+
+            self.remote = RelayedStage(
+                behaviour, relays.urls, session=relays.session, conductor=relays.conductor,
+                namespace=relays.namespace, clock=self.clock, events=self.events,
+                on_ended=lambda perf, play: self._inbox.put(("ended", (perf, play))),
+                on_lost=lambda perfs, why: self._inbox.put(("lost", (perfs, why))),
+                watchdog=relays.watchdog, watch_interval=watch_interval,
+                telemetry_interval=telemetry_interval, timeout=relays.timeout,
+            )
+        self.engine = Engine(behaviour, _Stages(self.stage, self.remote), emit=self._emit,
+                             wall=self._wall)
         self._inbox: queue.SimpleQueue[tuple[str, object]] = queue.SimpleQueue()
         self._sub = self.events.subscribe(self._on_event, TelemetryRead, FaultRaised, StateChanged)
         self._stop = threading.Event()
@@ -292,10 +363,12 @@ class BehaviourRunner:
     def run(self, duration: float | None = None) -> None:
         """Run until :meth:`stop` or for ``duration`` seconds; then safe-stop every robot."""
         clock, engine = self.clock, self.engine
-        end = None if duration is None else clock.now() + duration
-        self.stage.start()
-        engine.start(clock.now())
         try:
+            if self.remote is not None:
+                self.remote.open()
+            self.stage.start()
+            end = None if duration is None else clock.now() + duration
+            engine.start(clock.now())
             while not self._stop.is_set():
                 now = clock.now()
                 if end is not None and now >= end:
@@ -312,18 +385,25 @@ class BehaviourRunner:
                 engine.advance(clock.now())
         finally:
             self._sub.close()
-            names = tuple(self.stage.seats)
             for seat in self.stage.seats.values():
                 if seat.executor is not None:
                     seat.executor.safe_stop("behaviour ended")
             self.stage.close()
-            del names
+            if self.remote is not None:
+                self.remote.close("behaviour ended")
 
     def _handle(self, kind: str, item: object) -> None:
         now = self.clock.now()
         if kind == "trigger" and isinstance(item, str):
             self.engine.trigger(item, now)
+        elif kind == "ended" and isinstance(item, tuple):
+            self.engine.routine_ended(item[0], item[1], now, True)
+        elif kind == "lost" and isinstance(item, tuple):
+            for performer in item[0]:
+                self.engine.lost(performer, item[1], now)
         elif isinstance(item, StateChanged):
+            if item.performer not in self.stage.seats:
+                return
             play_id = self.stage.finished(item.performer)
             if play_id is not None:
                 self.engine.routine_ended(item.performer, play_id, now, True)

@@ -6,7 +6,10 @@ its own pseudo-terminal; without it, on the performers' ports (``port:`` in the 
 ``--map NAME=PORT``). ``--script EVENTS.yaml`` plays timed triggers and things happening to the
 simulated robots (falls, battery levels, going offline) and ends after the script's duration;
 ``--fast`` rehearses the script on virtual robots and virtual time, without waiting. Each
-decision is printed with its time: what fired, and what each robot did.
+decision is printed with its time: what fired, and what each robot did. A performer whose port
+is ``zenoh:RELAY/ROBOT`` plays on a robot behind an ``xgo-show relay``
+(:mod:`xgo_show.behave.relayed`): its telemetry comes back with the relay's heartbeats, and a
+relay silent for ``--watchdog-ms`` makes its robots offline.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from collections.abc import Iterator
 from typing import Any
 
 from xgo_show.errors import SetupError, UsageError
+from xgo_show.net.keys import is_relay_url
 from xgo_show.runtime.events import EventBus
 from xgo_show.runtime.realtime import add_realtime_arguments, decide
 
@@ -65,6 +69,10 @@ def add_parser(sub: Any) -> None:
                              "NS/event/rule")
     parser.add_argument("--map", action="append", default=[], metavar="NAME=PORT",
                         help="a performer's port (repeatable; default: port: in the file)")
+    parser.add_argument("--watchdog-ms", type=int, default=500, metavar="MS",
+                        help="robots behind relays (port zenoh:RELAY/ROBOT): silence after "
+                             "which a relay counts as lost (its robots offline) and safe-stops "
+                             "them (default 500)")
     from xgo_show.net.session import add_session_arguments
 
     add_session_arguments(parser)
@@ -153,10 +161,6 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
             ports = {n: r.port for n, r in model.performers.items() if r.port}
             for item in args.map:
                 name, sep, port = item.partition("=")
-                if port.startswith("zenoh:"):
-                    raise UsageError(f"--map {item}: robots behind relays are not supported "
-                                       "by behave (run it where the robots are wired, with "
-                                       "--serve for remote triggers)")
                 if not sep or name not in model.performers:
                     raise UsageError(f"--map {item}: give NAME=PORT for a performer of the "
                                        f"behaviour ({', '.join(model.performers)})")
@@ -165,17 +169,32 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
             if missing:
                 raise SetupError(f"no port for {', '.join(missing)}: give --map NAME=PORT "
                                    "(or --sim)")
+        relayed = {n: p for n, p in ports.items() if is_relay_url(p)}
+        session: Any = None
+        if relayed or args.serve:
+            session = stack.enter_context(_session(args))
         for name, port in ports.items():
+            if name in relayed:
+                continue
             transport = open_transport(port)
             transport.open()
             transports[name] = transport
         start = time.monotonic()
+        relays = None
+        if relayed:
+            from xgo_show.behave.relayed import RelayAccess
+            from xgo_show.relay.client import new_conductor
+
+            if not 50 <= args.watchdog_ms <= 60_000:
+                raise UsageError(f"--watchdog-ms {args.watchdog_ms}: give 50 to 60000")
+            relays = RelayAccess(relayed, session, new_conductor(), namespace=args.namespace,
+                                 watchdog=args.watchdog_ms / 1000)
         runner = BehaviourRunner(
-            behaviour, transports, events=bus,
+            behaviour, transports, events=bus, relays=relays,
             say=lambda t, line: print(f"{t - start:9.2f}  {line}"),
         )
         if args.serve:
-            stack.enter_context(_serve(args, runner, model.triggers))
+            stack.enter_context(_serve(session, args.namespace, runner, model.triggers))
         if script is not None:
             feeder = threading.Thread(target=_play_script, args=(script, runner, servers, start),
                                       daemon=True)
@@ -198,24 +217,30 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
 
 
 @contextlib.contextmanager
-def _serve(args: argparse.Namespace, runner: Any, triggers: list[str]) -> Iterator[None]:
+def _session(args: argparse.Namespace) -> Iterator[Any]:
+    """One Zenoh session (for --serve and the relays) while the context is open."""
+    from xgo_show.net.session import open_session, session_options
+
+    session = open_session(session_options(args))
+    try:
+        yield session
+    finally:
+        session.close()  # type: ignore[no-untyped-call]  # the stub lacks a return type
+
+
+@contextlib.contextmanager
+def _serve(session: Any, namespace: str, runner: Any, triggers: list[str]) -> Iterator[None]:
     """Take the behaviour's triggers over Zenoh while the context is open."""
     from xgo_show.behave.remote import BehaviourService
     from xgo_show.control.keys import event_key, trigger_key
-    from xgo_show.net.session import open_session, session_options
 
-    opts = session_options(args)
-    session = open_session(opts)
+    service = BehaviourService(session, namespace, runner, triggers)
+    print(f"serving triggers on {trigger_key(namespace)}; rule decisions on "
+          f"{event_key(namespace, 'rule')}")
     try:
-        service = BehaviourService(session, opts.namespace, runner, triggers)
-        print(f"serving triggers on {trigger_key(opts.namespace)}; rule decisions on "
-              f"{event_key(opts.namespace, 'rule')}")
-        try:
-            yield
-        finally:
-            service.close()
+        yield
     finally:
-        session.close()  # type: ignore[no-untyped-call]  # the stub lacks a return type
+        service.close()
 
 
 def _play_script(script: Any, runner: Any, servers: dict[str, Any], start: float) -> None:

@@ -51,6 +51,34 @@ heartbeat  (none): the conductor is alive                ``show``: state, per pe
 probe      ``performer``: read its identity and health   ``rows``: [[label, value], ...]
 ========== ============================================= ==========================================
 
+A remote behaviour (``xgo-show behave`` with ``zenoh:`` performers) keeps the relay as a stage
+for its whole run instead of playing one show (:mod:`xgo_show.behave.relay_host`); ``robots`` is
+a list of the relay's robot names, times are on the show clock as above:
+
+============ =========================================== ==========================================
+op           request                                     reply
+============ =========================================== ==========================================
+stage_upload ``schedule``, ``sha256``: one routine or    ``sha256``
+             ``set``/``led`` action, kept by its hash
+stage_open   ``robots``; ``telemetry`` (s between reads) ``robots``
+             and ``watch`` (s between fall/tilt reads,
+             null: in rotation): start watching them;
+             ``watchdog_ms`` as for ``upload``
+stage_play   ``sha256``, ``robots``, ``play`` (the       ``at`` (when it starts), ``late`` (s: an
+             conductor's id for it), ``at`` (null: now)  ``at`` already past starts at once)
+stage_write  ``sha256``, ``robots``: its frames now,     ``at``
+             beside what plays
+stage_rest   ``robots``: end what plays, through rest    ``at``
+stage_stop   ``robots``, ``reason``: the full safe stop  ``at``
+============ =========================================== ==========================================
+
+While a stage is open, each heartbeat answer's ``show`` also carries ``stage``:
+``{"open": true, "ended": [[robot, play], ...]}`` (the plays that ran to their end since the
+previous answer), and ``events`` carries the stage's telemetry readings and frames all the
+time, not only during a show. Shows (``upload``/``start``) are refused while a stage is open,
+and ``stage_*`` commands while a show runs. Releasing the relay, or a silent conductor (the
+watchdog), closes the stage with a safe stop of its robots.
+
 The description a relay serves on ``NS/relay/NAME/info`` (and in the ``hello`` reply)::
 
     {"v": 1, "relay": "stage-left", "instance": "3f9a0c1d2e4b", "relay_time": ...,
@@ -75,10 +103,12 @@ from xgo_show.errors import MessageError
 
 __all__ = [
     "LINK_LOSS_POLICIES",
+    "MAX_NAMES",
     "MAX_REQUEST_BYTES",
     "MAX_UPLOAD_BYTES",
     "OPS",
     "PROTOCOL_VERSION",
+    "UPLOAD_OPS",
     "Conductor",
     "MessageError",
     "Reply",
@@ -94,7 +124,8 @@ MAX_REQUEST_BYTES = 64 * 1024
 MAX_UPLOAD_BYTES = 32 * 1024 * 1024
 LINK_LOSS_POLICIES = ("stop", "continue")
 
-# op -> {field: kind}; kinds: "str", "float", "float?" (or null), "int", "policy".
+# op -> {field: kind}; kinds: "str", "float", "float?" (or null), "int", "policy", "names"
+# (a list of robot names).
 OPS: dict[str, dict[str, str]] = {
     "hello": {},
     "release": {},
@@ -112,7 +143,23 @@ OPS: dict[str, dict[str, str]] = {
     "stop": {"reason": "str"},
     "heartbeat": {},
     "probe": {"performer": "str"},
+    # A remote behaviour's stage (xgo_show/behave/relay_host.py).
+    "stage_upload": {"schedule": "str", "sha256": "str"},
+    "stage_open": {
+        "robots": "names",
+        "watch": "float?",
+        "telemetry": "float",
+        "watchdog_ms": "int",
+    },
+    "stage_play": {"sha256": "str", "robots": "names", "play": "int", "at": "float?"},
+    "stage_write": {"sha256": "str", "robots": "names"},
+    "stage_rest": {"robots": "names"},
+    "stage_stop": {"robots": "names", "reason": "str"},
 }
+#: The ops whose request may be as big as :data:`MAX_UPLOAD_BYTES` (they carry a schedule).
+UPLOAD_OPS = ("upload", "stage_upload")
+#: Most names in a ``names`` field.
+MAX_NAMES = 64
 
 
 
@@ -224,6 +271,14 @@ def _check(kind: str, value: Any, name: str) -> Any:
         if isinstance(value, bool) or not isinstance(value, int) or value < 0:
             raise MessageError(f"field {name!r} must be a whole number >= 0")
         return value
+    if kind == "names":
+        if (
+            not isinstance(value, list)
+            or len(value) > MAX_NAMES
+            or not all(isinstance(v, str) and 0 < len(v) <= 64 for v in value)
+        ):
+            raise MessageError(f"field {name!r} must be a list of at most {MAX_NAMES} names")
+        return tuple(value)
     if kind == "policy":
         if value not in LINK_LOSS_POLICIES:
             raise MessageError(
@@ -239,9 +294,7 @@ def decode_request(data: bytes) -> Request:
     op = raw.get("op")
     if not isinstance(op, str) or op not in OPS:
         raise MessageError(f"unknown op {op!r}; one of {', '.join(OPS)}")
-    if op == "upload" and len(data) > MAX_UPLOAD_BYTES:
-        raise MessageError(f"upload of {len(data)} bytes is over {MAX_UPLOAD_BYTES}")
-    if op != "upload" and len(data) > MAX_REQUEST_BYTES:
+    if op not in UPLOAD_OPS and len(data) > MAX_REQUEST_BYTES:
         raise MessageError(f"{op} of {len(data)} bytes is over {MAX_REQUEST_BYTES}")
     seq = raw.get("seq")
     if isinstance(seq, bool) or not isinstance(seq, int) or seq < 0:

@@ -55,6 +55,8 @@ from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 if TYPE_CHECKING:
     import zenoh
 
+    from xgo_show.behave.relay_host import StageHost
+
 __all__ = ["DEFAULT_WATCHDOG_MS", "Relay", "RelayState"]
 
 DEFAULT_WATCHDOG_MS = 500
@@ -140,6 +142,8 @@ class Relay:
         self._threads: list[threading.Thread] = []
         self._declared: list[Any] = []
         self._time: TimeServer | None = None
+        #: a remote behaviour's stage (``stage_*`` commands), while its conductor holds us
+        self._stage: StageHost | None = None
 
     # ------------------------------------------------------------------ life cycle
 
@@ -306,6 +310,10 @@ class Relay:
                 self._release("released by the conductor")
                 return {}
         # The slow ones run outside the lock, so heartbeats keep being answered.
+        if op.startswith("stage_"):
+            return self._stage_command(request)
+        if op in ("upload", "start") and self._stage is not None:
+            raise RelayRefused(f"{op}: a behaviour's stage is open on this relay")
         if op == "upload":
             return self._upload(request)
         if op == "start":
@@ -364,6 +372,10 @@ class Relay:
                 target=holder.watchdog.stop, name="xgo-show watchdog stop", daemon=True
             ).start()
         self._holder = None
+        stage, self._stage = self._stage, None
+        if stage is not None:  # its robots are safe-stopped (not under our lock: it joins)
+            threading.Thread(target=stage.close, args=(f"released: {why}",),
+                             name="xgo-show stage close", daemon=True).start()
         if self._show is not None and self._show.thread is None:
             self._show = None  # an armed or loaded show never starts without its conductor
 
@@ -547,8 +559,27 @@ class Relay:
             runner.seek(request.number("show_time"), at=when)
         return {"at": when}
 
+    def _stage_command(self, request: msg.Request) -> dict[str, Any]:
+        """A remote behaviour's command (:mod:`xgo_show.behave.relay_host`)."""
+        from xgo_show.behave.relay_host import StageHost
+
+        with self._lock:
+            if self._busy():
+                raise RelayRefused(f"{request.op}: a show is running on this relay")
+            if self._stage is None:
+                self._stage = StageHost(self.robots, clock=self.clock, events=self.events,
+                                        allow_unsafe=self.allow_unsafe)
+            stage = self._stage
+            if request.op == "stage_open" and self._holder is not None:
+                self._holder.watchdog.set_timeout(request.whole("watchdog_ms") / 1000)
+        return stage.handle(request)
+
     def stop_show(self, reason: str) -> dict[str, bool]:
         """Safe-stop every robot now, whatever runs; return per robot whether it worked."""
+        with self._lock:
+            stage, self._stage = self._stage, None
+        if stage is not None:  # its writers end first: one writer on a port at a time
+            stage.close(reason)
         with self._lock:
             show = self._show
         if show is not None and show.runner is not None and show.thread is not None:
@@ -583,6 +614,8 @@ class Relay:
             "events": self._collector.drain(),
             "dropped": self._collector.dropped,
         }
+        if self._stage is not None:
+            status["stage"] = self._stage.status()
         if show is not None and show.runner is not None:
             snap = show.runner.snapshot()
             status["show_time"] = snap.show_time
