@@ -14,7 +14,13 @@ for the rule to re-arm. Side by side, the same rounds with:
   SCHED_FIFO), which keeps the tail short on a busy machine; the first row is ``--no-realtime``;
 - the naive polling (last session's): the three items in rotation, one every 0.25 s, so the
   status register is read once per 0.75 s cycle;
-- the naive polling at a fast rotation (one item every 0.02 s).
+- the naive polling at a fast rotation (one item every 0.02 s);
+- relayed: the same Rider behind an ``xgo-show relay`` in its own process (Zenoh on
+  127.0.0.1, scouting off, explicit endpoints; ``--map rio=zenoh:bench/rio``). The relay reads
+  the status every 20 ms and its heartbeat answers (every 20 ms) bring the readings here; the
+  rule's play goes back as ``stage_play`` by hash with a start time. Its first frame is timed
+  where the robot received it (the simulator's clock, this machine's), the local ones at the
+  write call (the pty adds ~0.1 ms).
 
 Prints figures only (no asserts)::
 
@@ -30,22 +36,31 @@ from __future__ import annotations
 
 import argparse
 import collections
+import contextlib
 import os
+import socket
+import subprocess
+import sys
 import tempfile
 import textwrap
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote
 from xgo_show.behave.ports import WATCH_INTERVAL, BehaviourRunner
+from xgo_show.behave.relayed import RelayAccess
+from xgo_show.net.session import SessionOptions, open_session
+from xgo_show.relay.client import new_conductor
 from xgo_show.runtime.events import Event, EventBus, FrameSent, TelemetryRead
 from xgo_show.runtime.realtime import configure
 from xgo_show.runtime.stats import percentile
 from xgo_show.sim import create_robot
 from xgo_show.sim.pty_server import PtyServer
 from xgo_show.transports import open_transport
+from xgo_show.transports.base import Transport
 
 ROUTINE = """\
 show: get up
@@ -62,9 +77,39 @@ rules:
 """
 
 
+@contextlib.contextmanager
+def relayed(server: PtyServer) -> Iterator[RelayAccess]:
+    """``server``'s robot behind a relay process named ``bench``; access to it from here."""
+    port = free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "xgo_show", "relay", "--name", "bench", "--map",
+         f"rio={server.path}", "--listen", f"tcp/127.0.0.1:{port}", "--no-telemetry"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    session = None
+    try:
+        assert proc.stdout is not None
+        banner = proc.stdout.readline()
+        if "ready" not in banner:
+            raise SystemExit(f"the relay did not start: {banner}{proc.stdout.read()}")
+        session = open_session(SessionOptions(connect=(f"tcp/127.0.0.1:{port}",), listen=()))
+        yield RelayAccess({"rio": "zenoh:bench/rio"}, session, new_conductor("benchmark"))
+    finally:
+        if session is not None:
+            session.close()  # type: ignore[no-untyped-call]
+        proc.terminate()
+        proc.wait(5)
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
 def measure(
     folder: Path, interval: float, watch: float | None, rounds: int, misses: list[str],
-    realtime: bool = False,
+    realtime: bool = False, relay: bool = False,
 ) -> dict[str, list[float]]:
     """Seconds from each fall to the first frame of the reacting routine (``total``) and its
     stages: the fallen status read back (``read``), the rule fired (``rule``), the first frame
@@ -90,6 +135,7 @@ def measure(
             last[event.name] = (event.t, event.value)
             if event.name == "status" and event.value == 0:
                 marks.setdefault("read", event.t)
+                marks.setdefault("here", time.monotonic())  # relayed: after a heartbeat
         elif isinstance(event, BehaviourNote) and event.kind == "fired":
             # the note carries the reading's time: take the time the engine decided
             marks.setdefault("rule", time.monotonic())
@@ -97,12 +143,27 @@ def measure(
         recent.append(f"{event.t:.3f} {type(event).__name__} {text} {getattr(event, 'value', '')}")
 
     bus.subscribe(on_reading, TelemetryRead, BehaviourNote)
-    out: dict[str, list[float]] = {"total": [], "read": [], "rule": [], "start": []}
-    with PtyServer(create_robot("rider", seed=1)) as server:
-        transport = open_transport(server.path)
-        transport.open()
-        runner = BehaviourRunner(behaviour, {"rio": transport}, events=bus,
+    out: dict[str, list[float]] = {"total": [], "read": [], "beat": [], "rule": [], "start": []}
+    get_up = behaviour.routines["get_up"].performers[0].frames[0].data
+    with contextlib.ExitStack() as stack:
+        server = stack.enter_context(PtyServer(create_robot("rider", seed=1)))
+        if relay:
+            access: RelayAccess | None = stack.enter_context(relayed(server))
+            transports: dict[str, Transport] = {}
+        else:
+            access = None
+            transport = open_transport(server.path)
+            transport.open()
+            stack.callback(transport.close)
+            transports = {"rio": transport}
+        runner = BehaviourRunner(behaviour, transports, events=bus, relays=access,
                                  telemetry_interval=interval, watch_interval=watch)
+
+        def arrived(after: float) -> float:
+            """When the robot received get_up's first frame (after ``after``)."""
+            with server.lock:
+                return next(f.t for f in server.robot.received
+                            if f.data == get_up and f.t >= after)
 
         # The writer threads raise themselves under "auto" (where permitted); the
         # simulator's threads keep normal priority.
@@ -114,7 +175,7 @@ def measure(
         thread = threading.Thread(target=run)
         thread.start()
         try:
-            time.sleep(0.5)
+            time.sleep(2.0 if relay else 0.5)
             for _ in range(rounds):
                 got.clear()
                 marks.clear()
@@ -122,11 +183,14 @@ def measure(
                     fell = time.monotonic()
                     server.robot.fall()  # type: ignore[attr-defined]
                 if got.wait(5.0):
-                    out["total"].append(first[-1] - fell)
+                    frame = arrived(fell) if relay else first[-1]
+                    out["total"].append(frame - fell)
                     read, rule = marks.get("read", fell), marks.get("rule", fell)
+                    here = marks.get("here", read)
                     out["read"].append(read - fell)
-                    out["rule"].append(rule - read)
-                    out["start"].append(first[-1] - rule)
+                    out["beat"].append(here - read)
+                    out["rule"].append(rule - here)
+                    out["start"].append(frame - rule)
                 else:  # counted and shown: the last events before it
                     misses.append(f"fall at {fell:.3f}: " + " | ".join(recent))
                 with server.lock:
@@ -147,7 +211,6 @@ def measure(
         finally:
             runner.stop()
             thread.join(5)
-            transport.close()
     return out
 
 
@@ -170,6 +233,7 @@ def main() -> None:
         fifo = measure(folder, 0.25, WATCH_INTERVAL, args.rounds, misses, realtime=True)
         naive = measure(folder, 0.25, None, args.rounds, misses)
         naive_fast = measure(folder, 0.02, None, args.rounds, misses)
+        remote = measure(folder, 0.25, WATCH_INTERVAL, args.rounds, misses, relay=True)
     print(f"fall on the wire -> first frame of the reacting routine, ms (load {load()})")
     print(f"{'':<40} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}")
     print(row(f"--no-realtime: status every {WATCH_INTERVAL:g} s", default["total"]))
@@ -182,6 +246,11 @@ def main() -> None:
     print(row("naive: 3 items in turn, one per 0.25 s", naive["total"]))
     print(row("  fall -> fallen status read back", naive["read"]))
     print(row("naive: 3 items in turn, one per 0.02 s", naive_fast["total"]))
+    print(row("relayed (relay process, Zenoh loopback)", remote["total"]))
+    print(row("  fall -> fallen status read on the relay", remote["read"]))
+    print(row("  read there -> reading here (heartbeat)", remote["beat"]))
+    print(row("  reading here -> rule fired", remote["rule"]))
+    print(row("  fired -> first frame at the robot", remote["start"]))
     print(f"falls with no reaction within 5 s: {len(misses)}")
     for miss in misses:
         print("  " + miss)

@@ -112,3 +112,15 @@ def test_replies_round_trip_and_are_checked() -> None:
     assert (got.relay, got.relay_time) == ("left", 5.0)
     with pytest.raises(msg.MessageError, match="'ok'"):
         msg.decode_reply(b'{"v": 1, "seq": 1, "relay": "x", "relay_time": 1}')
+
+
+def test_a_names_field_is_a_short_list_of_names() -> None:
+    def play(robots: object) -> bytes:
+        return msg.encode({"v": 1, "op": "stage_play", "seq": 1, "sent": 0.0,
+                           "conductor": {"id": "c", "name": "c"}, "sha256": "ab",
+                           "robots": robots, "play": 3, "at": None})
+
+    assert msg.decode_request(play(["rex", "fido"])).fields["robots"] == ("rex", "fido")
+    for bad in ("rex", [1], [""], ["x" * 65], ["r"] * (msg.MAX_NAMES + 1)):
+        with pytest.raises(msg.MessageError, match="stage_play.robots"):
+            msg.decode_request(play(bad))

@@ -270,9 +270,16 @@ class _Stages:
         return tuple(p for p in performers if p in self.local.seats)
 
     def play(self, routine: str, performers: tuple[str, ...], play_id: int, t: float) -> None:
-        if self.remote is not None:  # first: its command is in flight while ours hand over
-            self.remote.play(routine, performers, play_id, t)
-        self.local.play(routine, self._here(performers), play_id, t)
+        here = self._here(performers)
+        if self.remote is None:
+            self.local.play(routine, here, play_id, t)
+            return
+        # On one host: at once. On several: together, once the slowest relay has the command.
+        at = None
+        if self.remote.hosts(performers) + (1 if here else 0) > 1:
+            at = self.local.clock.now() + self.remote.lead(performers)
+        self.remote.play(routine, performers, play_id, t, at)  # in flight while ours hand over
+        self.local.play(routine, here, play_id, t, at)
 
     def rest(self, performers: tuple[str, ...], t: float) -> None:
         if self.remote is not None:

@@ -6,8 +6,10 @@ heartbeats, as a relayed show uses them). :meth:`RelayedStage.open` claims each 
 every routine and ``set``/``led`` action the behaviour can play that involves its robots
 (renamed to the relay's robot names, each kept there by its SHA-256), and opens the relay's
 stage (:mod:`xgo_show.behave.relay_host`): from then on the relay watches its robots' telemetry.
-The engine's actions become ``stage_*`` commands naming a hash and a time; they do not wait for
-their reply.
+The engine's actions become ``stage_*`` commands naming a hash; they do not wait for their reply.
+A routine played on robots of one relay starts as the command arrives there (nothing to wait
+for: the reaction is quickest); played on several hosts (relays, or relays and local ports), it
+carries a start time far enough ahead for the slowest relay, on every host alike.
 
 Heartbeats run every ``watch_interval`` (the period the relay reads a fall or tilt at), and each
 answer brings the relay's readings and frames since the last one (published on the runner's
@@ -44,8 +46,8 @@ if TYPE_CHECKING:
 
 __all__ = ["MIN_PLAY_LEAD", "RelayAccess", "RelayedStage"]
 
-#: Seconds between a play command and its start time, at least (a reaction, so short: a start
-#: time the relay finds past plays at once, and says how late).
+#: Seconds between a play command to several hosts and its start time, at least (a reaction,
+#: so short: a start time a relay finds past plays at once, and says how late).
 MIN_PLAY_LEAD = 0.002
 
 
@@ -211,34 +213,45 @@ class RelayedStage:
 
     # ------------------------------------------------------------------ the engine's stage
 
-    def _send(self, performers: tuple[str, ...], op: str, key: str | None = None,
-              **fields: Any) -> None:
-        """``op`` to each relay with some of ``performers``, not waiting for the replies."""
+    def _reached(self, performers: tuple[str, ...]) -> dict[str, list[str]]:
+        """relay -> its robots among ``performers`` (relays lost left out)."""
         by_relay: dict[str, list[str]] = {}
         for perf in performers:
             relay = self._of.get(perf)
             if relay is not None and relay.lost is None:
                 by_relay.setdefault(relay.client.relay, []).append(relay.names[perf])
-        for name, robots in by_relay.items():
+        return by_relay
+
+    def hosts(self, performers: tuple[str, ...]) -> int:
+        """How many relays play some of ``performers``."""
+        return len(self._reached(performers))
+
+    def lead(self, performers: tuple[str, ...]) -> float:
+        """Seconds a play on ``performers`` needs to reach every relay of theirs in time:
+        :data:`~xgo_show.relay.performer.RTT_FACTOR` half round trips of the slowest (its
+        worst recent one), at least :data:`MIN_PLAY_LEAD`."""
+        lead = MIN_PLAY_LEAD
+        for name in self._reached(performers):
+            worst = self.relays[name].client.link.worst_recent_rtt()
+            if worst is not None:
+                lead = max(lead, RTT_FACTOR * worst / 2)
+        return lead
+
+    def _send(self, performers: tuple[str, ...], op: str, key: str | None = None,
+              **fields: Any) -> None:
+        """``op`` to each relay with some of ``performers``, not waiting for the replies; an
+        ``at`` among ``fields`` is a time on this clock (sent on each relay's)."""
+        for name, robots in self._reached(performers).items():
             relay = self.relays[name]
             extra = dict(fields)
             if key is not None:
                 if key not in relay.hashes:
                     continue  # none of these robots is in that schedule
                 extra["sha256"] = relay.hashes[key]
-            if op == "stage_play":
-                extra["at"] = self._relay_time(relay, self.clock.now() + self._lead(relay))
+            if extra.get("at") is not None:
+                extra["at"] += relay.client.link.offset
             relay.client.send(op, functools.partial(self._answered, name, op),
                               robots=robots, **extra)
-
-    @staticmethod
-    def _lead(relay: _Relay) -> float:
-        worst = relay.client.link.worst_recent_rtt()
-        return MIN_PLAY_LEAD if worst is None else max(MIN_PLAY_LEAD, RTT_FACTOR * worst / 2)
-
-    @staticmethod
-    def _relay_time(relay: _Relay, t: float) -> float:
-        return t + relay.client.link.offset
 
     def _answered(self, name: str, op: str, outcome: Outcome) -> None:
         """A refused or unanswered command is a fault of the relay's performers (in the run
@@ -248,8 +261,11 @@ class RelayedStage:
             for perf in self.relays[name].names:
                 self.events.publish(FaultRaised(now, perf, f"{op}: {outcome}"))
 
-    def play(self, routine: str, performers: tuple[str, ...], play_id: int, t: float) -> None:
-        self._send(performers, "stage_play", routine, play=play_id)
+    def play(self, routine: str, performers: tuple[str, ...], play_id: int, t: float,
+             at: float | None = None) -> None:
+        """Play ``routine`` on the relayed ``performers`` at ``at`` (this clock), or as soon as
+        each relay has the command (None)."""
+        self._send(performers, "stage_play", routine, play=play_id, at=at)
 
     def rest(self, performers: tuple[str, ...], t: float) -> None:
         self._send(performers, "stage_rest")
