@@ -4,8 +4,9 @@ multicast scouting off and explicit endpoints.
 
 One relay for the three checks, to keep the suite lean: a fall on the relayed robot fires the
 stand-up rule (its routine's first frame reaches the robot, and its end comes back as a
-``routine_ended`` trigger); the greet trigger plays on the relayed robot; the relay killed, its robot goes offline within the watchdog time and the rule
-for that fires.
+``routine_ended`` trigger); the greet trigger plays on the relayed robot, and an LED action
+beside it; the relay killed, its robot goes offline within the watchdog time and the rule for
+that fires.
 """
 
 from __future__ import annotations
@@ -57,11 +58,12 @@ def _behaviour(folder: Path, port: str) -> Path:
         behaviour: relayed
         performers: {{rio: {{model: rider, port: "{port}"}}}}
         routines: {{get_up: get_up.yaml, wave: wave.yaml}}
-        triggers: [visitor]
+        triggers: [visitor, red]
         rules:
           - {{name: fallen, safety: true, when: [{{tilt_beyond: 60}}], do: [{{play: get_up}}]}}
           - {{name: up, when: [{{routine_ended: get_up}}], do: [{{publish: up}}]}}
           - {{name: greet, when: [{{trigger: visitor}}], do: [{{play: wave}}]}}
+          - {{name: red, when: [{{trigger: red}}], do: [{{led: {{all: red}}}}]}}
           - {{name: lost, when: [{{offline: 30}}], do: [{{publish: lost}}]}}
         """))
     return folder / "b.yaml"
@@ -101,6 +103,9 @@ def test_fall_greet_and_a_killed_relay(tmp_path: Path, relays: Relays) -> None:
         runner.trigger("visitor")
         wait_until(lambda: first["wave"] in relay.received("rex"), timeout=3.0)
         assert fired("greet") and not fired("lost")
+        runner.trigger("red")  # beside the wave, as a relay command of its own
+        led = behaviour.writes["red.do[0]"].performers[0].frames[0].data
+        wait_until(lambda: led in relay.received("rex"), timeout=3.0)
         relay.kill()
         killed = time.monotonic()
         wait_until(lambda: fired("lost"), timeout=3.0)

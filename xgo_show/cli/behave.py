@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import signal
 import threading
 import time
 from collections.abc import Iterator
@@ -202,10 +203,9 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
         where = "simulated robots" if args.sim else "robots on " + ", ".join(ports.values())
         print(f"behaviour {model.behaviour!r} on {where}" +
               (f" for {script.duration:g} s" if script else " (Ctrl-C ends it with a safe stop)"))
-        try:
+        with _stopped_by_signals(runner) as stopped:
             runner.run(None if script is None else script.duration)
-        except KeyboardInterrupt:
-            runner.stop()
+        if stopped:
             print("stopped: every robot was safe-stopped")
         return 0
     finally:
@@ -214,6 +214,28 @@ def _run_ports(args: argparse.Namespace, behaviour: Any, script: Any, bus: Event
             transport.close()
         for server in servers.values():
             server.close()
+
+
+@contextlib.contextmanager
+def _stopped_by_signals(runner: Any) -> Iterator[list[int]]:
+    """Ctrl-C and SIGTERM end ``runner`` (safe-stopping the robots) while the context is open;
+    the list it gives holds the signals received.
+
+    A handler, not a KeyboardInterrupt: an exception raised between any two bytecodes of the
+    engine's thread could leave a hand-over half done, and the safe stop waiting on it.
+    """
+    got: list[int] = []
+
+    def on_signal(signum: int, frame: Any) -> None:
+        got.append(signum)
+        runner.stop()
+
+    saved = {sig: signal.signal(sig, on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield got
+    finally:
+        for sig, old in saved.items():
+            signal.signal(sig, old)
 
 
 @contextlib.contextmanager
