@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import wait_until
-from tests.relay.conftest import free_port
+from tests.loopback import free_port
 from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote
 from xgo_show.behave.loader import Behaviour

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import wait_until
-from tests.relay.conftest import Relays
+from tests.relay.processes import Relays
 from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote
 from xgo_show.behave.ports import BehaviourRunner
