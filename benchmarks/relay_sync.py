@@ -6,6 +6,9 @@ is made wrong on purpose (``XGO_SHOW_TEST_CLOCK``): a random offset of up to +-1
 rate error of up to +-100 ppm. The simulators timestamp what they receive with this machine's
 monotonic clock, which they all share, so the spread of those timestamps is the true skew.
 
+Each relay plays as ``xgo-show relay`` does by default (its writer thread under SCHED_FIFO
+where permitted, docs/realtime.md); a second group of relays with ``--no-realtime`` (normal
+priority, last session's default) plays the same synced starts and drift show in the same run.
 Two ways to start the same show on every relay, in the same run:
 
 - **synced**: the conductor measures each relay's clock (NTP-style, lowest round trips) and
@@ -36,9 +39,9 @@ Prints figures only (no asserts). Run it alone (``flock /work/land.lock``)::
     python benchmarks/relay_sync.py [--relays 4] [--starts 20] [--drift-seconds 60] [--scale 16]
     python benchmarks/relay_sync.py --quick     # about a minute: 5 starts, 10 s drift, no scale
 
-``--realtime`` plays the relays' and the local runner's shows under SCHED_FIFO (``relay
---realtime``, ``run --realtime``); ``--sim-realtime`` runs the simulators under SCHED_FIFO, so
-their wake-ups (a robot has a CPU of its own) leave the figures; ``--estimates 0`` skips part 4.
+``--sim-realtime`` runs the simulators (the measuring instrument) under SCHED_FIFO 20, above
+the writers, so their wake-ups (a robot has a CPU of its own) leave the figures;
+``--estimates 0`` skips part 4.
 """
 
 from __future__ import annotations
@@ -81,8 +84,8 @@ MODEL = "mini"
 RATE = 20.0  # frames per second in the shows
 LEAD = 0.5  # seconds between the start commands and the start
 SHORT = 0.3  # seconds of show per start
-# The relays' writer threads: normal priority, or SCHED_FIFO required with --realtime.
-REALTIME: list[str] = ["--no-realtime"]
+#: the relays' (and local runner's) real-time options, by group: the default and the opt-out
+GROUPS: dict[str, tuple[str, ...]] = {"": (), " --no-realtime": ("--no-realtime",)}
 SIM_PREFIX: list[str] = []  # with --sim-realtime: chrt, so simulators wake at once like robots
 
 
@@ -207,6 +210,7 @@ def start_relays(
     prefix: str,
     env: dict[str, str] | None = None,
     ppm: bool = True,
+    flags: Sequence[str] = (),
 ) -> list[Relay]:
     """``count`` relays with random clock errors (ppm 0 if not ``ppm``); waits until ready."""
     made = []
@@ -233,7 +237,7 @@ def start_relays(
                 "--no-telemetry",
                 "--log",
                 str(log),
-                *REALTIME,
+                *flags,
             ],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
@@ -407,10 +411,10 @@ def parts(robots: Sequence[Relay], runs: Sequence[Run]) -> tuple[list[float], ..
 
 def print_parts(label: str, robots: Sequence[Relay], runs: Sequence[Run]) -> None:
     late_spread, delivery_spread, late, delivery = parts(robots, runs)
-    print(f"   {label:9s} write - start    {stats(late)}")
-    print(f"   {'':9s}   spread         {stats(late_spread)}")
-    print(f"   {'':9s} receive - write  {stats(delivery)}")
-    print(f"   {'':9s}   spread         {stats(delivery_spread)}")
+    print(f"   {label:21s} write - start    {stats(late)}")
+    print(f"   {'':21s}   spread         {stats(late_spread)}")
+    print(f"   {'':21s} receive - write  {stats(delivery)}")
+    print(f"   {'':21s}   spread         {stats(delivery_spread)}")
 
 
 def send_errors(relays: Sequence[Relay], run: Run, schedule: Schedule) -> list[float]:
@@ -454,15 +458,21 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
     rates: list[str] = []
     try:
         # The local runs first, while this process has nothing else to do (as a local show).
-        local, local_runs = play_local(rig, args.relays, args.starts)
+        local: dict[str, tuple[list[Relay], list[Run]]] = {
+            group: play_local(rig, args.relays, args.starts, rt=not flags, prefix=f"local{i}")
+            for i, (group, flags) in enumerate(GROUPS.items())
+        }
         relays = start_relays(rig, args.relays, rng, prefix="stage")
-        session = connect(relays)
-        for relay in relays:
+        plain = start_relays(rig, args.relays, rng, prefix="plain", flags=GROUPS[" --no-realtime"])
+        session = connect([*relays, *plain])
+        for relay in [*relays, *plain]:
             claim(session, relay)
         for _ in range(args.starts):
             runs.append(play(relays, short, "start synced"))
+            runs.append(play(plain, short, "start synced --no-realtime"))
             runs.append(play(relays, short, "start naive"))
         if args.drift_seconds > 0:
+            runs.append(play(plain, long, "drift synced --no-realtime"))
             runs.append(play(relays, long, "drift synced"))
             for relay in relays:
                 assert relay.client is not None and relay.tracker is not None
@@ -484,14 +494,12 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
             runs.append(play(relays, long, "drift naive"))
     finally:
         rig.close()
-    logged = {relay.name: first_writes(relay) for relay in relays}
+    logged = {relay.name: first_writes(relay) for relay in [*relays, *plain]}
     for run in runs:
         if run.start_at is not None:
             for name, writes in logged.items():
                 if (t := writes.get(round(run.start_at, 6))) is not None:
                     run.writes[name] = t
-    local_errors = [e for r in local_runs for e in send_errors(local, r, short)]
-    local_skews = [skew(local, r, 0) for r in local_runs]
     print(
         f"\n{args.relays} relays, clocks off by up to +-100 s and +-100 ppm "
         f"({', '.join(f'{r.offset:+.1f} s {r.ppm:+.0f} ppm' for r in relays)})"
@@ -499,15 +507,22 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
     print(
         f"\n1. start skew: spread of the first frame across the robots, {args.starts} starts (ms)"
     )
-    for mode in ("synced", "naive"):
-        values = [skew(relays, r, 0) for r in runs if r.mode == f"start {mode}"]
-        print(f"   {mode:9s} {stats([v for v in values if v is not None])}")
-    local_line = stats([v for v in local_skews if v is not None])
-    print(f"   local     {local_line}   (the same robots on one host, one runner)")
+    groups = {"": relays, " --no-realtime": plain}
+    for mode in ("synced", "synced --no-realtime", "naive"):
+        group = groups[mode[6:]] if mode.startswith("synced") else relays
+        values = [skew(group, r, 0) for r in runs if r.mode == f"start {mode}"]
+        print(f"   {mode:27s} {stats([v for v in values if v is not None])}")
+    for group, (robots, local_runs) in local.items():
+        values = [skew(robots, r, 0) for r in local_runs]
+        print(f"   {'local' + group:27s} {stats([v for v in values if v is not None])}")
+    print("   (local: the same robots on one host, one runner)")
     print("   its parts (ms): each robot's first write against the start, and its receive time")
     print("   against that write (for a relay: its clock's error + the pseudo-terminal)")
-    print_parts("relayed", relays, [r for r in runs if r.mode == "start synced"])
-    print_parts("local", local, local_runs)
+    for group, members in groups.items():
+        started = [r for r in runs if r.mode == f"start synced{group}"]
+        print_parts(f"relayed{group}", members, started)
+    for group, (robots, local_runs) in local.items():
+        print_parts(f"local{group}", robots, local_runs)
     if args.drift_seconds > 0:
         print(
             f"\n2. skew after {args.drift_seconds:g} s of show: "
@@ -515,21 +530,29 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
         )
         for r in runs:
             if r.mode.startswith("drift"):
-                first, last = skew(relays, r, 0), skew(relays, r, -1)
-                print(f"   {r.mode[6:]:12s} first {first or 0:8.3f}   last {last or 0:8.3f}")
+                group = plain if r.mode.endswith("--no-realtime") else relays
+                first, last = skew(group, r, 0), skew(group, r, -1)
+                print(f"   {r.mode[6:]:26s} first {first or 0:8.3f}   last {last or 0:8.3f}")
         print("   the clock tracker's drift estimates at the end of the synced show:")
         for line in rates:
             print(f"     {line}")
     print("\n3. send-time error at the robot: receive time - planned time (ms)")
-    relayed = [e for r in runs if r.mode == "start synced" for e in send_errors(relays, r, short)]
-    print(f"   relayed   {stats(relayed)}")
-    print(f"   local     {stats(local_errors)}")
+    for group, members in groups.items():
+        relayed = [e for r in runs if r.mode == f"start synced{group}"
+                   for e in send_errors(members, r, short)]
+        print(f"   {'relayed' + group:21s} {stats(relayed)}")
+    for group, (robots, local_runs) in local.items():
+        errors = [e for r in local_runs for e in send_errors(robots, r, short)]
+        print(f"   {'local' + group:21s} {stats(errors)}")
 
 
-def play_local(rig: Rig, count: int, starts: int) -> tuple[list[Relay], list[Run]]:
-    """The same short show on ``count`` robots by one local runner (``xgo-show run``'s way),
-    ``starts`` times; each robot a simulator process of its own, as behind the relays."""
-    names = [f"local{i}" for i in range(count)]
+def play_local(
+    rig: Rig, count: int, starts: int, *, rt: bool, prefix: str
+) -> tuple[list[Relay], list[Run]]:
+    """The same short show on ``count`` robots by one local runner (``xgo-show run``'s way,
+    with ``rt``: its default real-time writers, else ``--no-realtime``), ``starts`` times; each
+    robot a simulator process of its own, as behind the relays."""
+    names = [f"{prefix}-{i}" for i in range(count)]
     schedule = make_schedule(SHORT, names)
     sims = [start_sim(rig.tmp, name) for name in names]
     rig.sims += sims
@@ -549,7 +572,7 @@ def play_local(rig: Rig, count: int, starts: int) -> tuple[list[Relay], list[Run
             )
             sent = time.monotonic()
             start_at = sent + LEAD
-            result = _run_local(runner, start_at)
+            result = _run_local(runner, start_at, rt)
             if not result.completed:
                 raise SystemExit(f"the local run did not complete: {result.reason}")
             writes = {}
@@ -565,9 +588,9 @@ def play_local(rig: Rig, count: int, starts: int) -> tuple[list[Relay], list[Run
     return [Relay(n, 0, s.proc, s, 0.0, 0.0) for n, s in zip(names, sims, strict=True)], runs
 
 
-def _run_local(runner: ShowRunner, start_at: float) -> ShowResult:
-    """``runner.run`` in a thread of its own, under SCHED_FIFO with ``--realtime`` (its
-    writer threads inherit it, as ``run --realtime`` gives them; this process's others not)."""
+def _run_local(runner: ShowRunner, start_at: float, rt: bool) -> ShowResult:
+    """``runner.run`` in a thread of its own; with ``rt`` its writer threads raise themselves
+    to SCHED_FIFO, as ``run``'s do by default (this process's other threads stay normal)."""
     out: list[ShowResult] = []
 
     def play() -> None:
@@ -575,7 +598,7 @@ def _run_local(runner: ShowRunner, start_at: float) -> ShowResult:
 
     # As run does: the writer threads raise themselves (this thread stays normal).
     saved = realtime.policy()
-    realtime.configure("required" if REALTIME == ["--realtime"] else "off")
+    realtime.configure("required" if rt else "off")
 
     thread = threading.Thread(target=play, name="local show")
     thread.start()
@@ -683,18 +706,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--quick", action="store_true", help="5 starts, 10 s drift, 3 bursts, no scale test"
     )
     parser.add_argument(
-        "--realtime",
-        action="store_true",
-        help="relays and the local runner play under SCHED_FIFO where permitted",
-    )
-    parser.add_argument(
         "--sim-realtime",
         action="store_true",
         help="simulators under SCHED_FIFO (chrt): a robot has its own CPU; here they share ours",
     )
     args = parser.parse_args(argv)
-    if args.realtime:
-        REALTIME[:] = ["--realtime"]
     if args.sim_realtime:
         SIM_PREFIX.extend(["chrt", "-f", "20"])
     if args.quick:

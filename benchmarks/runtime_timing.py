@@ -3,20 +3,30 @@
 Four simulated XGO robots run in their own processes (``xgo-show simulate --record``), each
 on a real pseudo-terminal, timestamping every frame they receive with the machine-wide
 monotonic clock. The same four-performer schedule is played by the runtime's ShowRunner
-(telemetry on) and by a naive loop per port that writes a frame and sleeps the interval to the
+(telemetry on) as the commands play it by default (SCHED_FIFO writer threads where permitted,
+docs/realtime.md), by the same runner with ``--no-realtime`` (normal priority: last session's
+default), and by a naive loop per port that writes a frame and sleeps the interval to the
 next one (the vendor library's pattern), first on a machine left alone and then with one more
 process keeping a CPU busy, all in one run. Errors are measured from the simulators' receive
 times:
 
 - send-time error: receive time - (start + planned time), per frame: p50, p99, p99.9, max;
 - end-of-show drift: median error over the last second - that over the first, per robot;
-- issue lateness: when the runner issued each write minus when it was due (its own records),
-  which tells our lateness apart from the time the bytes spent in the kernel and simulator.
+- issue lateness: when the runner issued each write minus when it was due (its own records):
+  the runner's own error;
+- delivery: receive time minus issue time, per frame: the pseudo-terminal (a kernel worker of
+  normal priority moves the bytes) and the simulator's wake-up, i.e. the measuring instrument.
+  send-time error = issue lateness + delivery, so the two columns tell the runner's share
+  from the instrument's. A USB serial adapter has no such kernel worker.
+
+The simulators are the instrument: with ``--sim-fifo`` (the default where permitted) each runs
+under SCHED_FIFO priority 20, above the writers, standing in for a robot whose UART has a CPU
+of its own and is never late; ``--sim-nice`` gives them nice -15 instead (last session's).
 
 ``--diagnose`` also plays the show with each suspect of late writes switched on or off, in
 the same run: the cyclic garbage collector left on (pauses timed with ``gc.callbacks``), no
-telemetry (no reader threads, no polls), a SCHED_FIFO runner (``request_realtime``, when
-permitted), and without the writers' final spin. For each it counts the writes issued more than
+telemetry (no reader threads, no polls), nice -10 instead of real time, and without the
+writers' final spin (at normal priority). For each it counts the writes issued more than
 1 ms late, how many of those came in bursts where three or more writers were late together (a
 stall of the whole process: the collector, the GIL held, the process off its CPU), the
 collector's pauses, and the process's involuntary context switches (the OS taking its CPU).
@@ -24,7 +34,7 @@ collector's pauses, and the process's involuntary context switches (the OS takin
 Prints figures only (no asserts). Usage::
 
     python benchmarks/runtime_timing.py [--seconds 60] [--rate 50] [--no-load | --only-load]
-                                        [--diagnose]
+                                        [--sim-nice] [--diagnose]
 """
 
 from __future__ import annotations
@@ -65,32 +75,40 @@ class Sims:
     priority: str
 
 
-def serve_sim(record: Path) -> None:
+SIM_FIFO = 20  # the simulators' SCHED_FIFO priority with --sim-fifo: above the writers' 10
+
+
+def serve_sim(record: Path, fifo: bool) -> None:
     """Child process: serve one simulator on a pty until stdin closes.
 
-    The simulator stands in for a robot's UART, which is never late: it asks for a high
-    priority (nice -15) so that the measurement is not the simulator waiting for a CPU, and has
-    a process (and a GIL) of its own. Not SCHED_FIFO: a real-time simulator polling every 2 ms
-    starves the kernel worker that moves pty data, which then arrives tens of ms late.
+    The simulator stands in for a robot's UART, which is never late: it asks for SCHED_FIFO
+    (``fifo``; its serving thread blocks in poll() until bytes arrive, so it takes no CPU
+    from the kernel worker that moves them) or nice -15, so that the measurement is not the
+    simulator waiting for a CPU, and has a process (and a GIL) of its own.
     """
     from xgo_show.sim import PtyServer, create_robot
 
+    priority = "normal-priority"
     try:
-        os.nice(-15)
-        priority = "nice-15"
+        if fifo:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(SIM_FIFO))
+            priority = f"SCHED_FIFO-{SIM_FIFO}"
+        else:
+            os.nice(-15)
+            priority = "nice-15"
     except OSError:
-        priority = "normal-priority"
+        pass
     with PtyServer(create_robot(MODEL), record=record) as server:
         print(priority, server.path, flush=True)
         sys.stdin.read()
 
 
-def start_sims(tmp: Path) -> Sims:
+def start_sims(tmp: Path, fifo: bool) -> Sims:
     procs, paths, records, priority = [], [], [], ""
     for i in range(ROBOTS):
         record = tmp / f"robot{i}.jsonl"
         proc = subprocess.Popen(
-            [sys.executable, __file__, "--serve-sim", str(record)],
+            [sys.executable, __file__, "--serve-sim", str(record), *(["--sim-fifo"] * fifo)],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             text=True,
@@ -151,6 +169,7 @@ class Variant:
 class OursRun:
     starts: dict[str, float]
     issued: list[tuple[float, str, float]]  # (clock time, performer, issue lateness ms)
+    sends: dict[str, list[float]]  # per performer, each schedule frame's issue time
     gc_pauses: list[float]  # seconds each collection took
     gc_late: int  # writes issued > 1 ms late while or just after a collection ran
     involuntary: int  # involuntary context switches of this process during the show
@@ -166,12 +185,14 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
     runner = local_runner(schedule, links, clock=variant.clock or MonotonicClock(),
                           hold_gc=variant.hold_gc, telemetry=variant.telemetry)
     issued: list[tuple[float, str, float]] = []
+    sends: dict[str, list[float]] = {name: [] for name in links}
     pauses: list[tuple[float, float]] = []
     began: list[float] = []
 
     def on_frame(event: Event) -> None:
         if isinstance(event, FrameSent) and event.kind == "frame" and event.error is not None:
             issued.append((event.t, event.performer, event.error * 1000.0))
+            sends[event.performer].append(event.t)
 
     def on_gc(phase: str, info: dict[str, int]) -> None:
         if phase == "start":
@@ -209,7 +230,7 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
     late = [t for t, _, err in issued if err > LATE_MS]
     gc_late = sum(1 for t in late
                   if any(a <= t - LATE_MS / 1000 <= b + 0.002 or a <= t <= b for a, b in pauses))
-    return OursRun({name: result.start_at for name in links}, issued,
+    return OursRun({name: result.start_at for name in links}, issued, sends,
                    [b - a for a, b in pauses], gc_late, involuntary, policy)
 
 
@@ -263,10 +284,13 @@ def measure(
     window: tuple[float, float],
     starts: dict[str, float],
     rate: float,
-) -> tuple[list[float], list[float]]:
-    """(all send-time errors in ms, per-robot drift in ms) for frames received in ``window``."""
+    sends: dict[str, list[float]] | None = None,
+) -> tuple[list[float], list[float], list[float]]:
+    """(all send-time errors, per-robot drift, deliveries: receive - issue time where ``sends``
+    gives the issue times), in ms, for frames received in ``window``."""
     errors: list[float] = []
     drifts: list[float] = []
+    deliveries: list[float] = []
     wanted = {bytes(f.data) for p in schedule.performers for f in p.frames}
     for perf in schedule.performers:
         got = [
@@ -281,12 +305,14 @@ def measure(
             for t, f in zip(got, perf.frames, strict=False)
         ]
         errors.extend(errs)
+        if sends is not None:
+            deliveries += [(t - s) * 1000.0 for t, s in zip(got, sends[perf.name], strict=False)]
         if errs:
             # Drift: median error of the last second minus that of the first (single frames
             # carry jitter; drift is what accumulates).
             n = max(1, min(len(errs) // 4, int(rate)))
             drifts.append(percentile(errs[-n:], 0.5) - percentile(errs[:n], 0.5))
-    return errors, drifts
+    return errors, drifts, deliveries
 
 
 def variants(diagnose: bool) -> list[Variant]:
@@ -323,7 +349,8 @@ def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
     got = {perf.name: read_records(record)
            for perf, record in zip(schedule.performers, records, strict=True)}
     for variant, t0, t1, starts, run in windows:
-        errs, drifts = measure(schedule, got, (t0, t1), starts, schedule.control_rate)
+        errs, drifts, delivery = measure(schedule, got, (t0, t1), starts, schedule.control_rate,
+                                         None if run is None else run.sends)
         name = "naive (write, sleep)" if variant is None else variant.name
         line = (f"{name:<22}{p(errs, 0.5):>8.3f}{p(errs, 0.99):>8.3f}{p(errs, 0.999):>8.3f}"
                 f"{p(errs, 1.0):>8.2f}{max(abs(d) for d in drifts):>7.2f}")
@@ -333,8 +360,9 @@ def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
             gcs = (f"{len(run.gc_pauses)}/{max(run.gc_pauses) * 1000:.1f}"
                    if run.gc_pauses else "0")
             line += (f" |{p(issued, 0.99):>7.3f}{p(issued, 0.999):>8.3f}{p(issued, 1.0):>7.2f}"
-                     f"{late:>6}{bursts(run.issued):>7}{run.gc_late:>5} {gcs:>9}"
-                     f"{run.involuntary:>7}")
+                     f" |{p(delivery, 0.99):>7.3f}{p(delivery, 0.999):>8.3f}"
+                     f"{p(delivery, 1.0):>7.2f} |{late:>5}{bursts(run.issued):>6}"
+                     f"{run.gc_late:>4} {gcs:>8}{run.involuntary:>7}")
             if variant is not None:
                 line += f"  ({run.policy})"
         print(line)
@@ -349,10 +377,13 @@ def main() -> None:
     which.add_argument("--only-load", action="store_true", help="only with one CPU kept busy")
     parser.add_argument("--diagnose", action="store_true",
                         help="also play with each suspect of late writes switched off")
+    parser.add_argument("--sim-nice", action="store_true",
+                        help="simulators at nice -15 instead of SCHED_FIFO 20")
     parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
+    parser.add_argument("--sim-fifo", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.serve_sim:
-        serve_sim(Path(args.serve_sim))
+        serve_sim(Path(args.serve_sim), args.sim_fifo)
         return
     schedule = make_schedule(args.seconds, args.rate)
     loads = [False] if args.no_load else [True] if args.only_load else [False, True]
@@ -363,7 +394,7 @@ def main() -> None:
         # The simulators and the load start before this process changes its scheduling: a
         # child inherits SCHED_FIFO and nice values, and a SCHED_FIFO busy loop would take a
         # whole CPU from the kernel workers that move pty data and from the simulators.
-        sims = start_sims(Path(tmpdir))
+        sims = start_sims(Path(tmpdir), fifo=not args.sim_nice)
         links: dict[str, Transport] = {}
         try:
             for perf, path in zip(schedule.performers, sims.paths, strict=True):
@@ -377,10 +408,12 @@ def main() -> None:
                     print(f"\n-- {'one CPU kept busy' if loaded else 'no extra load'} "
                           f"(simulators: {sims.priority}); load average "
                           f"{os.getloadavg()[0]:.2f}")
-                    print(f"{'send error, ms':<22}{'|p50|':>8}{'|p99|':>8}{'|p99.9|':>8}"
-                          f"{'max':>8}{'drift':>7} |{'issued late by, ms: p99':>7}"
-                          f"{'p99.9':>8}{'max':>7}{'>1ms':>6}{'burst':>7}{'gc':>5}"
-                          f"{'gc n/max':>10}{'invol':>7}")
+                    print(f"{'':<22}{'send-time error, ms (receive - planned)':^39} |"
+                          f"{'issue lateness':^22} |{'delivery (pty+sim)':^22} |")
+                    print(f"{'':<22}{'|p50|':>8}{'|p99|':>8}{'|p99.9|':>8}"
+                          f"{'max':>8}{'drift':>7} |{'p99':>7}{'p99.9':>8}{'max':>7}"
+                          f" |{'p99':>7}{'p99.9':>8}{'max':>7} |{'>1ms':>5}{'burst':>6}"
+                          f"{'gc':>4}{'gc n/max':>9}{'invol':>7}")
                     plays: list[Variant | None] = [*variants(args.diagnose), None]
                     play(schedule, links, sims.records, plays)
                 finally:
