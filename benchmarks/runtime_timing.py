@@ -25,11 +25,13 @@ of its own and is never late; ``--sim-nice`` gives them nice -15 instead (last s
 
 ``--diagnose`` also plays the show with each suspect of late writes switched on or off, in
 the same run: the cyclic garbage collector left on (pauses timed with ``gc.callbacks``), no
-telemetry (no reader threads, no polls), nice -10 instead of real time, and without the
-writers' final spin (at normal priority). For each it counts the writes issued more than
-1 ms late, how many of those came in bursts where three or more writers were late together (a
-stall of the whole process: the collector, the GIL held, the process off its CPU), the
-collector's pauses, and the process's involuntary context switches (the OS taking its CPU).
+telemetry (no reader threads, no polls), a real-time writer's hand-off after each write
+(:func:`~xgo_show.runtime.clock.hand_off_cpu`) of 0, 0.2 and 0.5 ms instead of 0.05, nice -10
+instead of real time, and without the writers' final spin (at normal priority). For each it
+counts the writes issued more than 1 ms late, how many of those came in bursts where three or
+more writers were late together (a stall of the whole process: the collector, the GIL held,
+the process off its CPU), the collector's pauses, and the process's involuntary context
+switches (the OS taking its CPU).
 
 Prints figures only (no asserts). Usage::
 
@@ -54,6 +56,7 @@ from pathlib import Path
 
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
 from xgo_show.profiles import get_profile
+from xgo_show.runtime import clock as clock_module
 from xgo_show.runtime import realtime
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import Event, FrameSent
@@ -163,6 +166,7 @@ class Variant:
     realtime: bool = True  # the default: SCHED_FIFO writers (False: --no-realtime)
     nice: int = 0  # this thread's nice value during the show (the writers inherit it)
     clock: MonotonicClock | None = None
+    handoff: float | None = None  # seconds a real-time writer sleeps after a write
 
 
 @dataclass
@@ -201,7 +205,9 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
             pauses.append((began.pop(), time.monotonic()))
 
     runner.events.subscribe(on_frame, FrameSent)
-    saved = realtime.policy()
+    saved, handoff = realtime.policy(), clock_module.HANDOFF
+    if variant.handoff is not None:
+        clock_module.HANDOFF = variant.handoff
     # As the commands do: the writer threads raise themselves; this thread stays normal.
     policy = realtime.configure("required" if variant.realtime else "off").summary
     if variant.nice:
@@ -219,6 +225,7 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
         involuntary = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
         gc.callbacks.remove(on_gc)
         realtime.restore(saved)
+        clock_module.HANDOFF = handoff
         if variant.nice:
             os.setpriority(os.PRIO_PROCESS, 0, 0)
     if not result.completed:
@@ -321,6 +328,9 @@ def variants(diagnose: bool) -> list[Variant]:
         out += [
             Variant("  gc on (no hold)", hold_gc=False),
             Variant("  no telemetry", telemetry=False),
+            Variant("  hand-off 0", handoff=0.0),
+            Variant("  hand-off 0.2 ms", handoff=0.0002),
+            Variant("  hand-off 0.5 ms", handoff=0.0005),
             Variant("  no-rt, nice -10", realtime=False, nice=-10),
             Variant("  no-rt, no final spin", realtime=False,
                     clock=MonotonicClock(aim=0.0, spin=0.0)),
