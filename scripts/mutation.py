@@ -191,17 +191,18 @@ def _refresh_tests(work: Path) -> None:
 
 def run_module(module: str, work_root: Path, base: dict[str, object],
                named: dict[str, list[str]], equivalent: dict[tuple[str, str], str],
-               *, mode: str = "all") -> Outcome:
+               *, mode: str = "all", children: int = 1) -> Outcome:
     """Mutate ``module`` in its own scratch copy and classify what survived. ``mode``:
     ``all`` runs every mutant afresh; ``survivors`` runs the last run's survivors again
-    against the current tests; ``report`` only classifies the last run's results."""
+    against the current tests; ``report`` only classifies the last run's results. ``children``:
+    mutants tested at once (mutmut's ``--max-children``)."""
     outcome = Outcome(module)
     work = work_root / module.replace("/", "_").removesuffix(".py")
     start = time.monotonic()
     try:
         if mode == "all":
             _prepare(work, module, base, test_folders(module, named))
-            _mutmut(work, "run", "--max-children", "1", log=work / "run.log")
+            _mutmut(work, "run", "--max-children", str(children), log=work / "run.log")
         elif not (work / "mutants").is_dir():
             raise RuntimeError(f"no earlier run in {work}")
         elif mode == "survivors":
@@ -210,7 +211,8 @@ def run_module(module: str, work_root: Path, base: dict[str, object],
             again = [name for name, status in _statuses(work) if status not in CAUGHT]
             if again:
                 _refresh_tests(work)
-                _mutmut(work, "run", "--max-children", "1", *again, log=work / "rerun.log")
+                _mutmut(work, "run", "--max-children", str(children), *again,
+                        log=work / "rerun.log")
         _mutmut(work, "export-cicd-stats")
         stats = json.loads((work / "mutants" / "mutmut-cicd-stats.json").read_text())
         statuses = _statuses(work)
@@ -257,7 +259,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("modules", nargs="*", help="files to mutate, e.g. xgo_show/wire/xgo.py "
                         "(default: [tool.xgo-show.mutation] modules)")
     parser.add_argument("-j", "--jobs", type=int, default=2,
-                        help="modules mutated at once, one test process each (default 2)")
+                        help="modules mutated at once (default 2)")
+    parser.add_argument("-c", "--children", type=int, default=1,
+                        help="test processes per module (default 1); on a shared machine keep "
+                        "jobs x children at 2 or less, e.g. -j 1 -c 2 for one big module")
     parser.add_argument("--work", type=Path,
                         default=Path(os.environ.get("TMPDIR", "/tmp")) / "xgo-show-mutation",
                         help="scratch folder (one copy of the project per module)")
@@ -278,7 +283,8 @@ def main(argv: list[str] | None = None) -> int:
     equivalent = _equivalents()
     with concurrent.futures.ThreadPoolExecutor(max(1, args.jobs)) as pool:
         futures = [pool.submit(run_module, m, args.work, base, named, equivalent,
-                               mode=args.mode) for m in modules]
+                               mode=args.mode, children=max(1, args.children))
+                   for m in modules]
         outcomes = []
         for future in futures:
             outcome = future.result()
