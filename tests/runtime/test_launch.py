@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping, Sequence
 
 import pytest
@@ -12,7 +13,7 @@ from xgo_show.runtime import launch as launch_module
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.events import EventRecorder, PreflightDone, ShowEnded, ShowStarted
 from xgo_show.runtime.launch import Endpoint, Launch, LocalPorts
-from xgo_show.runtime.preflight import PreflightError
+from xgo_show.runtime.preflight import PreflightError, PreflightRow
 from xgo_show.runtime.safety import UnsafeScheduleError
 from xgo_show.sim import PtyServer, create_robot
 from xgo_show.sim.bench import SimBench
@@ -111,3 +112,53 @@ def test_a_registered_scheme_mixes_with_local_ports_in_one_table(
             assert launch.run().completed
             with pytest.raises(XgoShowError, match="already open"):
                 launch.map({"rex": "x"})
+
+
+class _Waiting:
+    """A test endpoint whose open and pre-flight meet the other endpoints' at a barrier (so
+    they pass only when they all run at once), or raise instead of answering."""
+
+    def __init__(self, names: Sequence[str], barrier: threading.Barrier, fail: bool) -> None:
+        self.names = tuple(names)
+        self.barrier, self.fail = barrier, fail
+        self.closed = False
+
+    def open(self) -> Mapping[str, str]:
+        self.barrier.wait()
+        if self.fail:
+            raise RuntimeError("endpoint broke while opening")
+        return {n: f"{n} did not answer" for n in self.names}
+
+    def preflight(self, *, battery_floor: float) -> list[PreflightRow]:
+        self.barrier.wait()
+        return [PreflightRow(n, "mini", "test:") for n in self.names]
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def test_endpoints_open_and_check_concurrently_and_a_failure_closes_the_rest(
+    perf, sched, monkeypatch
+) -> None:
+    made: list[_Waiting] = []
+    fail: set[str] = set()
+    barrier = threading.Barrier(3, timeout=5)
+
+    def factory(schedule: Schedule, urls: Mapping[str, str]) -> Sequence[Endpoint]:
+        made[:] = [_Waiting([n], barrier, n in fail) for n in urls]
+        return made  # type: ignore[return-value]
+
+    monkeypatch.setitem(launch_module._SCHEMES, "test", factory)
+    schedule = sched(*(perf(n, "mini", count=2) for n in ("a", "b", "c")))
+    urls = {n: "test:x" for n in ("a", "b", "c")}
+    with Launch(schedule, urls, telemetry=False) as launch:
+        # every endpoint's error is reported, each under its own performer
+        assert launch.open() == {n: f"{n} did not answer" for n in ("a", "b", "c")}
+        assert [r.performer for r in launch.preflight().rows] == ["a", "b", "c"]
+    assert all(e.closed for e in made)
+    fail.add("b")
+    with Launch(schedule, urls, telemetry=False) as launch:
+        with pytest.raises(RuntimeError, match="broke"):
+            launch.open()
+        assert launch.endpoints == []
+    assert [e.closed for e in made] == [True, False, True]  # the broken one opened nothing

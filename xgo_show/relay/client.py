@@ -32,7 +32,15 @@ from xgo_show.net.watchdog import Watchdog
 if TYPE_CHECKING:
     import zenoh
 
-__all__ = ["RECENT_RTTS", "Outcome", "RelayClient", "RelayLink", "list_relays", "new_conductor"]
+__all__ = [
+    "RECENT_RTTS",
+    "WORKED_ON",
+    "Outcome",
+    "RelayClient",
+    "RelayLink",
+    "list_relays",
+    "new_conductor",
+]
 
 
 def new_conductor(name: str | None = None) -> msg.Conductor:
@@ -48,6 +56,11 @@ def new_conductor(name: str | None = None) -> msg.Conductor:
 
 #: How many recent round trips a :class:`RelayLink` keeps (a few seconds of heartbeats).
 RECENT_RTTS = 32
+
+#: Commands the relay works on before it answers (a pre-flight, a robot's probe, a safe stop):
+#: their round trips say how long that took, not how long the network takes, so they are left
+#: out of :attr:`RelayLink.recent` (the lead of a start is made from those).
+WORKED_ON = frozenset({"upload", "probe", "stop"})
 
 #: What :meth:`RelayClient.send` hands its ``on_done``: the reply, or why there is none.
 Outcome = msg.Reply | NetworkError
@@ -183,7 +196,7 @@ class RelayClient:
             text = "" if err is None else err.payload.to_bytes().decode("utf-8", "replace")
             raise NetworkError(f"relay {self.relay}: {op}: {text or 'error reply'}")
         reply = msg.decode_reply(ok.payload.to_bytes())
-        self._learn(sent, time.monotonic(), reply.relay_time)
+        self._learn(sent, time.monotonic(), reply.relay_time, network=op not in WORKED_ON)
         if not reply.ok:
             raise NetworkError(f"relay {self.relay}: {reply.error}")
         if reply.seq != seq:
@@ -196,12 +209,16 @@ class RelayClient:
             "(is it running, in the same namespace, reachable with these endpoints?)"
         )
 
-    def _learn(self, sent: float, received: float, relay_time: float) -> None:
-        """Keep the clock offset of the exchange with the lowest round trip (NTP-style)."""
+    def _learn(
+        self, sent: float, received: float, relay_time: float, *, network: bool = True
+    ) -> None:
+        """Keep the clock offset of the exchange with the lowest round trip (NTP-style);
+        a ``network`` round trip (not one the relay spent working) joins the recent ones."""
         link = self.link
         link.last_reply = received
         rtt = received - sent
-        link.recent.append(rtt)
+        if network:
+            link.recent.append(rtt)
         if rtt <= link.best_rtt:
             link.best_rtt = rtt
             link.offset = relay_time - (sent + received) / 2

@@ -38,7 +38,6 @@ from xgo_show.runtime.events import (
     EventBus,
     FaultRaised,
     SafeStopped,
-    StateChanged,
     TelemetryRead,
 )
 from xgo_show.runtime.executor import ExecutorState, Progress, SafeStopResult
@@ -79,6 +78,13 @@ class _Remote:
     total: int
     cue: str
     fault: str | None
+    at: float  # the conductor's clock time the relay's show_time was read
+
+    def show_time_at(self, now: float) -> float:
+        """The show time at ``now`` (a running performer's show time moves on)."""
+        if self.state is ExecutorState.RUNNING:
+            return self.show_time + max(0.0, now - self.at)
+        return self.show_time
 
 
 def executor_lead(schedule: PerformerSchedule, offset: float) -> float:
@@ -118,7 +124,9 @@ class RelayShow:
         self.events = events
         self.watchdog = watchdog
         self._lock = threading.Lock()
-        self._sent: set[tuple[str, float | None, float | None]] = set()
+        self._sent: set[tuple[str, float, float | None]] = set()
+        #: the time given to the latest command for "now" of each (op, value), see once()
+        self._now: dict[tuple[str, float | None], float] = {}
         self._status: dict[str, _Remote] = {}
         self._faulted: set[str] = set()
         self._lost: str | None = None
@@ -142,16 +150,27 @@ class RelayShow:
         )
 
     def _on_status(self, status: Mapping[str, Any]) -> None:
-        # What the relay sent and read since the last answer first: the state below may say
-        # the show is over, and the runner then reports at once.
+        # What the relay sent, read and did since the last answer first, at the relay's own
+        # times: the state below may say the show is over, and the runner then reports at once.
         for event in decode_events(status.get("events"), self.robots, self.to_conductor):
             if isinstance(event, TelemetryRead):
                 with self._lock:
                     self._readings.setdefault(event.performer, {})[event.name] = event.value
+            elif isinstance(event, FaultRaised):
+                with self._lock:
+                    if event.performer in self._faulted:
+                        continue
+                    self._faulted.add(event.performer)
+                event = FaultRaised(
+                    event.t, event.performer, f"on relay {self.client.relay}: {event.reason}"
+                )
             self.events.publish(event)
         performers = status.get("performers")
         last = status.get("last")
         now = self.clock.now()
+        # The relay's show clock when it answered (the heartbeat's show times are of then).
+        stamped = status.get("t")
+        at = self.to_conductor(float(stamped)) if isinstance(stamped, int | float) else now
         updates: dict[str, _Remote] = {}
         if isinstance(performers, dict):
             for robot, row in performers.items():
@@ -163,6 +182,7 @@ class RelayShow:
                         int(row.get("total", 0)),
                         str(row.get("cue", "")),
                         row.get("fault"),
+                        at,
                     )
         elif (
             status.get("state") == "ended"
@@ -185,17 +205,17 @@ class RelayShow:
                     old.total if old else 0,
                     old.cue if old else "",
                     faults.get(robot),
+                    at,
                 )
             self._ended.set()
+        # State changes were published above, as the relay's executors made them; a fault
+        # the relay did not report as an event (its runner's own) is published here.
         for perf, remote in updates.items():
             with self._lock:
-                old = self._status.get(perf)
                 self._status[perf] = remote
                 new_fault = remote.fault is not None and perf not in self._faulted
                 if new_fault:
                     self._faulted.add(perf)
-            if old is None or old.state is not remote.state:
-                self.events.publish(StateChanged(now, perf, remote.state, remote.show_time))
             if new_fault and remote.fault is not None:
                 self.events.publish(
                     FaultRaised(now, perf, f"on relay {self.client.relay}: {remote.fault}")
@@ -234,33 +254,53 @@ class RelayShow:
         with self._lock:
             return dict(self._readings.get(perf, {}))
 
+    def network_lead(self) -> float:
+        """Seconds a command needs to reach this relay in time: :data:`RTT_FACTOR` times the
+        worst of the recent round trips, at least :data:`MIN_NETWORK_LEAD`."""
+        worst = self.client.link.worst_recent_rtt()
+        return MIN_NETWORK_LEAD if worst is None else max(MIN_NETWORK_LEAD, RTT_FACTOR * worst)
+
     def lead(self) -> float:
         """Seconds a start needs to reach this relay and be armed there in time.
 
-        :data:`RTT_FACTOR` times the worst of the recent round trips (at least
-        :data:`MIN_NETWORK_LEAD`), plus :data:`RELAY_SETUP`: commands to several relays go
-        out together, so the lead is the slowest relay's, not the sum of theirs.
+        :meth:`network_lead` plus :data:`RELAY_SETUP`: commands to several relays go out
+        together, so the lead is the slowest relay's, not the sum of theirs.
         """
-        worst = self.client.link.worst_recent_rtt()
-        network = MIN_NETWORK_LEAD if worst is None else max(MIN_NETWORK_LEAD, RTT_FACTOR * worst)
-        return network + RELAY_SETUP
+        return self.network_lead() + RELAY_SETUP
 
     def once(self, op: str, at: float | None, value: float | None = None, **fields: Any) -> None:
         """Send ``op`` for every performer of this relay, once per (op, at, value).
 
-        Returns at once: the reply comes back on a Zenoh thread (see the module docstring).
+        Every command goes with a time. One for "now" (``at`` None) acts at now plus
+        :meth:`network_lead`, the first moment the relay surely has it: "now" would reach the
+        relay already past (it refuses late commands rather than put its robots on another
+        frame than the other hosts'), or act a round trip after a local robot. The other
+        performers of this relay asking the same before that time get the same time, so the
+        relay hears it once. Returns at once: the reply comes back on a Zenoh thread (see the
+        module docstring).
         """
+        if at is None:
+            at = self._immediate(op, value)
         key = (op, at, value)
         with self._lock:
             if key in self._sent or self._lost is not None:
                 return
             self._sent.add(key)
-        when = None if at is None else self.to_relay(at)
+        when = self.to_relay(at)
         if op == "start":
             fields = {"sha256": self.sha256, "start_at": when, "offset": value or 0.0}
         else:
             fields = {**fields, "at": when}
         self.client.send(op, lambda outcome: self._answered(op, outcome), **fields)
+
+    def _immediate(self, op: str, value: float | None) -> float:
+        """The time of a command for "now" (see :meth:`once`)."""
+        now = self.clock.now()
+        with self._lock:
+            pending = self._now.get((op, value))
+            if pending is None or pending <= now:
+                pending = self._now[(op, value)] = now + self.network_lead()
+            return pending
 
     def _answered(self, op: str, outcome: Outcome) -> None:
         if isinstance(outcome, NetworkError):
@@ -366,9 +406,8 @@ class RelayedPerformer:
         if remote is None:
             return Progress(self.name, self.state, 0.0, 0, total, "", "")
         label = self.schedule.frames[remote.sent - 1].label if 0 < remote.sent <= total else ""
-        return Progress(
-            self.name, self.state, remote.show_time, remote.sent, total, remote.cue, label
-        )
+        show_time = remote.show_time_at(self.show.clock.now())
+        return Progress(self.name, self.state, show_time, remote.sent, total, remote.cue, label)
 
     @property
     def stop_result(self) -> SafeStopResult | None:

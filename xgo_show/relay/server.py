@@ -609,6 +609,7 @@ class Relay:
     def _show_status(self) -> dict[str, Any]:
         show = self._show
         status: dict[str, Any] = {
+            "t": self.clock.now(),  # the show clock now: when the show times below were read
             "state": self._state(),
             "last": self._last,
             "events": self._collector.drain(),

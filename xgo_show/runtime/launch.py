@@ -8,7 +8,7 @@ status queries with them)::
 
     bus = EventBus()
     with Launch(schedule, {"rex": "/dev/ttyUSB0"}, clock=MonotonicClock(), events=bus) as launch:
-        launch.open()                      # every port, or every relay, opened
+        launch.open()                      # every port, or every relay, opened (concurrently)
         report = launch.preflight()        # firmware, model, battery: a PreflightReport
         launch.arm(force=False)            # PreflightError unless every row passed
         result = launch.run(offset=0.0)    # a ShowResult; any fault ends in a safe stop
@@ -32,6 +32,7 @@ from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, FakeClock, MonotonicClock
 from xgo_show.runtime.events import EventBus, PreflightDone
 from xgo_show.runtime.executor import PerformerExecutor
+from xgo_show.runtime.fanout import each
 from xgo_show.runtime.latency import Early
 from xgo_show.runtime.performer import Performer
 from xgo_show.runtime.preflight import (
@@ -299,25 +300,44 @@ class Launch(Closing):
     # ------------------------------------------------------------------ stages
 
     def open(self) -> dict[str, str]:
-        """Open every endpoint's links; returns the errors by performer (empty: all open)."""
+        """Open every endpoint's links, the endpoints concurrently; returns the errors by
+        performer (empty: all open).
+
+        An endpoint that could not open says so in the errors (and in the pre-flight table);
+        the others stay open until :meth:`close`, so the table checks every robot that
+        answers. Should an endpoint raise instead (or Ctrl-C come), every endpoint that did
+        open is closed before it propagates.
+        """
         if self.endpoints:
             raise SetupError("the launch is already open")
-        self.endpoints = endpoints_for(self.schedule, self.urls)
+        endpoints = endpoints_for(self.schedule, self.urls)
+
+        def open_one(endpoint: Endpoint) -> tuple[Endpoint, Mapping[str, str]]:
+            return endpoint, endpoint.open()
+
+        def close(opened: tuple[Endpoint, Mapping[str, str]]) -> None:
+            opened[0].close()
+
+        results = each(open_one, endpoints, undo=close, name="xgo-show open")
+        self.endpoints = endpoints
         errors: dict[str, str] = {}
-        for endpoint in self.endpoints:
-            errors.update(endpoint.open())
+        for _, found in results:
+            errors.update(found)
         self.open_errors = errors
         return errors
 
     def preflight(self, *, realtime: str | None = None) -> PreflightReport:
-        """Check every robot; one table for every endpoint, in the show's performer order.
+        """Check every robot, the endpoints concurrently; one table for every endpoint, in the
+        show's performer order.
 
         ``realtime``: what the report says of real-time scheduling (default: this process's
         :func:`~xgo_show.runtime.realtime.policy`)."""
-        rows: dict[str, PreflightRow] = {}
-        for endpoint in self.endpoints:
-            for row in endpoint.preflight(battery_floor=self.battery_floor):
-                rows[row.performer] = row
+        found = each(
+            lambda endpoint: endpoint.preflight(battery_floor=self.battery_floor),
+            self.endpoints,
+            name="xgo-show pre-flight",
+        )
+        rows = {row.performer: row for part in found for row in part}
         ordered = [rows[p.name] for p in self.schedule.performers if p.name in rows]
         said = realtime if realtime is not None else policy().summary
         self.report = PreflightReport(ordered, self.battery_floor, said)
@@ -376,9 +396,6 @@ class Launch(Closing):
         return self.runner.run(offset=offset, start_at=start_at, handle_signals=handle_signals)
 
     def close(self) -> None:
-        """Close every endpoint (after a run, or when a stage refused)."""
-        for endpoint in self.endpoints:
-            endpoint.close()
-        self.endpoints = []
-
-
+        """Close every endpoint, concurrently (after a run, or when a stage refused)."""
+        endpoints, self.endpoints = self.endpoints, []
+        each(lambda endpoint: endpoint.close(), endpoints, name="xgo-show close")

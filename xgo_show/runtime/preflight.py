@@ -17,11 +17,12 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TextIO
 
-from xgo_show.compiler.schedule import Schedule
+from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.errors import PreflightError, XgoShowError
 from xgo_show.families import get_family
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, MonotonicClock
+from xgo_show.runtime.fanout import each
 from xgo_show.transports.base import Transport
 
 __all__ = [
@@ -130,28 +131,35 @@ class PreflightReport:
 def open_ports(
     schedule: Schedule, urls: Mapping[str, str], *, opener: Opener | None = None
 ) -> tuple[dict[str, Transport], dict[str, str]]:
-    """Open every performer's port at its link's baud rate.
+    """Open every performer's port at its link's baud rate, the ports concurrently.
 
-    Returns (open transports, errors by performer). Nothing is written.
+    Returns (open transports, errors by performer). Nothing is written. Should an opener raise
+    anything but a located error (or Ctrl-C come), every port that did open is closed first.
     """
     if opener is None:
         from xgo_show.transports import open_transport
 
         opener = open_transport
-    transports: dict[str, Transport] = {}
-    errors: dict[str, str] = {}
-    for perf in schedule.performers:
+    chosen = opener
+
+    def open_one(perf: PerformerSchedule) -> tuple[str, Transport | str]:
         url = urls.get(perf.name)
         if url is None:
-            errors[perf.name] = "no port given (map it with --map NAME=PORT or in the show file)"
-            continue
+            return perf.name, "no port given (map it with --map NAME=PORT or in the show file)"
         try:
-            transport = opener(url, baudrate=perf.link.baud)
+            transport = chosen(url, baudrate=perf.link.baud)
             transport.open()
         except XgoShowError as exc:
-            errors[perf.name] = str(exc)
-            continue
-        transports[perf.name] = transport
+            return perf.name, str(exc)
+        return perf.name, transport
+
+    def close(outcome: tuple[str, Transport | str]) -> None:
+        if not isinstance(outcome[1], str):
+            outcome[1].close()
+
+    outcomes = each(open_one, schedule.performers, undo=close, name="xgo-show open")
+    transports = {n: o for n, o in outcomes if not isinstance(o, str)}
+    errors = {n: o for n, o in outcomes if isinstance(o, str)}
     return transports, errors
 
 
@@ -165,7 +173,8 @@ def preflight(
     timeout: float = 0.5,
     low_latency: bool = True,
 ) -> PreflightReport:
-    """Check each robot on its open transport (reads only: nothing moves)."""
+    """Check each robot on its open transport (reads only: nothing moves), the robots
+    concurrently (each check mostly waits for its robot's answers)."""
     floor = schedule.battery_floor if battery_floor is None else battery_floor
     rows: list[PreflightRow] = []
     for perf in schedule.performers:
@@ -177,9 +186,14 @@ def preflight(
             row.problems.append((open_errors or {}).get(perf.name, "port not open"))
             continue
         row.opened = True
+
+    def check(row: PreflightRow) -> None:
+        transport = transports[row.performer]
         if low_latency:
             row.low_latency = transport.set_low_latency()
         _check_robot(row, transport, floor, timeout)
+
+    each(check, [row for row in rows if row.opened], name="xgo-show pre-flight")
     return PreflightReport(rows, floor)
 
 

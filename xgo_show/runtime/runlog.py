@@ -5,7 +5,8 @@ A run log is a subscriber of the runtime's :class:`~xgo_show.runtime.events.Even
 
 - ``"event"``: ``event`` is one of ``preflight``, ``start``, ``pause``, ``resume``, ``seek``,
   ``fault``, ``safe_stop``, ``end`` (plus free fields such as ``performer`` and ``reason``);
-- ``"state"``: a performer changed state: ``performer``, ``state``, ``show_time``;
+- ``"state"``: a performer changed state: ``performer``, ``state``, ``show_time``, ``t`` (the
+  clock time it changed: a relayed robot's is its relay's, converted to this clock);
 - ``"frame"``: one frame sent: ``performer``, ``send`` (``frame`` = scheduled, ``reach`` =
   catch-up for a mid-show start or resume, ``read`` = telemetry request, ``rest`` and
   ``stop`` = stop frames, ``set`` = written beside the schedule on request), ``index`` into
@@ -108,9 +109,10 @@ class RunLog(Closing):
                 performer=ev.performer,
                 state=ev.state.value,
                 show_time=round(ev.show_time, 6),
+                t=round(ev.t, 6),  # when it changed (a relayed robot's comes back later)
             )
         elif isinstance(ev, FaultRaised):
-            self.event("fault", performer=ev.performer, reason=ev.reason)
+            self.event("fault", performer=ev.performer, reason=ev.reason, t=round(ev.t, 6))
         elif isinstance(ev, SafeStopped):
             r = ev.result
             self.event(
