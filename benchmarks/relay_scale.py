@@ -6,10 +6,11 @@ process (so every receive time is on this machine's monotonic clock), then runs 
 ``xgo-show dry-run SHOW --map rI=zenoh:hostI ...`` ``--runs`` times each way, from process start
 to exit, alternating:
 
-- ``parallel`` (xgo-show now): pause/resume/seek/start go to every relay at once and the lead
+- ``parallel`` (xgo-show now): the relays are opened (hello, clock sync), uploaded to and
+  pre-flighted concurrently; pause/resume/seek/start go to every relay at once and the lead
   comes from the round trips the heartbeats measured;
-- ``naive`` (xgo-show before): each relay's start is sent once the previous relay answered,
-  on a fixed 0.2 s network lead.
+- ``naive`` (xgo-show before): set-up goes relay after relay, and each relay's start is sent
+  once the previous relay answered, on a fixed 0.2 s network lead.
 
 Per run it reads the conductor's run log and the simulators: ``setup`` (process start to the
 pre-flight table: Zenoh session, hello, clock sync, upload and pre-flight of every relay),
@@ -109,10 +110,17 @@ class Relay:
 
 
 def naive_conductor(argv: list[str]) -> int:
-    """The conductor as it was: a start waits for each relay's answer; a fixed lead."""
+    """The conductor as it was: set-up one relay after another; a start waits for each
+    relay's answer; a fixed lead."""
     from xgo_show.cli.main import main
     from xgo_show.errors import NetworkError
     from xgo_show.relay import performer as rp
+    from xgo_show.runtime import launch, preflight
+
+    def one_by_one(fn: Any, items: Any, **_: Any) -> list[Any]:
+        return [fn(item) for item in items]
+
+    launch.each = preflight.each = one_by_one  # type: ignore[assignment]
 
     def once(self: rp.RelayShow, op: str, at: float | None, value: float | None = None,
              **fields: Any) -> None:

@@ -193,6 +193,7 @@ def test_relays_with_skewed_clocks_start_together(relays, walk, tmp_path: Path) 
     )
     assert out.returncode == 0, out.stdout + out.stderr
     assert "clock offset +7.25" in out.stdout and "clock offset -3.5" in out.stdout
+    assert out.stdout.count(", round trip ") == 2  # each relay's, from its first burst
     firsts = []
     for relay, name in ((left, "rex"), (right, "lola")):
         first = show.performer(name).frames[0].data

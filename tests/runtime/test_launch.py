@@ -161,4 +161,4 @@ def test_endpoints_open_and_check_concurrently_and_a_failure_closes_the_rest(
         with pytest.raises(RuntimeError, match="broke"):
             launch.open()
         assert launch.endpoints == []
-    assert [e.closed for e in made] == [True, False, True]  # the broken one opened nothing
+    assert all(e.closed for e in made)  # the broken one too: it may have opened a part

@@ -29,9 +29,9 @@ from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import NetworkError, UsageError, XgoShowError
 from xgo_show.net import messages as msg
 from xgo_show.net.keys import SCHEME, parse_relay_url, relay_key
-from xgo_show.net.offset import Timebase
+from xgo_show.net.offset import OffsetEstimate, Timebase
 from xgo_show.net.session import SessionOptions, open_session
-from xgo_show.net.timesync import ClockTracker
+from xgo_show.net.timesync import ClockTracker, TrackerUpdate
 from xgo_show.relay.client import RelayClient, new_conductor
 from xgo_show.relay.options import ConductorOptions
 from xgo_show.relay.performer import RelayedPerformer, RelayShow
@@ -155,6 +155,7 @@ class RelayEndpoint:
         self._robots: dict[str, dict[str, Any]] = {}  # the relay's robots by name
         self.tracker: ClockTracker | None = None
         self.timebase: Timebase | None = None  # the first one (for the pre-flight notes)
+        self.estimate: OffsetEstimate | None = None  # the first burst's (its round trip)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -193,6 +194,7 @@ class RelayEndpoint:
             relay_key(self.options.session.namespace, self.relay, "time"),
             conductor=conductor.id,
             clock=MonotonicClock(),
+            on_update=self._on_sync,
         )
         try:
             self.timebase = self.tracker.start()
@@ -256,11 +258,16 @@ class RelayEndpoint:
                 row.port = str(robot["port"])
         return list(rows.values())
 
+    def _on_sync(self, update: TrackerUpdate) -> None:
+        if self.estimate is None:  # the first burst's, for the pre-flight table
+            self.estimate = update.estimate
+
     def _sync_note(self) -> str:
-        tb = self.timebase
+        tb, est = self.timebase, self.estimate
         if tb is None:
             return ""
-        return f", clock offset {tb.offset:+.6f} s +- {tb.bound * 1e3:.3f} ms"
+        rtt = "" if est is None else f", round trip {est.rtt * 1e3:.3f} ms"
+        return f", clock offset {tb.offset:+.6f} s +- {tb.bound * 1e3:.3f} ms{rtt}"
 
     def _model(self, perf: str) -> str:
         return next(p.model for p in self.schedule.performers if p.name == perf)

@@ -326,7 +326,12 @@ class RelayShow:
         return self._failed
 
     def stop(self, reason: str, timeout: float) -> dict[str, Any]:
-        """Safe-stop every robot of this relay (once); the relay's answer, or why none."""
+        """Safe-stop every robot of this relay (once); the relay's answer, or why none.
+
+        Unlike every other command this one has no time to act at: a safe stop must act as
+        soon as the relay has it, and the runner sends it to every relay at once, so hosts stop
+        within a round trip of each other rather than all later, at a common time.
+        """
         with self._lock:
             if self._stop is not None:
                 return self._stop

@@ -305,23 +305,21 @@ class Launch(Closing):
 
         An endpoint that could not open says so in the errors (and in the pre-flight table);
         the others stay open until :meth:`close`, so the table checks every robot that
-        answers. Should an endpoint raise instead (or Ctrl-C come), every endpoint that did
-        open is closed before it propagates.
+        answers. Should an endpoint raise instead (or Ctrl-C come), every endpoint is closed
+        (whatever part of it opened) before it propagates.
         """
         if self.endpoints:
             raise SetupError("the launch is already open")
         endpoints = endpoints_for(self.schedule, self.urls)
-
-        def open_one(endpoint: Endpoint) -> tuple[Endpoint, Mapping[str, str]]:
-            return endpoint, endpoint.open()
-
-        def close(opened: tuple[Endpoint, Mapping[str, str]]) -> None:
-            opened[0].close()
-
-        results = each(open_one, endpoints, undo=close, name="xgo-show open")
+        try:
+            results = each(lambda e: e.open(), endpoints, name="xgo-show open")
+        except BaseException:
+            # Every endpoint, the one that raised too (it may have opened part of its links).
+            each(lambda e: e.close(), endpoints, name="xgo-show close")
+            raise
         self.endpoints = endpoints
         errors: dict[str, str] = {}
-        for _, found in results:
+        for found in results:
             errors.update(found)
         self.open_errors = errors
         return errors
