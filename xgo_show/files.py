@@ -9,6 +9,7 @@ file that was checked), and never more than a stated number of bytes.
 from __future__ import annotations
 
 import os
+import re
 import stat
 from pathlib import Path
 
@@ -131,9 +132,10 @@ def read_text_file(path: str | Path, *, limit: int) -> str:
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        head = data[: exc.start]
-        line = head.count(b"\n") + 1
-        column = len(head[head.rfind(b"\n") + 1:].decode("utf-8", "replace")) + 1
+        # YAML's line breaks: an old Mac file ends its lines with a bare CR.
+        lines = re.split(rb"\r\n|\r|\n", data[: exc.start])
+        line = len(lines)
+        column = len(lines[-1].decode("utf-8", "replace")) + 1
         raise FileAccessError(
             f"not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})",
             line=line, column=column,

@@ -12,9 +12,11 @@ import re
 
 __all__ = ["control_characters", "printable"]
 
-# C0 and C1 controls (tab and newline included: a one-line message has none), DEL, and the
-# Unicode format characters that reorder or hide text (bidi overrides, zero-width marks).
-_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u200b-\u200f\u202a-\u202e\u2066-\u2069\ufeff]")
+# C0 and C1 controls (tab and newline included: a one-line message has none), DEL, the
+# Unicode format characters that reorder or hide text (bidi overrides, zero-width marks), and
+# lone surrogates (YAML's "\ud800" escape makes one): no encoding can write them out.
+_UNSAFE = re.compile(
+    "[\x00-\x1f\x7f-\x9f\u200b-\u200f\u202a-\u202e\u2066-\u2069\ufeff\ud800-\udfff]")
 
 
 def _escape(match: re.Match[str]) -> str:

@@ -3,6 +3,7 @@ at its own line:col, nesting bounded; random input never raises."""
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -70,11 +71,22 @@ def test_any_number_loads_or_is_one_located_error(number: float) -> None:
 @pytest.mark.parametrize(("text", "where"), [
     ('name: "a\\e[2Jb"', (1, 7)), ("x: 1\nname: \"\\x07\"", (2, 7)), ('n: "\\u202e"', (1, 4)),
     ('{"\\e[31m": 1}', (1, 2)), ('v: ["ok", "\\0"]', (1, 11)),
+    ('v: "0.\\ud801\\udca0"', (1, 4)),  # YAML makes two lone surrogates: unprintable
 ])
 def test_text_with_control_characters_is_refused(text: str, where: tuple[int, int]) -> None:
     line, col, message = _one_error(text)
     assert (line, col) == where and "control character" in message
     assert "\x1b" not in message and "\x07" not in message
+    message.encode("utf-8")  # printable: every character escaped that cannot be written
+
+
+def test_other_scripts_digits_are_no_bar_and_beat(tmp_path: Path) -> None:
+    path = tmp_path / "show.yaml"
+    path.write_text("show: t\ntempo: {bpm: 120}\nperformers:\n  rex: {model: mini}\ntracks:\n"
+                    "  rex: [{action: wave, at: \"\u0665.\u0663\"}]\n", encoding="utf-8")
+    [err] = [d for d in validate_file(path) if d.is_error]
+    assert err.origin is not None and (err.origin.line, err.origin.column) == (6, 28)
+    assert "is not a time" in err.message
 
 
 @pytest.mark.parametrize(("text", "where"), [
@@ -172,3 +184,29 @@ def test_a_value_the_reader_refuses_hides_nothing_else(
     [refused] = [f for f in found if f[0] == 9]  # the refused value, once, at its place
     assert refused[1] == column, found
     assert not any("refused" in m for _, _, m in found), found
+
+
+_TIMES = (st.from_regex(r"\A\d{1,40}\.\d{1,40}\Z|\A\d{1,40}(\.\d{1,40})?s\Z")
+          .map(lambda t: json.dumps(t))
+          | st.builds(lambda bar, beat: f"{{bar: {bar}, beat: {beat}}}",
+                      st.integers(-10, 10**30), st.integers(-10, 10**30) | st.floats())
+          | st.builds(lambda unit, n: f"{{{unit}: {n}}}",
+                      st.sampled_from(["beats", "bars", "seconds"]),
+                      st.integers(-10, 10**30) | st.floats()))
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.sampled_from(["at", "after", "fade"]), _TIMES)
+def test_any_time_or_length_is_taken_or_one_located_error(field: str, text: str) -> None:
+    """Bar/beat strings with forty digits, seconds past any float, lengths of every unit:
+    the routine loads or each error is at the cue's line, and nothing raises."""
+    import tempfile
+
+    routine = ("show: t\ntempo: {bpm: 120}\nperformers:\n  rex: {model: rider}\ntracks:\n"
+               f"  rex:\n    - {{led: {{all: red}}, duration: 1, {field}: {text}}}\n")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "show.yaml"
+        path.write_text(routine, encoding="utf-8")
+        errors = [d for d in validate_file(path) if d.is_error]
+    assert all(d.origin is not None and d.origin.line == 7 for d in errors), [
+        d.format() for d in errors]

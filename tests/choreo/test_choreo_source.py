@@ -60,8 +60,22 @@ def test_merge_keys_explicit_wins_and_is_no_duplicate() -> None:
 
 
 def test_boolean_keys_are_refused() -> None:
-    _, errors = parse_yaml("on: 1\n", "f")
+    _, errors = parse_yaml("true: 1\n", "f")
     assert "must be a name" in errors[0].message
+
+
+@pytest.mark.parametrize(("text", "value"), [
+    ("on", "on"), ("off", "off"), ("yes", "yes"), ("No", "No"), ("y", "y"),
+    ("true", True), ("False", False), ("TRUE", True),
+])
+def test_booleans_are_read_as_yaml_1_2(text: str, value: object) -> None:
+    """Only true and false are booleans; on/off/yes/no are the text written (an on/off
+    choice, a colour, or an error that names the word), as keys too."""
+    doc, errors = parse_yaml(f"v: {text}\n{text}: 1\n" if not isinstance(value, bool)
+                             else f"v: {text}\n", "f")
+    assert errors == []
+    assert isinstance(doc.data, dict) and doc.data["v"] == value
+    assert type(doc.data["v"]) is type(value)
 
 
 def test_unsafe_tags_are_errors_not_exceptions() -> None:

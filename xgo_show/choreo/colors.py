@@ -28,7 +28,7 @@ _HEX = re.compile(r"^#([0-9a-fA-F]{6})$")
 
 def parse_color(value: object) -> tuple[int, int, int]:
     """A colour -> (r, g, b); :class:`ValueError` says what is accepted."""
-    if value is False:  # YAML 1.1 reads an unquoted off / no as false
+    if value is False:  # false for a colour: off (YAML 1.2 reads off as text anyway)
         return COLORS["off"]
     if isinstance(value, str):
         name = value.strip().lower().replace(" ", "_").replace("-", "_")

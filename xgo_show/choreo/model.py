@@ -22,12 +22,14 @@ from pydantic import (
     PlainValidator,
     StringConstraints,
     Tag,
+    ValidationInfo,
     WithJsonSchema,
     field_validator,
     model_validator,
 )
 from pydantic_core import PydanticCustomError
 
+from xgo_show.choreo.source import Refused
 from xgo_show.choreo.unit import Unit
 from xgo_show.errors import NetworkError
 from xgo_show.limits import (
@@ -130,12 +132,24 @@ ParamDefault = Annotated[
     }),
 ]
 
-_BAR_BEAT = re.compile(r"^\s*(\d+)\s*\.\s*(\d+)\s*$")
-_SECONDS = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*s\s*$")  # "12.5s": seconds, said on purpose
+# ASCII digits only: int() would read other scripts' digits ("٥.٣") as a bar and beat.
+_BAR_BEAT = re.compile(r"^\s*(\d+)\s*\.\s*(\d+)\s*$", re.ASCII)
+_SECONDS = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*s\s*$", re.ASCII)  # "12.5s": seconds, on purpose
 
 
 class _Model(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+
+    @field_validator("*", mode="before")
+    @classmethod
+    def _not_null(cls, value: object, info: ValidationInfo) -> object:
+        # "duration:" with nothing after it is null: taken as "not given", the move would
+        # silently run as fast as it can. An optional field is left out, never written empty.
+        if value is None:
+            raise PydanticCustomError(
+                "null", "{field} is empty (null): give a value, or leave {field} out",
+                {"field": info.field_name})
+        return value
 
 
 # -- time -------------------------------------------------------------------------------------
@@ -162,8 +176,17 @@ def _is_number(value: object) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
+def _no_refused(value: dict[Any, Any]) -> None:
+    """A mapping holding a value the YAML reader refused (and reported at its own place) is
+    refused as such: the loader drops the complaint, which is about that value again."""
+    for item in value.values():
+        if isinstance(item, Refused):
+            raise PydanticCustomError("refused", "holds {value}", {"value": repr(item)})
+
+
 def _g(value: float) -> str:
-    """``1e9``, ``0.001``, ``60000``: a number as a person writes it."""
+    """``1e9``, ``0.001``, ``60000``: a number as a person writes it (an int too)."""
+    value = float(value)
     text = f"{value:g}" if abs(value) < 1e6 or not value.is_integer() else f"{value:.6g}"
     return text.replace("e+0", "e").replace("e+", "e").replace("e-0", "e-")
 
@@ -193,6 +216,7 @@ def _parse_position(value: object) -> Position:
         bar, beat = int(match[1]), int(match[2])
         return _bar_beat(bar, beat)
     if isinstance(value, dict):
+        _no_refused(value)
         unknown = set(value) - {"bar", "beat"}
         if unknown or "bar" not in value:
             raise PydanticCustomError(
@@ -227,13 +251,13 @@ def _bar_beat(bar: int, beat: float) -> Position:
     if bar < 1 or not _finite(beat) or beat < 1:
         raise PydanticCustomError(
             "position", "bars and beats count from 1 (bar {bar}, beat {beat})",
-            {"bar": bar if abs(bar) < 10**9 else f"{bar:.3g}", "beat": f"{beat:g}"},
+            {"bar": bar if abs(bar) < 10**9 else _g(bar), "beat": _g(beat)},
         )
     if bar > MAX_BARS or beat >= MAX_BEATS_PER_BAR + 1:
         raise PydanticCustomError(
             "position", "bar {bar} beat {beat} is too late: bars go up to {bars} and a bar "
             "has at most {beats} beats",
-            {"bar": bar if bar < 10**9 else f"{bar:.3g}", "beat": _g(beat),
+            {"bar": bar if bar < 10**9 else _g(bar), "beat": _g(beat),
              "bars": f"{MAX_BARS:,}", "beats": MAX_BEATS_PER_BAR},
         )
     return Position(bar=bar, beat=beat)
@@ -284,6 +308,7 @@ def _parse_length(value: object) -> Length:
         amount = float(value)  # type: ignore[arg-type]
         unit = "seconds"
     elif isinstance(value, dict) and len(value) == 1 and next(iter(value)) in _LENGTH_UNITS:
+        _no_refused(value)
         unit, raw = next(iter(value.items()))
         if not _is_number(raw):
             raise PydanticCustomError(

@@ -936,7 +936,7 @@ class _Emitter:
         for name, value in cue.set.items():
             reg = next((r for r in self.profile.registers if r.name == name), None)
             if isinstance(value, bool) and reg is not None and reg.encoding is Encoding.ENUM:
-                # YAML reads on/off/yes/no as booleans.
+                # true/false for an on/off choice (YAML 1.2 reads on/off as text).
                 value = "on" if value else "off"
             if isinstance(value, float) and reg is not None and reg.encoding is Encoding.ENUM \
                     and value.is_integer():

@@ -40,6 +40,7 @@ _INT_TAG = "tag:yaml.org,2002:int"
 _FLOAT_TAG = "tag:yaml.org,2002:float"
 _STR_TAG = "tag:yaml.org,2002:str"
 _SEQ_TAG = "tag:yaml.org,2002:seq"
+_BOOL_TAG = "tag:yaml.org,2002:bool"
 
 #: Deepest nesting of lists and mappings: a routine with ten nested repeats is some 25 levels.
 MAX_DEPTH = 64
@@ -54,22 +55,29 @@ _FLOAT_12 = re.compile(
     r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
 )
 
+#: Booleans as YAML 1.2 too: only true and false. YAML 1.1 also reads yes/no/on/off, so that
+#: ``gait: no`` became false and then "off", and ``imu_mode: off`` a boolean: as text they
+#: say what was written (``off`` is a choice and a colour; ``yes`` for a true/false field is
+#: an error that names it).
+_BOOL_12 = re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$")
+
 # A float PyYAML reads as float() of the text (no .inf, no sign dance): see _Builder.scalar.
 _DECIMAL = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?\Z")
 
 
 class _Loader(yaml.SafeLoader):
-    """The safe loader with YAML 1.2 numbers (see :data:`_INT_12`); booleans and nulls as
-    before."""
+    """The safe loader with YAML 1.2 numbers (see :data:`_INT_12`) and booleans (see
+    :data:`_BOOL_12`); nulls as before."""
 
 
 _Loader.yaml_implicit_resolvers = {
     first: [(tag, rx) for tag, rx in resolvers
-            if tag not in (_INT_TAG, _FLOAT_TAG, "tag:yaml.org,2002:timestamp")]
+            if tag not in (_INT_TAG, _FLOAT_TAG, _BOOL_TAG, "tag:yaml.org,2002:timestamp")]
     for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
 }
 _Loader.add_implicit_resolver(_INT_TAG, _INT_12, list("-+0123456789"))
 _Loader.add_implicit_resolver(_FLOAT_TAG, _FLOAT_12, list("-+0123456789."))
+_Loader.add_implicit_resolver(_BOOL_TAG, _BOOL_12, list("tTfF"))
 
 
 @dataclass(frozen=True)
