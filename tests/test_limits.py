@@ -48,7 +48,7 @@ def test_the_limits_page_names_every_limit() -> None:
         assert f"`{name}`" in text or f"{name}`" in text, name
     for name in ("MAX_ROUTINE_BYTES", "MAX_SCHEDULE_BYTES", "MAX_NODES", "MAX_DEPTH",
                  "MAX_INT", "MAX_NESTING", "MAX_BLOCK_DEPTH", "MAX_CUES", "MAX_EACH_KIND",
-                 "MAX_SUGGESTIONS"):
+                 "MAX_SUGGESTIONS", "MAX_SAMPLES"):
         assert name in text, name
 
 

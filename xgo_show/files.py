@@ -24,9 +24,12 @@ __all__ = [
     "read_text_file",
 ]
 
-#: A routine or an included part: the largest bundled routine is some 10 KB and a ten-minute
-#: show of dense cues about 1 MB; the YAML loader also caps what a file expands to.
-MAX_ROUTINE_BYTES = 4 * 1024 * 1024
+#: A routine or an included part: the largest bundled routine is some 10 KB, and ten minutes
+#: of ten robots moving without a pause (benchmarks/compile_speed.py) 290 KB. Reading and
+#: checking costs about 2 s of CPU per MiB of dense YAML on a small machine (and 150 MB of
+#: memory), so 2 MiB keeps validating any file to a few seconds; the YAML loader also caps
+#: what a file expands to.
+MAX_ROUTINE_BYTES = 2 * 1024 * 1024
 #: A compiled schedule: an hour of five robots at 50 Hz is about 100 MB of JSON.
 MAX_SCHEDULE_BYTES = 256 * 1024 * 1024
 

@@ -277,8 +277,9 @@ def test_bad_map_and_missing_port_are_user_errors(duet, capsys) -> None:
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
-        (["--countdown", "-1"], "--countdown -1: give a number of seconds >= 0"),
-        (["--countdown", "nan"], "--countdown nan: give a number of seconds >= 0"),
+        (["--countdown", "-1"], "--countdown -1: give 0 to 3600 seconds"),
+        (["--countdown", "1e300"], "--countdown 1e+300: give 0 to 3600 seconds"),
+        (["--countdown", "nan"], "--countdown nan: give 0 to 3600 seconds"),
         (["--battery-floor", "150"], "--battery-floor 150: give a percentage from 0 to 100"),
         (["--battery-floor", "-5"], "--battery-floor -5: give a percentage from 0 to 100"),
         (["--map", "rex=/dev/a", "--map", "rex=/dev/b"],

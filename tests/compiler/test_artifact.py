@@ -294,3 +294,29 @@ def test_unsafe_xarm_commands_load_and_are_left_to_the_runtime(show, tmp_path: P
     path = _mutated(show, tmp_path, lambda d: _arm_frame(d, servo_offset_write(2, -5).hex()))
     arm = load_schedule(path).performer("arm")
     assert arm.frames[0].data == servo_offset_write(2, -5)
+
+
+def _key_twice(text: str, key: str) -> str:
+    """``text`` (JSON) with the first ``"key": value`` written again before it, changed."""
+    at = text.index(f'"{key}"')
+    return text[:at] + f'"{key}": 1e-3, ' + text[at:]
+
+
+@pytest.mark.parametrize("key", ["control_rate", "version", "t_us", "name"])
+def test_a_key_written_twice_is_refused_not_read_as_the_last(key: str) -> None:
+    """json keeps the last of two equal keys: a hand-edited schedule would be run with a
+    value other than the one a reader of the file sees first."""
+    text = VERSION1.read_text(encoding="utf-8")
+    with pytest.raises(XgoShowError, match=f"the key '{key}' appears twice in one object"):
+        schedule_from_bytes(_key_twice(text, key).encode(), name="edited.xshow.json")
+
+
+def test_a_key_written_twice_inside_the_body_is_refused(show) -> None:  # type: ignore[no-untyped-def]
+    def twice(body: bytearray) -> bytes:
+        size = int.from_bytes(body[:4], "little")
+        head = _key_twice(body[4:4 + size].decode(), "bpm").encode()
+        return len(head).to_bytes(4, "little") + head + bytes(body[4 + size:])
+
+    data = _wrapped(schedule_to_bytes(compile_show(show)), twice)
+    with pytest.raises(XgoShowError, match="the key 'bpm' appears twice"):
+        schedule_from_bytes(data, name="sent.xshow.json")

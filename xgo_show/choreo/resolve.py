@@ -63,6 +63,7 @@ from xgo_show.choreo.validation import Suggestions, validate
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProfileError, ValueRangeError
 from xgo_show.families import get_family
+from xgo_show.files import file_problem
 from xgo_show.limits import MAX_PERFORMERS, MAX_SHOW_SECONDS
 from xgo_show.profiles import Encoding, Limits, Profile, get_profile
 from xgo_show.profiles.xarm import degrees_to_position
@@ -70,10 +71,21 @@ from xgo_show.profiles.xarm import degrees_to_position
 if TYPE_CHECKING:
     from xgo_show.choreo.salvage import Salvage
 
-__all__ = ["MAX_BLOCK_DEPTH", "MAX_CUES", "MAX_SECONDS", "CueSource", "Resolution", "resolve_show"]
+__all__ = [
+    "MAX_BLOCK_DEPTH", "MAX_CUES", "MAX_SAMPLES", "MAX_SECONDS", "CueSource", "Resolution",
+    "resolve_show",
+]
 
 _STAND_IN_TEMPO = TempoMap.constant(120.0, 4)  # times of a show that forgot its tempo
 MAX_CUES = 20_000  # a guard against repeat blocks that expand to absurd sizes
+#: Samples the compiler may take for a show: every second of a move costs control_rate
+#: samples, a fade (per LED) as many as its colour steps at most. Each costs some 10 us of
+#: planning and encoding, so this keeps compiling (and validating) any routine to seconds:
+#: ten minutes of ten robots moving without a pause at 50 Hz need 420,000. A show past it is
+#: refused at the cue that passes it, before any sampling is done.
+MAX_SAMPLES = 500_000
+# The most samples one fade takes: its colour changes at most 255 times in each channel.
+_FADE_STEPS = 3 * 256
 MAX_SECONDS = MAX_SHOW_SECONDS  # a show longer than an hour is a typo (or needs splitting)
 #: Includes within includes at most this deep: a real routine nests two or three; deeper is a
 #: generated chain, reported at the include that passes it rather than at 1:1 when Python's
@@ -176,6 +188,7 @@ class _Resolver:
         self.suggest = Suggestions()  # did-you-mean hints, bounded in number
         self.blocks: list[str] = []  # the blocks being played, outermost first
         self.cut = False  # a chain too deep was not played: what it plays is not unused
+        self.samples = 0.0  # trajectory and fade samples the compiler will take (see add)
         self.played: set[tuple[str, str]] = set()  # (file, phrase) actually played
 
     # -- diagnostics ----------------------------------------------------------------------
@@ -192,7 +205,11 @@ class _Resolver:
         """The show's tempo; without one, an error here and a stand-in tempo, so that the rest
         of the cue (its values, its kind) is still checked: one error hides no other. Times
         are then guesses, so the timing checks are skipped (every performer is untimed)."""
-        if self.tempo is None and not (self.salvage and self.salvage.tempo_broken):
+        broken = self.show.tempo is not None or bool(self.salvage and self.salvage.tempo_broken)
+        if self.tempo is None and broken:  # reported where the tempo is written
+            self.no_tempo = True
+            return _STAND_IN_TEMPO
+        if self.tempo is None:
             self.error(doc, loc, f"{what} need a tempo: add e.g. 'tempo: {{bpm: 120}}' to the show")
             self.no_tempo = True
             return _STAND_IN_TEMPO
@@ -364,11 +381,15 @@ class _Resolver:
             return None
         try:
             path = (Path(self.doc.file).parent / music.file).resolve()
-            found = path.is_file()
-        except (OSError, ValueError):
-            found = False
-        if not found:
+        except (OSError, ValueError) as exc:  # a symlink loop, a NUL in the name
+            problem: str | None = f"cannot read: {exc}"
+        else:
+            problem = file_problem(path)  # never opens a pipe or a device for long
+        if problem == "no such file":
             self.error(self.doc, ("music", "file"), f"no such sound file: {music.file}")
+            return None
+        if problem is not None:
+            self.error(self.doc, ("music", "file"), f"the sound file {music.file}: {problem}")
             return None
         return Music(music.file, str(path), music.offset)
 
@@ -785,6 +806,8 @@ class _Emitter:
         running: float = 0.0,
     ) -> None:
         """Emit ``cue``; ``values`` are the nodes each register's value came from."""
+        if not self.within_samples(cue, end):
+            return
         self.perf.cues.append(cue)
         values = values or {}
         origins = {name: self.doc.origin(loc, self.origin.cue) for name, loc in values.items()}
@@ -793,6 +816,32 @@ class _Emitter:
             self.perf.name, self.kind, self.doc.path(self.loc), self.origin, origins, paths,
             running, end,
         )
+
+    def within_samples(self, cue: Cue, end: float) -> bool:
+        """Count what ``cue`` costs the compiler (a move or a fade is sampled at the control
+        rate over its length); False, after one error here, once the show needs more than
+        :data:`MAX_SAMPLES` in all."""
+        res = self.res
+        if isinstance(cue, MotionCue):
+            seconds = cue.duration if cue.duration is not None else end - cue.start
+        elif isinstance(cue, FadeCue):
+            seconds = cue.duration
+        else:
+            return True
+        samples = max(seconds, 0.0) * res.show.settings.control_rate
+        if isinstance(cue, FadeCue):  # a fade samples where its colour steps, at most
+            samples = min(samples, _FADE_STEPS)
+        res.samples += samples
+        if res.samples <= MAX_SAMPLES:
+            return True
+        if not res.too_many:
+            rate = res.show.settings.control_rate
+            res.error(self.doc, self.loc, f"the show needs more than {MAX_SAMPLES:,} trajectory "
+                      f"and fade samples by this cue ({rate:g} Hz over every second of "
+                      "motion and fading, all performers together): lower "
+                      "settings.control_rate or shorten the moves")
+            res.too_many = True
+        return False
 
     def cue(self, cue: object, start: float) -> float | None:
         given, length = self.res.cue_length(cue, start, self.doc, self.loc)

@@ -191,8 +191,8 @@ def add_common_arguments(parser: argparse.ArgumentParser) -> None:
 def check_options(args: argparse.Namespace) -> None:
     """Refuse option values that make no sense (a negative countdown, a floor above 100 %)."""
     countdown = getattr(args, "countdown", None)
-    if countdown is not None and not (math.isfinite(countdown) and countdown >= 0):
-        raise UsageError(f"--countdown {countdown:g}: give a number of seconds >= 0")
+    if countdown is not None and not (math.isfinite(countdown) and 0 <= countdown <= 3600):
+        raise UsageError(f"--countdown {countdown:g}: give 0 to 3600 seconds")
     floor = args.battery_floor
     if floor is not None and not 0 <= floor <= 100:
         raise UsageError(f"--battery-floor {floor:g}: give a percentage from 0 to 100")

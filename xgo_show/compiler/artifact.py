@@ -72,6 +72,7 @@ from xgo_show.errors import FileAccessError, ScheduleError
 from xgo_show.files import read_bytes_file, read_head
 from xgo_show.gcpause import paused_gc
 from xgo_show.profiles.model import Profile
+from xgo_show.text import printable
 from xgo_show.wire.xgo import MIN_LENGTH, TAIL
 
 __all__ = [
@@ -214,6 +215,20 @@ def _whole_number(text: str) -> int:
     return int(text)
 
 
+def _one_each(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object whose keys are all different: ``json`` keeps the last of two equal keys,
+    so a hand-edited file with two ``"control_rate"`` would be read differently from what
+    its first line says."""
+    out = dict(pairs)
+    if len(out) != len(pairs):
+        seen: set[str] = set()
+        for key, _ in pairs:
+            if key in seen:
+                raise ValueError(f"the key {printable(key)!r} appears twice in one object")
+            seen.add(key)
+    return out
+
+
 def schedule_from_bytes(
     data: bytes, *, name: str = "<schedule>", max_bytes: int = MAX_SCHEDULE_BYTES
 ) -> Schedule:
@@ -230,7 +245,7 @@ def schedule_from_bytes(
         raise ScheduleError(f"{name}: not a schedule file (not UTF-8 text: byte {exc.start})"
                            ) from exc
     try:
-        doc = json.loads(text, parse_int=_whole_number)
+        doc = json.loads(text, parse_int=_whole_number, object_pairs_hook=_one_each)
     except json.JSONDecodeError as exc:
         raise ScheduleError(
             f"{name}: not a schedule file (invalid JSON at line {exc.lineno} column {exc.colno}: "
@@ -283,8 +298,8 @@ def _read_v2(r: Reader, envelope: Mapping[str, Any], max_bytes: int) -> Schedule
     if len(body) < 4 or cut > len(body):
         raise r.fail("body", "its document is cut short")
     try:
-        doc = json.loads(body[4:cut].decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+        doc = json.loads(body[4:cut].decode("utf-8"), object_pairs_hook=_one_each)
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
         raise r.fail("body", f"its document is not JSON ({exc})") from exc
     if not isinstance(doc, dict) or doc.get("format") != FORMAT or doc.get("version") != 2:
         raise r.fail("body", "its document is not a version 2 schedule document")
