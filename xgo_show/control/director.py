@@ -40,6 +40,7 @@ from xgo_show.choreo.sections import (
     section_named,
     trigger_names,
 )
+from xgo_show.closing import WorkerClosing
 from xgo_show.errors import ControlError
 from xgo_show.runtime.clock import Clock, FakeClock
 from xgo_show.runtime.events import (
@@ -131,7 +132,7 @@ class _State:
     tracks: dict[str, _Track] = field(default_factory=dict)
 
 
-class Director:
+class Director(WorkerClosing):
     """Plays ``runner``'s show section by section (see the module docstring).
 
     Keyword options: ``clock`` (the runner's; a :class:`FakeClock` means virtual time),
@@ -274,15 +275,6 @@ class Director:
     def stop(self, reason: str) -> None:
         """Safe-stop the show (the runner does it at once, from its own thread)."""
         self.runner.stop(reason)
-
-    def close(self) -> None:
-        """Stop listening and end the director's thread."""
-        self._sub.close()
-        with self._cond:
-            self._closed = True
-            self._cond.notify_all()
-        if self._thread is not None:
-            self._thread.join(1.0)
 
     # ------------------------------------------------------------------ internals
 

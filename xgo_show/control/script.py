@@ -34,6 +34,7 @@ from pydantic_core import PydanticCustomError
 
 from xgo_show.choreo.source import read_yaml
 from xgo_show.choreo.validation import validate
+from xgo_show.closing import WorkerClosing
 from xgo_show.control.director import ControlError, Director, WaitStarted
 from xgo_show.errors import ChoreographyError
 from xgo_show.runtime.events import Event, ShowEnded, ShowStarted
@@ -113,7 +114,7 @@ class Fired:
     result: str  # "released bow", "kept for bow", or the refusal
 
 
-class ScriptPlayer:
+class ScriptPlayer(WorkerClosing):
     """Fires a script's triggers at ``director``'s show; reports each through ``say``."""
 
     def __init__(
@@ -136,15 +137,6 @@ class ScriptPlayer:
             self._thread = threading.Thread(target=self._loop, name="xgo-show triggers",
                                             daemon=True)
             self._thread.start()
-
-    def close(self) -> None:
-        """Stop (the triggers not fired yet are not)."""
-        self._sub.close()
-        with self._cond:
-            self._closed = True
-            self._cond.notify_all()
-        if self._thread is not None:
-            self._thread.join(1.0)
 
     def _on_event(self, event: Event) -> None:
         if self.director.virtual and isinstance(event, WaitStarted):

@@ -28,8 +28,8 @@ import subprocess
 import sys
 import tempfile
 from collections.abc import Mapping
-from types import TracebackType
 
+from xgo_show.closing import Closing
 from xgo_show.errors import SetupError
 
 __all__ = ["READY_TIMEOUT", "RelayChild"]
@@ -44,7 +44,7 @@ def _free_loopback_port() -> int:
         return int(sock.getsockname()[1])
 
 
-class RelayChild:
+class RelayChild(Closing):
     """Starts ``xgo-show relay`` for ``ports`` (performer -> port URL) as a child process.
 
     ``models`` gives each robot's model (the child then need not identify it), ``namespace``
@@ -133,11 +133,3 @@ class RelayChild:
 
     def __enter__(self) -> RelayChild:
         return self.start()
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
