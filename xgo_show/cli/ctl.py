@@ -11,13 +11,13 @@ import json
 import time
 from typing import Any
 
+from xgo_show.cli.control_client import add_client_arguments, control_client
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(sub: Any) -> None:
     """Register the ``ctl`` subcommand."""
-    from xgo_show.net.session import add_session_arguments
-
     parser = sub.add_parser(
         "ctl",
         help="control a running xgo-show serve (start, stop, pause, status, ...)",
@@ -55,9 +55,7 @@ def add_parser(sub: Any) -> None:
                        help="stop after S seconds")
     for command in cmds.choices.values():
         command.add_argument("--json", action="store_true", help="print the reply as JSON")
-        command.add_argument("--timeout", type=float, default=5.0, metavar="S",
-                             help="seconds to wait for the reply (default 5)")
-        add_session_arguments(command)
+        add_client_arguments(command)
     parser.set_defaults(func=run)
 
 
@@ -70,15 +68,9 @@ def _place(parser: argparse.ArgumentParser, *, required: bool) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``xgo-show ctl``."""
-    from xgo_show.control.client import ControlClient
-    from xgo_show.net.session import open_session, session_options
-
-    opts = session_options(args)
-    session = open_session(opts)
-    try:
+    with control_client(args) as client:
         if args.ctl == "watch":
-            return _watch(session, opts.namespace, args.for_)
-        client = ControlClient(session, opts.namespace, timeout=args.timeout)
+            return _watch(client.session, client.ns, args.for_)
         if args.ctl == "status":
             reply = client.status()
         else:
@@ -92,8 +84,6 @@ def run(args: argparse.Namespace) -> int:
             if args.ctl == "start":
                 fields.update({"in": args.in_, "at": args.at, "force": args.force or None})
             reply = client.command(args.ctl, **fields)
-    finally:
-        session.close()  # type: ignore[no-untyped-call]  # the stub lacks a return type
     print(json.dumps(reply, indent=1) if args.json else describe(args.ctl, reply))
     return 0
 

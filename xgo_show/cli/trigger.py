@@ -10,13 +10,13 @@ import argparse
 import json
 from typing import Any
 
+from xgo_show.cli.control_client import add_client_arguments, control_client
+
 __all__ = ["add_parser", "run"]
 
 
 def add_parser(sub: Any) -> None:
     """Register the ``trigger`` subcommand."""
-    from xgo_show.net.session import add_session_arguments
-
     parser = sub.add_parser(
         "trigger",
         help="fire a trigger at the show an xgo-show serve is running",
@@ -29,18 +29,14 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("--data", metavar="JSON", help="a JSON value to attach (echoed)")
     parser.add_argument("--no-reply", action="store_true",
                         help="publish it and return (no answer from the server)")
-    parser.add_argument("--timeout", type=float, default=5.0, metavar="S",
-                        help="seconds to wait for the reply (default 5)")
-    add_session_arguments(parser)
+    add_client_arguments(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Entry point of ``xgo-show trigger``."""
-    from xgo_show.control.client import ControlClient
     from xgo_show.control.keys import check_trigger_name
     from xgo_show.errors import UsageError
-    from xgo_show.net.session import open_session, session_options
 
     name = check_trigger_name(args.name)
     data = None
@@ -49,13 +45,8 @@ def run(args: argparse.Namespace) -> int:
             data = json.loads(args.data)
         except ValueError as exc:
             raise UsageError(f"--data {args.data!r}: not JSON ({exc})") from exc
-    opts = session_options(args)
-    session = open_session(opts)
-    try:
-        client = ControlClient(session, opts.namespace, timeout=args.timeout)
+    with control_client(args) as client:
         reply = client.trigger(name, source=args.source, data=data, reply=not args.no_reply)
-    finally:
-        session.close()  # type: ignore[no-untyped-call]  # the stub lacks a return type
     if args.no_reply:
         print(f"trigger {name!r} published")
     else:
