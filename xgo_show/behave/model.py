@@ -15,7 +15,7 @@ mapping with exactly one kind key, as cues are in a routine::
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, ConfigDict, Discriminator, Field, StringConstraints, Tag
 
@@ -56,6 +56,22 @@ def _kind_of(kinds: tuple[str, ...]) -> Any:
         return f"{present[0]}-kind" if len(present) == 1 else None
 
     return tag
+
+
+def _tagged_union(table: dict[str, type[_Model]], noun: str, article: str = "a") -> Any:
+    """The pydantic type of a mapping with exactly one of ``table``'s kind keys: a union of
+    its models, each tagged by its key, told apart by which key is present; ``noun`` names
+    it in the error for a mapping with none or several ("a trigger needs exactly one...")."""
+    members = tuple(Annotated[cls, Tag(f"{kind}-kind")] for kind, cls in table.items())
+    return Annotated[
+        Union[members],  # noqa: UP007  (a runtime union for pydantic)
+        Discriminator(
+            _kind_of(tuple(table)),
+            custom_error_type=f"{noun}_kind",
+            custom_error_message=f"{article} {noun} needs exactly one kind key: "
+            + ", ".join(table),
+        ),
+    ]
 
 
 # -- triggers ---------------------------------------------------------------------------------
@@ -142,25 +158,10 @@ _TRIGGERS: dict[str, type[_Model]] = {
 }
 TRIGGER_KINDS: tuple[str, ...] = tuple(_TRIGGERS)
 
-TriggerModel = Annotated[
-    Union[  # noqa: UP007
-        Annotated[RemoteTrigger, Tag("trigger-kind")],
-        Annotated[BatteryBelow, Tag("battery_below-kind")],
-        Annotated[TiltBeyond, Tag("tilt_beyond-kind")],
-        Annotated[Offline, Tag("offline-kind")],
-        Annotated[Online, Tag("online-kind")],
-        Annotated[RoutineEnded, Tag("routine_ended-kind")],
-        Annotated[After, Tag("after-kind")],
-        Annotated[Every, Tag("every-kind")],
-        Annotated[AtTime, Tag("at-kind")],
-        Annotated[Startup, Tag("startup-kind")],
-    ],
-    Discriminator(
-        _kind_of(TRIGGER_KINDS),
-        custom_error_type="trigger_kind",
-        custom_error_message="a trigger needs exactly one kind key: " + ", ".join(TRIGGER_KINDS),
-    ),
-]
+if TYPE_CHECKING:  # what the checker sees; pydantic gets the union built from the table
+    TriggerModel = _Model
+else:
+    TriggerModel = _tagged_union(_TRIGGERS, "trigger")
 
 # -- conditions -------------------------------------------------------------------------------
 
@@ -226,23 +227,10 @@ _CONDITIONS: dict[str, type[_Model]] = {
 }
 CONDITION_KINDS: tuple[str, ...] = tuple(_CONDITIONS)
 
-ConditionModel = Annotated[
-    Union[  # noqa: UP007
-        Annotated[PerformerIs, Tag("performer-kind")],
-        Annotated[TelemetryCondition, Tag("telemetry-kind")],
-        Annotated[TimeCondition, Tag("time-kind")],
-        Annotated[InSet, Tag("in_set-kind")],
-        Annotated[AllOf, Tag("and-kind")],
-        Annotated[AnyOf, Tag("or-kind")],
-        Annotated[NotC, Tag("not-kind")],
-    ],
-    Discriminator(
-        _kind_of(CONDITION_KINDS),
-        custom_error_type="condition_kind",
-        custom_error_message="a condition needs exactly one kind key: "
-        + ", ".join(CONDITION_KINDS),
-    ),
-]
+if TYPE_CHECKING:
+    ConditionModel = _Model
+else:
+    ConditionModel = _tagged_union(_CONDITIONS, "condition")
 
 # -- actions ----------------------------------------------------------------------------------
 
@@ -324,24 +312,10 @@ _ACTIONS: dict[str, type[_Model]] = {
 }
 ACTION_KINDS: tuple[str, ...] = tuple(_ACTIONS)
 
-ActionModel = Annotated[
-    Union[  # noqa: UP007
-        Annotated[Play, Tag("play-kind")],
-        Annotated[Loop, Tag("loop-kind")],
-        Annotated[Stop, Tag("stop-kind")],
-        Annotated[SafeStop, Tag("safe_stop-kind")],
-        Annotated[Wait, Tag("wait-kind")],
-        Annotated[SetCue, Tag("set-kind")],
-        Annotated[LedCue, Tag("led-kind")],
-        Annotated[Publish, Tag("publish-kind")],
-        Annotated[Switch, Tag("switch-kind")],
-    ],
-    Discriminator(
-        _kind_of(ACTION_KINDS),
-        custom_error_type="action_kind",
-        custom_error_message="an action needs exactly one kind key: " + ", ".join(ACTION_KINDS),
-    ),
-]
+if TYPE_CHECKING:
+    ActionModel = _Model
+else:
+    ActionModel = _tagged_union(_ACTIONS, "action", "an")
 
 # -- file -------------------------------------------------------------------------------------
 
