@@ -83,3 +83,30 @@ def test_a_sound_file_that_is_no_file_says_what_it_is(
                  "tracks:\n  rex: [{action: wave}]\n")
     [err] = _errors(path)
     assert err.startswith(f"{path}:2:15: error: music.file: ") and problem in err, err
+
+
+def _param_bomb(use: str) -> str:
+    """A phrase handed a 5,000-point list, played 10,000 times, using it as ``use``."""
+    points = ", ".join(str(80 + i % 30) for i in range(5000))
+    return (f"show: t\nperformers:\n  rex: {{model: mini}}\nphrases:\n  p:\n"
+            f"    params: {{path: null}}\n    cues:\n      - {use}\n"
+            f"tracks:\n  rex:\n    - repeat: 10000\n      cues:\n"
+            f"        - {{phrase: p, with: {{path: [{points}]}}}}\n")
+
+
+@pytest.mark.parametrize(("use", "where", "message"), [
+    # Each point of a path is a cue for the robot: 5,000 a play.
+    ("{move: {body_z: $path}, duration: 0.001}", (8, 9), "more than 20,000 cues for the robots"),
+    # Never a cue, but copied into every play: counted as values, as YAML aliases are.
+    ("{walk: {vx: 1}, duration: 0.1, limits: $path}", (13, 20),
+     "expand to more than 1,000,000 values"),
+])
+def test_a_parameter_copied_into_each_play_is_counted(
+    write: WriteFn, use: str, where: tuple[int, int], message: str
+) -> None:
+    path = write(_param_bomb(use))
+    started = time.process_time()
+    found = validate_file(path)
+    assert time.process_time() - started < 5.0  # took 60 s and 2.6 GB before the count
+    first = next(d for d in found if message in d.message)
+    assert first.origin is not None and (first.origin.line, first.origin.column) == where

@@ -118,3 +118,16 @@ def test_time_parser_accepts_or_explains(value: object) -> None:
         return
     assert (pos.seconds is not None and pos.seconds >= 0) or (pos.bar or 0) >= 1
     assert LengthAdapter.validate_python(1.5) == Length(1.5)
+
+
+def test_a_position_in_a_long_tempo_map_costs_a_lookup_not_a_scan() -> None:
+    """A tempo map of 60,000 bars and a cue at every few bars: each position is a binary
+    search (it was a list of every bar built per position, seconds for such a routine)."""
+    import time
+
+    tm = TempoMap([Segment(bar, 60.0 + bar % 300, 4) for bar in range(1, 60_001)])
+    started = time.process_time()
+    for bar in range(1, 60_000, 12):
+        tm.position(bar, 2)
+    assert time.process_time() - started < 1.0
+    assert tm.position(3, 1) == pytest.approx(4 * 60 / 61 + 4 * 60 / 62)

@@ -57,7 +57,7 @@ from xgo_show.choreo.resolved import (
     SetCue,
 )
 from xgo_show.choreo.section_rules import resolve_sections
-from xgo_show.choreo.source import Document, Loc, parse_yaml, read_text
+from xgo_show.choreo.source import MAX_NODES, Document, Loc, parse_yaml, read_text
 from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.choreo.validation import Suggestions, validate
 from xgo_show.diagnostics import Diagnostic, Origin
@@ -189,6 +189,8 @@ class _Resolver:
         self.blocks: list[str] = []  # the blocks being played, outermost first
         self.cut = False  # a chain too deep was not played: what it plays is not unused
         self.samples = 0.0  # trajectory and fade samples the compiler will take (see add)
+        self.emitted = 0  # cues made for the compiler (a path's segments each count)
+        self.expanded = 0  # values of the blocks played, parameters filled in, at each play
         self.played: set[tuple[str, str]] = set()  # (file, phrase) actually played
 
     # -- diagnostics ----------------------------------------------------------------------
@@ -634,6 +636,17 @@ class _Resolver:
         cues_loc: Loc = (*body.base, "cues")
         done = substitute(_lookup(body.doc.data, cues_loc), args, at=cues_loc,
                           label=body.label, base=body.base, owner=body.title)
+        # A parameter's value is copied into each play, as a YAML alias is at each use: a
+        # list of thousands of points passed to a phrase played thousands of times would be
+        # built (and checked) millions of times. Count the values, as the YAML reader does.
+        self.expanded += _values(done.data)
+        if self.expanded > MAX_NODES:
+            if not self.too_many:
+                self.error(doc, name_loc, f"the phrases and parts played expand to more than "
+                           f"{MAX_NODES:,} values (each parameter counted at each play): "
+                           "pass smaller values, or play them fewer times")
+            self.too_many = True
+            return None
         inst = body.doc.view(links={**body.doc.links, **done.links})
         for where, message, key in done.problems:
             self.error(inst, where, message, key=key)
@@ -731,6 +744,19 @@ class _Resolver:
         return pdoc, model, ""
 
 
+def _values(data: object) -> int:
+    """How many values (lists, mappings, scalars) ``data`` holds."""
+    count, stack = 0, [data]
+    while stack:
+        node = stack.pop()
+        count += 1
+        if isinstance(node, dict):
+            stack.extend(node.values())
+        elif isinstance(node, list):
+            stack.extend(node)
+    return count
+
+
 def _lookup(data: object, loc: Loc) -> object:
     node = data
     for part in loc:
@@ -806,7 +832,7 @@ class _Emitter:
         running: float = 0.0,
     ) -> None:
         """Emit ``cue``; ``values`` are the nodes each register's value came from."""
-        if not self.within_samples(cue, end):
+        if not self.within_samples(cue, end) or not self.within_cues():
             return
         self.perf.cues.append(cue)
         values = values or {}
@@ -816,6 +842,20 @@ class _Emitter:
             self.perf.name, self.kind, self.doc.path(self.loc), self.origin, origins, paths,
             running, end,
         )
+
+    def within_cues(self) -> bool:
+        """Count a cue made for the compiler; False, after one error here, past
+        :data:`MAX_CUES` (a path of thousands of points is that many cues)."""
+        res = self.res
+        res.emitted += 1
+        if res.emitted <= MAX_CUES:
+            return True
+        if not res.too_many:
+            res.error(self.doc, self.loc, f"the show expands to more than {MAX_CUES:,} cues "
+                      "for the robots by this one (each point of a path is a move of its "
+                      "own); check the repeat counts and the paths' lengths")
+            res.too_many = True
+        return False
 
     def within_samples(self, cue: Cue, end: float) -> bool:
         """Count what ``cue`` costs the compiler (a move or a fade is sampled at the control

@@ -57,6 +57,7 @@ class TempoMap:
             seconds.append(seconds[-1] + span * 60.0 / prev.bpm)
         self._beats = beats  # absolute beat where each segment starts
         self._seconds = seconds  # and the second
+        self._bars = [seg.bar for seg in segments]  # and its bar (a lookup per position)
 
     @classmethod
     def constant(cls, bpm: float, beats_per_bar: int = 4) -> TempoMap:
@@ -87,7 +88,7 @@ class TempoMap:
         """Bar/beat (1-based; beat may be fractional) -> absolute beat count."""
         if bar < 1:
             raise ValueError(f"bars count from 1, not {bar}")
-        i = max(0, bisect.bisect_right([s.bar for s in self.segments], bar) - 1)
+        i = max(0, bisect.bisect_right(self._bars, bar) - 1)
         seg = self.segments[i]
         if not 1 <= beat < seg.beats_per_bar + 1:
             raise ValueError(
