@@ -15,10 +15,11 @@ mapping with exactly one kind key, as cues are in a routine::
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Discriminator, Field, StringConstraints, Tag
+from pydantic import BaseModel, ConfigDict, Field, StringConstraints
 
+from xgo_show.choreo.unions import tagged_union
 from xgo_show.choreo.unit import Unit
 
 __all__ = [
@@ -59,19 +60,10 @@ def _kind_of(kinds: tuple[str, ...]) -> Any:
 
 
 def _tagged_union(table: dict[str, type[_Model]], noun: str, article: str = "a") -> Any:
-    """The pydantic type of a mapping with exactly one of ``table``'s kind keys: a union of
-    its models, each tagged by its key, told apart by which key is present; ``noun`` names
-    it in the error for a mapping with none or several ("a trigger needs exactly one...")."""
-    members = tuple(Annotated[cls, Tag(f"{kind}-kind")] for kind, cls in table.items())
-    return Annotated[
-        Union[members],  # noqa: UP007  (a runtime union for pydantic)
-        Discriminator(
-            _kind_of(tuple(table)),
-            custom_error_type=f"{noun}_kind",
-            custom_error_message=f"{article} {noun} needs exactly one kind key: "
-            + ", ".join(table),
-        ),
-    ]
+    """The union of a kind table's models ("a trigger needs exactly one kind key: ...")."""
+    return tagged_union(
+        table, _kind_of(tuple(table)), suffix="-kind", error_type=f"{noun}_kind",
+        message=f"{article} {noun} needs exactly one kind key: " + ", ".join(table))
 
 
 # -- triggers ---------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from typing import Annotated, Any, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 
 from pydantic import (
     BaseModel,
@@ -30,6 +30,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from xgo_show.choreo.source import Refused
+from xgo_show.choreo.unions import tagged_union
 from xgo_show.choreo.unit import Unit
 from xgo_show.errors import NetworkError
 from xgo_show.limits import (
@@ -355,7 +356,7 @@ LengthField = Annotated[Length, PlainValidator(_parse_length), WithJsonSchema(_L
 # -- colours ----------------------------------------------------------------------------------
 
 Color = Annotated[
-    Union[str, list[int], bool],  # noqa: UP007  (bool: YAML reads "off" as false)
+    Union[str, list[int], bool],  # noqa: UP007  (bool: false is off, as YAML 1.1 read it)
     WithJsonSchema(
         {
             "description": "A colour name (red, warm_white, off...), \"#rrggbb\" or [r, g, b].",
@@ -580,29 +581,11 @@ def _cue_key(value: object) -> str | None:
     return kinds[0] if len(kinds) == 1 else None
 
 
-CueModel = Annotated[
-    Union[  # noqa: UP007
-        Annotated[ActionCueModel, Tag("action-cue")],
-        Annotated[MoveCueModel, Tag("move-cue")],
-        Annotated[SetCueModel, Tag("set-cue")],
-        Annotated[WalkCueModel, Tag("walk-cue")],
-        Annotated[PeriodicCueModel, Tag("periodic-cue")],
-        Annotated[LedCueModel, Tag("led-cue")],
-        Annotated[GripperCueModel, Tag("gripper-cue")],
-        Annotated[ArmCueModel, Tag("arm-cue")],
-        Annotated[PoseCueModel, Tag("pose-cue")],
-        Annotated[PoseDegCueModel, Tag("pose_deg-cue")],
-        Annotated[RestCueModel, Tag("rest-cue")],
-        Annotated[PhraseCueModel, Tag("phrase-cue")],
-        Annotated[RepeatCueModel, Tag("repeat-cue")],
-        Annotated[IncludeCueModel, Tag("include-cue")],
-    ],
-    Discriminator(
-        _cue_tag,
-        custom_error_type="cue_kind",
-        custom_error_message="a cue needs exactly one kind key",
-    ),
-]
+if TYPE_CHECKING:  # what the checker sees; pydantic gets the union built from the table
+    CueModel = _Model
+else:
+    CueModel = tagged_union(_CUE_CLASSES, _cue_tag, suffix="-cue", error_type="cue_kind",
+                            message="a cue needs exactly one kind key")
 
 RepeatCueModel.model_rebuild()
 
