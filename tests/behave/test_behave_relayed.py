@@ -14,10 +14,10 @@ from __future__ import annotations
 import textwrap
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable
 from pathlib import Path
 
-import pytest
+import zenoh
 
 from tests.conftest import wait_until
 from tests.relay.processes import Relays
@@ -25,20 +25,10 @@ from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote
 from xgo_show.behave.ports import BehaviourRunner
 from xgo_show.behave.relayed import RelayAccess
-from xgo_show.net.session import SessionOptions, open_session
 from xgo_show.relay.client import new_conductor
 from xgo_show.runtime.events import Event, EventBus, TelemetryRead
 
 WATCHDOG = 0.3
-
-
-@pytest.fixture
-def relays() -> Iterator[Relays]:
-    r = Relays()
-    try:
-        yield r
-    finally:
-        r.close()
 
 
 def _behaviour(folder: Path, port: str) -> Path:
@@ -69,14 +59,16 @@ def _behaviour(folder: Path, port: str) -> Path:
     return folder / "b.yaml"
 
 
-def test_fall_greet_and_a_killed_relay(tmp_path: Path, relays: Relays) -> None:
+def test_fall_greet_and_a_killed_relay(
+    tmp_path: Path, relays: Relays, conductor_session: Callable[..., zenoh.Session]
+) -> None:
     relay = relays.start("hall", {"rex": "rider"})
     behaviour = load_behaviour(_behaviour(tmp_path, "zenoh:hall/rex"))
     first = {name: s.performers[0].frames[0].data for name, s in behaviour.routines.items()}
     bus = EventBus()
     seen: list[Event] = []
     bus.subscribe(seen.append, TelemetryRead, BehaviourNote)
-    session = open_session(SessionOptions(connect=(relay.endpoint,), listen=()))
+    session = conductor_session(relay)
     access = RelayAccess({"rio": "zenoh:hall/rex"}, session, new_conductor("test"),
                          watchdog=WATCHDOG)
     runner = BehaviourRunner(behaviour, {}, events=bus, relays=access)
@@ -115,5 +107,4 @@ def test_fall_greet_and_a_killed_relay(tmp_path: Path, relays: Relays) -> None:
     finally:
         runner.stop()
         thread.join(10)
-        session.close()  # type: ignore[no-untyped-call]
     assert not thread.is_alive()
