@@ -27,18 +27,23 @@ def _screen(width: int) -> list[str]:
     session = f"xgo-live-{uuid.uuid4().hex[:8]}"
     done = Path(f"/tmp/{session}.done")
     command = (f"{sys.executable} -m xgo_show dry-run {SHOW} --fast; touch {done}; sleep 30")
-    subprocess.run(["tmux", "new-session", "-d", "-s", session, "-x", str(width), "-y", "50",
+    # A tmux server of this test's own (-S): on the shared default server, another suite's
+    # kill-session of the last session stops the server while this one connects to it.
+    socket = Path(f"/tmp/{session}.tmux")
+    tmux = ["tmux", "-S", str(socket)]
+    subprocess.run([*tmux, "new-session", "-d", "-s", session, "-x", str(width), "-y", "50",
                     command], check=True)
     try:
         deadline = time.monotonic() + 60
         while not done.exists() and time.monotonic() < deadline:
             time.sleep(0.2)
         assert done.exists(), "dry-run did not finish"
-        text = subprocess.run(["tmux", "capture-pane", "-p", "-J", "-S", "-200", "-t", session],
+        text = subprocess.run([*tmux, "capture-pane", "-p", "-J", "-S", "-200", "-t", session],
                               check=True, capture_output=True, text=True).stdout
     finally:
-        subprocess.run(["tmux", "kill-session", "-t", session], check=False)
+        subprocess.run([*tmux, "kill-server"], check=False)
         done.unlink(missing_ok=True)
+        socket.unlink(missing_ok=True)
     lines = text.splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith("running "))
     end = next(i for i, line in enumerate(lines) if line.startswith("show completed"))
