@@ -76,55 +76,58 @@ class Sims:
     paths: list[str]
     records: list[Path]
     priority: str
+    tids: list[int]  # each simulator's serving thread
 
 
 SIM_FIFO = 20  # the simulators' SCHED_FIFO priority with --sim-fifo: above the writers' 10
 
 
-def serve_sim(record: Path, fifo: bool) -> None:
+def serve_sim(record: Path, mode: str) -> None:
     """Child process: serve one simulator on a pty until stdin closes.
 
-    The simulator stands in for a robot's UART, which is never late: it asks for SCHED_FIFO
-    (``fifo``; its serving thread blocks in poll() until bytes arrive, so it takes no CPU
-    from the kernel worker that moves them) or nice -15, so that the measurement is not the
-    simulator waiting for a CPU, and has a process (and a GIL) of its own.
+    ``mode`` is the simulator's priority: ``fifo`` (SCHED_FIFO 20; its serving thread blocks
+    in poll() until bytes arrive, so it takes no CPU from the kernel worker that moves them),
+    ``nice`` (nice -15) or ``normal``. It has a process (and a GIL) of its own.
     """
     from xgo_show.sim import PtyServer, create_robot
 
     priority = "normal-priority"
     try:
-        if fifo:
+        if mode == "fifo":
             os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(SIM_FIFO))
             priority = f"SCHED_FIFO-{SIM_FIFO}"
-        else:
+        elif mode == "nice":
             os.nice(-15)
             priority = "nice-15"
     except OSError:
         pass
     with PtyServer(create_robot(MODEL), record=record) as server:
-        print(priority, server.path, flush=True)
+        # The serving thread's id (the only thread but this one), for tracing it.
+        tids = [int(t) for t in os.listdir("/proc/self/task") if int(t) != os.getpid()]
+        print(priority, server.path, ",".join(map(str, tids)), flush=True)
         sys.stdin.read()
 
 
-def start_sims(tmp: Path, fifo: bool) -> Sims:
-    procs, paths, records, priority = [], [], [], ""
+def start_sims(tmp: Path, mode: str) -> Sims:
+    procs, paths, records, priority, tids = [], [], [], "", []
     for i in range(ROBOTS):
         record = tmp / f"robot{i}.jsonl"
         proc = subprocess.Popen(
-            [sys.executable, __file__, "--serve-sim", str(record), *(["--sim-fifo"] * fifo)],
+            [sys.executable, __file__, "--serve-sim", str(record), "--sim-mode", mode],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             text=True,
         )
         assert proc.stdout is not None
         words = proc.stdout.readline().split()
-        if len(words) != 2:
+        if len(words) != 3:
             raise SystemExit(f"simulator {i} did not start: {words!r}")
         priority = words[0]
         procs.append(proc)
         paths.append(words[1])
         records.append(record)
-    return Sims(procs, paths, records, priority)
+        tids.append(int(words[2].split(",")[0]))
+    return Sims(procs, paths, records, priority, tids)
 
 
 def stop_sims(sims: Sims) -> None:
@@ -390,10 +393,10 @@ def main() -> None:
     parser.add_argument("--sim-nice", action="store_true",
                         help="simulators at nice -15 instead of SCHED_FIFO 20")
     parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
-    parser.add_argument("--sim-fifo", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--sim-mode", default="fifo", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.serve_sim:
-        serve_sim(Path(args.serve_sim), args.sim_fifo)
+        serve_sim(Path(args.serve_sim), args.sim_mode)
         return
     schedule = make_schedule(args.seconds, args.rate)
     loads = [False] if args.no_load else [True] if args.only_load else [False, True]
@@ -404,7 +407,7 @@ def main() -> None:
         # The simulators and the load start before this process changes its scheduling: a
         # child inherits SCHED_FIFO and nice values, and a SCHED_FIFO busy loop would take a
         # whole CPU from the kernel workers that move pty data and from the simulators.
-        sims = start_sims(Path(tmpdir), fifo=not args.sim_nice)
+        sims = start_sims(Path(tmpdir), "nice" if args.sim_nice else "fifo")
         links: dict[str, Transport] = {}
         try:
             for perf, path in zip(schedule.performers, sims.paths, strict=True):

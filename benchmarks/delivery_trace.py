@@ -1,0 +1,307 @@
+"""Where a frame's delivery time goes, from the writer's write() to the simulator's timestamp.
+
+The set-up of ``benchmarks/runtime_timing.py`` (four simulated Minis on ptys, each in its own
+process, 50 frames/s each, played by the runtime's ShowRunner with SCHED_FIFO writers), traced
+with the kernel's own event tracer (ftrace, a private instance under /sys/kernel/tracing, on the
+CLOCK_MONOTONIC time base the runner and the simulators use). Each frame's delivery
+(simulator's receive time - the runner's issue time) is split into:
+
+- ``write``: issue -> the write queues the pty's flip-buffer work (in the writer's syscall);
+- ``kw wait``: queued -> a kernel worker (``kworker/u*``, normal priority, unbound) starts
+  ``flush_to_ldisc``; for the slowest frames, what ran on that worker's CPU meanwhile;
+- ``kw run``: worker started -> it wakes the simulator's serving thread;
+- ``sim wait``: woken -> the serving thread is switched in (its run-queue wait);
+- ``sim run``: switched in -> its timestamp (poll returns, read, time.monotonic());
+- ``sim busy``: frames that found the serving thread already running (no wake-up needed):
+  woken/queued -> timestamp.
+
+Needs root (or tracefs access). Prints figures only. Usage::
+
+    python benchmarks/delivery_trace.py [--seconds 20] [--busy] [--sim fifo|nice|normal]
+                                        [--no-realtime] [--worst 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import runtime_timing as rt  # noqa: E402
+
+from xgo_show.runtime import realtime  # noqa: E402
+from xgo_show.runtime.clock import MonotonicClock  # noqa: E402
+from xgo_show.runtime.events import Event, FrameSent  # noqa: E402
+from xgo_show.runtime.launch import local_runner  # noqa: E402
+from xgo_show.runtime.report import percentile  # noqa: E402
+from xgo_show.transports import open_transport  # noqa: E402
+from xgo_show.transports.base import Transport  # noqa: E402
+
+TRACEFS = Path("/sys/kernel/tracing")
+LINE = re.compile(r"^\s*(?P<comm>.+?)-(?P<pid>\d+)\s+\[(?P<cpu>\d+)\]\s+\S+\s+"
+                  r"(?P<t>\d+\.\d+): (?P<event>\w+): (?P<rest>.*)$")
+KV = re.compile(r"(\w+)=(\S+)")
+
+
+class Tracer:
+    """A private ftrace instance with the events that follow a pty write to its reader."""
+
+    def __init__(self, sim_tids: list[int]) -> None:
+        if not (TRACEFS / "instances").is_dir():
+            raise SystemExit("ftrace is not mounted: mount -t tracefs nodev /sys/kernel/tracing")
+        self.dir = TRACEFS / "instances" / f"xgo-show-delivery-{os.getpid()}"
+        self.dir.mkdir()
+        sims = " || ".join(f"pid == {t}" for t in sim_tids)
+        sim_pids = " || ".join(f"common_pid == {t}" for t in sim_tids)
+        self.events = {
+            "workqueue/workqueue_queue_work": "function.function == flush_to_ldisc",
+            "workqueue/workqueue_execute_start": "function.function == flush_to_ldisc",
+            "workqueue/workqueue_execute_end": "function.function == flush_to_ldisc",
+            # The simulators' and the kernel workers' wake-ups; every switch (who ran).
+            "sched/sched_waking": f'{sims} || comm ~ "kworker/u*"',
+            "sched/sched_switch": "",
+            "raw_syscalls/sys_exit": sim_pids,
+        }
+        self._write("trace_clock", "mono")
+        self._write("buffer_size_kb", "65536")
+        for event, filt in self.events.items():
+            if filt:
+                self._write(f"events/{event}/filter", filt)
+            self._write(f"events/{event}/enable", "1")
+
+    def _write(self, name: str, value: str) -> None:
+        (self.dir / name).write_text(value + "\n")
+
+    def start(self) -> None:
+        self._write("trace", "")
+        self._write("tracing_on", "1")
+
+    def stop(self) -> list[str]:
+        self._write("tracing_on", "0")
+        lost = (self.dir / "per_cpu" / "cpu0" / "stats").read_text()
+        overrun = [ln for ln in lost.splitlines() if ln.startswith("overrun")]
+        text = (self.dir / "trace").read_text()
+        if overrun and overrun[0].split()[-1] != "0":
+            print(f"  warning: the trace buffer overran ({overrun[0]})")
+        return text.splitlines()
+
+    def close(self) -> None:
+        for event in self.events:
+            self._write(f"events/{event}/enable", "0")
+        self._write("trace", "")
+        self.dir.rmdir()
+
+
+@dataclass
+class Trace:
+    queued: dict[int, list[tuple[float, str]]] = field(default_factory=lambda: defaultdict(list))
+    started: dict[str, list[tuple[float, int, int]]] = field(
+        default_factory=lambda: defaultdict(list))  # work -> (t, worker pid, cpu)
+    waking: dict[int, list[tuple[float, int]]] = field(
+        default_factory=lambda: defaultdict(list))  # pid -> (t, target cpu)
+    switched_in: dict[int, list[float]] = field(default_factory=lambda: defaultdict(list))
+    # per CPU: (t, next comm, next pid, next prio), in time order
+    switches: dict[int, list[tuple[float, str, int, int]]] = field(
+        default_factory=lambda: defaultdict(list))
+
+
+def parse(lines: list[str]) -> Trace:
+    tr = Trace()
+    for line in lines:
+        m = LINE.match(line)
+        if m is None:
+            continue
+        t, event, rest = float(m["t"]), m["event"], m["rest"]
+        pid, cpu = int(m["pid"]), int(m["cpu"])
+        if event == "workqueue_queue_work":
+            tr.queued[pid].append((t, rest.split("=", 1)[1].split()[0]))
+        elif event == "workqueue_execute_start":
+            tr.started[rest.split()[2].rstrip(":")].append((t, pid, cpu))
+        elif event == "sched_waking":
+            kv = dict(KV.findall(rest))
+            tr.waking[int(kv["pid"])].append((t, int(kv["target_cpu"])))
+        elif event == "sched_switch":
+            nxt = rest.split("==> ", 1)[1]
+            kv = dict(KV.findall(nxt))
+            tr.switches[cpu].append((t, kv["next_comm"], int(kv["next_pid"]),
+                                     int(kv["next_prio"])))
+            tr.switched_in[int(kv["next_pid"])].append(t)
+    return tr
+
+
+def first_at(times: list[float], t: float) -> int:
+    return bisect.bisect_left(times, t)
+
+
+def who_ran(tr: Trace, cpu: int, a: float, b: float) -> dict[str, float]:
+    """ms each task (comm/prio) ran on ``cpu`` between ``a`` and ``b``."""
+    sw = tr.switches[cpu]
+    times = [s[0] for s in sw]
+    i = max(0, bisect.bisect_right(times, a) - 1)
+    out: dict[str, float] = defaultdict(float)
+    while i < len(sw) and sw[i][0] < b:
+        start = max(a, sw[i][0])
+        end = min(b, sw[i + 1][0]) if i + 1 < len(sw) else b
+        _, comm, pid, prio = sw[i]
+        # kernel prio: < 100 real-time (99 - rt priority), 120 = nice 0
+        out[f"{comm}({'rt' + str(99 - prio) if prio < 100 else 'n' + str(prio - 120)})"] += (
+            (end - start) * 1000.0)
+        i += 1
+    return dict(out)
+
+
+@dataclass
+class Frame:
+    perf: str
+    issue: float
+    receive: float
+    parts: dict[str, float]  # ms
+    kw_cpu: int | None
+    kw_window: tuple[float, float] | None
+
+
+PARTS = ["write", "kw wait", "kw run", "sim wait", "sim run", "sim busy"]
+
+
+def breakdown(tr: Trace, issued: list[tuple[float, str, int]],
+              received: dict[str, list[float]], sim_tid: dict[str, int]) -> list[Frame]:
+    """One Frame per schedule frame: its delivery split into PARTS."""
+    by_perf: dict[str, list[tuple[float, int]]] = defaultdict(list)
+    for t, perf, tid in issued:
+        by_perf[perf].append((t, tid))
+    started_t = {w: [s[0] for s in v] for w, v in tr.started.items()}
+    waking_t = {p: [w[0] for w in v] for p, v in tr.waking.items()}
+    frames = []
+    for perf, sends in by_perf.items():
+        work = None
+        sim = sim_tid[perf]
+        sim_wakes = waking_t.get(sim, [])
+        sim_in = tr.switched_in.get(sim, [])
+        for (issue, tid), got in zip(sends, received[perf], strict=False):
+            q_list = tr.queued.get(tid, [])
+            qi = bisect.bisect_left(q_list, (issue, ""))
+            q = q_list[qi] if qi < len(q_list) and q_list[qi][0] <= got else None
+            if q is not None:
+                work = q[1]
+            if work is None:
+                continue
+            q_t = q[0] if q is not None else issue
+            si = first_at(started_t[work], q_t)
+            if si >= len(started_t[work]) or started_t[work][si] > got:
+                continue
+            s_t, kw_pid, kw_cpu = tr.started[work][si]
+            # the worker's own wake-up before it started (if it was asleep)
+            kw_wakes = [w for w in tr.waking.get(kw_pid, []) if q_t - 1e-6 <= w[0] <= s_t]
+            kw_from, kw_on = (kw_wakes[0][0], kw_wakes[0][1]) if kw_wakes else (q_t, kw_cpu)
+            wi = first_at(sim_wakes, s_t)
+            parts = {"write": (q_t - issue) * 1000, "kw wait": (s_t - q_t) * 1000}
+            if wi < len(sim_wakes) and sim_wakes[wi] <= got:
+                k = sim_wakes[wi]
+                ri = first_at(sim_in, k)
+                r = sim_in[ri] if ri < len(sim_in) and sim_in[ri] <= got else k
+                parts.update({"kw run": (k - s_t) * 1000, "sim wait": (r - k) * 1000,
+                              "sim run": (got - r) * 1000})
+            else:  # the serving thread was running: it picks the bytes up when it next reads
+                parts["sim busy"] = (got - s_t) * 1000
+            frames.append(Frame(perf, issue, got, parts, kw_on, (kw_from, s_t)))
+    return frames
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--busy", action="store_true", help="one more process keeps a CPU busy")
+    parser.add_argument("--sim", choices=["fifo", "nice", "normal"], default="fifo",
+                        help="the simulators' priority (default: SCHED_FIFO 20)")
+    parser.add_argument("--no-realtime", action="store_true", help="normal-priority writers")
+    parser.add_argument("--worst", type=int, default=6, help="frames to show in detail")
+    args = parser.parse_args()
+    schedule = rt.make_schedule(args.seconds, 50.0)
+    print(f"load average {os.getloadavg()[0]:.2f}; sims {args.sim}; writers "
+          f"{'normal' if args.no_realtime else 'SCHED_FIFO 10'}; "
+          f"{'one CPU busy' if args.busy else 'no extra load'}; {args.seconds:g} s")
+    with tempfile.TemporaryDirectory() as tmpdir:
+        sims = rt.start_sims(Path(tmpdir), args.sim)
+        links: dict[str, Transport] = {}
+        busy = None
+        tracer = Tracer(sims.tids)
+        try:
+            for perf, path in zip(schedule.performers, sims.paths, strict=True):
+                links[perf.name] = open_transport(path, baudrate=perf.link.baud)
+                links[perf.name].open()
+            if args.busy:
+                busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+            issued: list[tuple[float, str, int]] = []
+
+            def on_frame(event: Event) -> None:
+                if isinstance(event, FrameSent) and event.kind == "frame":
+                    issued.append((event.t, event.performer, rt.threading.get_native_id()))
+
+            runner = local_runner(schedule, links, clock=MonotonicClock())
+            runner.events.subscribe(on_frame, FrameSent)
+            saved = realtime.policy()
+            realtime.configure("off" if args.no_realtime else "required")
+            tracer.start()
+            try:
+                result = runner.run(lead=0.3, handle_signals=False)
+                time.sleep(0.3)
+            finally:
+                lines = tracer.stop()
+                realtime.restore(saved)
+            if not result.completed:
+                raise SystemExit(f"the run did not complete: {result.reason}")
+        finally:
+            if busy is not None:
+                busy.kill()
+                busy.wait()
+            tracer.close()
+            for link in links.values():
+                link.close()
+            rt.stop_sims(sims)
+        received = {}
+        wanted = {bytes(f.data) for p in schedule.performers for f in p.frames}
+        for perf, record in zip(schedule.performers, sims.records, strict=True):
+            received[perf.name] = [t for t, data in rt.read_records(record)
+                                   if data[3] != rt.TYPE_READ and data in wanted]
+    print(f"load average {os.getloadavg()[0]:.2f} at the end; {len(lines)} trace lines")
+    tr = parse(lines)
+    sim_tid = {p.name: tid for p, tid in zip(schedule.performers, sims.tids, strict=True)}
+    frames = breakdown(tr, issued, received, sim_tid)
+    delivery = [(f.receive - f.issue) * 1000 for f in frames]
+    print(f"{len(frames)} of {len(issued)} frames followed through the trace")
+    print(f"{'ms':<10}{'p50':>8}{'p99':>8}{'p99.9':>8}{'max':>8}{'n':>7}   "
+          f"(among the 1 % slowest deliveries: share of their time)")
+    slow = sorted(frames, key=lambda f: f.receive - f.issue)[-max(1, len(frames) // 100):]
+    slow_total = sum((f.receive - f.issue) * 1000 for f in slow)
+    print(f"{'delivery':<10}{percentile(delivery, .5):>8.3f}{percentile(delivery, .99):>8.3f}"
+          f"{percentile(delivery, .999):>8.3f}{max(delivery):>8.2f}{len(delivery):>7}")
+    for part in PARTS:
+        vals = [f.parts[part] for f in frames if part in f.parts]
+        if not vals:
+            continue
+        share = sum(f.parts.get(part, 0.0) for f in slow) / slow_total * 100
+        print(f"{part:<10}{percentile(vals, .5):>8.3f}{percentile(vals, .99):>8.3f}"
+              f"{percentile(vals, .999):>8.3f}{max(vals):>8.2f}{len(vals):>7}   {share:5.1f} %")
+    print(f"\nthe {args.worst} slowest deliveries:")
+    for f in sorted(frames, key=lambda f: f.receive - f.issue)[-args.worst:]:
+        parts = ", ".join(f"{k} {v:.2f}" for k, v in f.parts.items())
+        print(f"  {f.perf} at {f.issue:.4f}: {(f.receive - f.issue) * 1000:.2f} ms = {parts}")
+        if f.kw_window is not None and f.kw_cpu is not None and f.parts["kw wait"] > 0.5:
+            ran = who_ran(tr, f.kw_cpu, *f.kw_window)
+            top = sorted(ran.items(), key=lambda kv: -kv[1])[:5]
+            print(f"    while the worker waited on CPU {f.kw_cpu}: "
+                  + ", ".join(f"{k} {v:.2f}" for k, v in top))
+
+
+if __name__ == "__main__":
+    main()
