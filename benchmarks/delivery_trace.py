@@ -37,15 +37,15 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import runtime_timing as rt  # noqa: E402
+import runtime_timing as rt
 
-from xgo_show.runtime import realtime  # noqa: E402
-from xgo_show.runtime.clock import MonotonicClock  # noqa: E402
-from xgo_show.runtime.events import Event, FrameSent  # noqa: E402
-from xgo_show.runtime.launch import local_runner  # noqa: E402
-from xgo_show.runtime.report import percentile  # noqa: E402
-from xgo_show.transports import open_transport  # noqa: E402
-from xgo_show.transports.base import Transport  # noqa: E402
+from xgo_show.runtime import realtime
+from xgo_show.runtime.clock import MonotonicClock
+from xgo_show.runtime.events import Event, FrameSent
+from xgo_show.runtime.launch import local_runner
+from xgo_show.runtime.report import percentile
+from xgo_show.transports import open_transport
+from xgo_show.transports.base import Transport
 
 TRACEFS = Path("/sys/kernel/tracing")
 LINE = re.compile(r"^\s*(?P<comm>.+?)-(?P<pid>\d+)\s+\[(?P<cpu>\d+)\]\s+\S+\s+"
@@ -152,7 +152,7 @@ def who_ran(tr: Trace, cpu: int, a: float, b: float) -> dict[str, float]:
     while i < len(sw) and sw[i][0] < b:
         start = max(a, sw[i][0])
         end = min(b, sw[i + 1][0]) if i + 1 < len(sw) else b
-        _, comm, pid, prio = sw[i]
+        _, comm, _pid, prio = sw[i]
         # kernel prio: < 100 real-time (99 - rt priority), 120 = nice 0
         out[f"{comm}({'rt' + str(99 - prio) if prio < 100 else 'n' + str(prio - 120)})"] += (
             (end - start) * 1000.0)
