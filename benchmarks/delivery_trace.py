@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import bisect
+import contextlib
 import os
 import re
 import subprocess
@@ -110,6 +111,9 @@ class Trace:
     waking: dict[int, list[tuple[float, int]]] = field(
         default_factory=lambda: defaultdict(list))  # pid -> (t, target cpu)
     switched_in: dict[int, list[float]] = field(default_factory=lambda: defaultdict(list))
+    # pid -> (t, its state: S sleeping, R preempted, D uninterruptible; cpu)
+    switched_out: dict[int, list[tuple[float, str, int]]] = field(
+        default_factory=lambda: defaultdict(list))
     # per CPU: (t, next comm, next pid, next prio), in time order
     switches: dict[int, list[tuple[float, str, int, int]]] = field(
         default_factory=lambda: defaultdict(list))
@@ -131,7 +135,9 @@ def parse(lines: list[str]) -> Trace:
             kv = dict(KV.findall(rest))
             tr.waking[int(kv["pid"])].append((t, int(kv["target_cpu"])))
         elif event == "sched_switch":
-            nxt = rest.split("==> ", 1)[1]
+            prev, nxt = rest.split("==> ", 1)
+            pkv = dict(KV.findall(prev))
+            tr.switched_out[int(pkv["prev_pid"])].append((t, pkv["prev_state"], cpu))
             kv = dict(KV.findall(nxt))
             tr.switches[cpu].append((t, kv["next_comm"], int(kv["next_pid"]),
                                      int(kv["next_prio"])))
@@ -163,6 +169,7 @@ def who_ran(tr: Trace, cpu: int, a: float, b: float) -> dict[str, float]:
 @dataclass
 class Frame:
     perf: str
+    tid: int
     issue: float
     receive: float
     parts: dict[str, float]  # ms
@@ -213,8 +220,24 @@ def breakdown(tr: Trace, issued: list[tuple[float, str, int]],
                               "sim run": (got - r) * 1000})
             else:  # the serving thread was running: it picks the bytes up when it next reads
                 parts["sim busy"] = (got - s_t) * 1000
-            frames.append(Frame(perf, issue, got, parts, kw_on, (kw_from, s_t)))
+            frames.append(Frame(perf, tid, issue, got, parts, kw_on, (kw_from, s_t)))
     return frames
+
+
+def raise_kworkers() -> list[int]:
+    """Raise every unbound kernel worker (``kworker/u*``) to SCHED_FIFO 5; their pids."""
+    raised = []
+    for pid in os.listdir("/proc"):
+        if not pid.isdigit():
+            continue
+        try:
+            comm = Path(f"/proc/{pid}/comm").read_text().strip()
+            if comm.startswith("kworker/u"):
+                os.sched_setscheduler(int(pid), os.SCHED_FIFO, os.sched_param(5))
+                raised.append(int(pid))
+        except OSError:
+            continue
+    return raised
 
 
 def main() -> None:
@@ -225,6 +248,10 @@ def main() -> None:
                         help="the simulators' priority (default: SCHED_FIFO 20)")
     parser.add_argument("--no-realtime", action="store_true", help="normal-priority writers")
     parser.add_argument("--worst", type=int, default=6, help="frames to show in detail")
+    parser.add_argument("--busy-cpu", type=int, help="pin the busy process to this CPU")
+    parser.add_argument("--raise-kworkers", action="store_true",
+                        help="an intervention, not a fix: the unbound kernel workers run under "
+                        "SCHED_FIFO 5 for the run (root; set back to normal after)")
     args = parser.parse_args()
     schedule = rt.make_schedule(args.seconds, 50.0)
     print(f"load average {os.getloadavg()[0]:.2f}; sims {args.sim}; writers "
@@ -234,6 +261,7 @@ def main() -> None:
         sims = rt.start_sims(Path(tmpdir), args.sim)
         links: dict[str, Transport] = {}
         busy = None
+        raised: list[int] = []
         tracer = Tracer(sims.tids)
         try:
             for perf, path in zip(schedule.performers, sims.paths, strict=True):
@@ -241,6 +269,11 @@ def main() -> None:
                 links[perf.name].open()
             if args.busy:
                 busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+                if args.busy_cpu is not None:
+                    os.sched_setaffinity(busy.pid, {args.busy_cpu})
+            if args.raise_kworkers:
+                raised = raise_kworkers()
+                print(f"  {len(raised)} unbound kernel workers raised to SCHED_FIFO 5")
             issued: list[tuple[float, str, int]] = []
 
             def on_frame(event: Event) -> None:
@@ -261,6 +294,9 @@ def main() -> None:
             if not result.completed:
                 raise SystemExit(f"the run did not complete: {result.reason}")
         finally:
+            for pid in raised:
+                with contextlib.suppress(OSError):
+                    os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
             if busy is not None:
                 busy.kill()
                 busy.wait()
@@ -296,6 +332,16 @@ def main() -> None:
     for f in sorted(frames, key=lambda f: f.receive - f.issue)[-args.worst:]:
         parts = ", ".join(f"{k} {v:.2f}" for k, v in f.parts.items())
         print(f"  {f.perf} at {f.issue:.4f}: {(f.receive - f.issue) * 1000:.2f} ms = {parts}")
+        if f.parts["write"] > 0.5:  # the writer left its CPU before its write queued the bytes
+            q = f.issue + f.parts["write"] / 1000
+            outs = [o for o in tr.switched_out.get(f.tid, []) if f.issue <= o[0] <= q]
+            for t, state, cpu in outs:
+                ins = [i for i in tr.switched_in.get(f.tid, []) if i >= t]
+                back = ins[0] if ins else q
+                ran = who_ran(tr, cpu, t, back)
+                top = sorted(ran.items(), key=lambda kv: -kv[1])[:4]
+                print(f"    writer off its CPU {cpu} ({state}) for {(back - t) * 1000:.2f} ms: "
+                      + ", ".join(f"{k} {v:.2f}" for k, v in top))
         if f.kw_window is not None and f.kw_cpu is not None and f.parts["kw wait"] > 0.5:
             ran = who_ran(tr, f.kw_cpu, *f.kw_window)
             top = sorted(ran.items(), key=lambda kv: -kv[1])[:5]
