@@ -224,22 +224,6 @@ def breakdown(tr: Trace, issued: list[tuple[float, str, int]],
     return frames
 
 
-def raise_kworkers() -> list[int]:
-    """Raise every unbound kernel worker (``kworker/u*``) to SCHED_FIFO 5; their pids."""
-    raised = []
-    for pid in os.listdir("/proc"):
-        if not pid.isdigit():
-            continue
-        try:
-            comm = Path(f"/proc/{pid}/comm").read_text().strip()
-            if comm.startswith("kworker/u"):
-                os.sched_setscheduler(int(pid), os.SCHED_FIFO, os.sched_param(5))
-                raised.append(int(pid))
-        except OSError:
-            continue
-    return raised
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0)
@@ -261,7 +245,7 @@ def main() -> None:
         sims = rt.start_sims(Path(tmpdir), args.sim)
         links: dict[str, Transport] = {}
         busy = None
-        raised: list[int] = []
+        stack = contextlib.ExitStack()
         tracer = Tracer(sims.tids)
         try:
             for perf, path in zip(schedule.performers, sims.paths, strict=True):
@@ -272,8 +256,8 @@ def main() -> None:
                 if args.busy_cpu is not None:
                     os.sched_setaffinity(busy.pid, {args.busy_cpu})
             if args.raise_kworkers:
-                raised = raise_kworkers()
-                print(f"  {len(raised)} unbound kernel workers raised to SCHED_FIFO 5")
+                workers = rt.RaisedWorkers()
+                stack.enter_context(workers)
             issued: list[tuple[float, str, int]] = []
 
             def on_frame(event: Event) -> None:
@@ -293,10 +277,10 @@ def main() -> None:
                 realtime.restore(saved)
             if not result.completed:
                 raise SystemExit(f"the run did not complete: {result.reason}")
+            if args.raise_kworkers:
+                print(f"  {len(workers.raised)} unbound kernel workers ran under SCHED_FIFO 5")
         finally:
-            for pid in raised:
-                with contextlib.suppress(OSError):
-                    os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
+            stack.close()
             if busy is not None:
                 busy.kill()
                 busy.wait()
@@ -328,8 +312,11 @@ def main() -> None:
         share = sum(f.parts.get(part, 0.0) for f in slow) / slow_total * 100
         print(f"{part:<10}{percentile(vals, .5):>8.3f}{percentile(vals, .99):>8.3f}"
               f"{percentile(vals, .999):>8.3f}{max(vals):>8.2f}{len(vals):>7}   {share:5.1f} %")
-    print(f"\nthe {args.worst} slowest deliveries:")
-    for f in sorted(frames, key=lambda f: f.receive - f.issue)[-args.worst:]:
+    slowest = sorted(frames, key=lambda f: f.receive - f.issue)[-args.worst:]
+    slow_writes = [f for f in sorted(frames, key=lambda f: f.parts["write"])[-args.worst:]
+                   if f.parts["write"] > 0.5 and f not in slowest]
+    print(f"\nthe {args.worst} slowest deliveries, and the slowest writes over 0.5 ms:")
+    for f in slowest + slow_writes:
         parts = ", ".join(f"{k} {v:.2f}" for k, v in f.parts.items())
         print(f"  {f.perf} at {f.issue:.4f}: {(f.receive - f.issue) * 1000:.2f} ms = {parts}")
         if f.parts["write"] > 0.5:  # the writer left its CPU before its write queued the bytes
@@ -347,7 +334,6 @@ def main() -> None:
             top = sorted(ran.items(), key=lambda kv: -kv[1])[:5]
             print(f"    while the worker waited on CPU {f.kw_cpu}: "
                   + ", ".join(f"{k} {v:.2f}" for k, v in top))
-
 
 if __name__ == "__main__":
     main()

@@ -42,6 +42,7 @@ Prints figures only (no asserts). Usage::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import gc
 import json
 import os
@@ -138,6 +139,53 @@ def stop_sims(sims: Sims) -> None:
         proc.wait(10)
 
 
+class RaisedWorkers:
+    """While entered: every unbound kernel worker (``kworker/u*``, the threads that move a
+    pseudo-terminal's bytes) runs under SCHED_FIFO ``priority``; set back to normal after.
+
+    An intervention for measuring, not a fix (root only; it changes the whole machine while
+    it lasts): it shows what the robot would receive if the pty's worker never waited for a
+    CPU, as a USB serial adapter's write needs no worker. The pool starts new workers when
+    it needs them, so it looks again every 0.1 s.
+    """
+
+    def __init__(self, priority: int = 5) -> None:
+        self.priority = priority
+        self.raised: set[int] = set()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def scan(self) -> None:
+        for pid in os.listdir("/proc"):
+            if not pid.isdigit() or int(pid) in self.raised:
+                continue
+            try:
+                if Path(f"/proc/{pid}/comm").read_text().startswith("kworker/u"):
+                    os.sched_setscheduler(int(pid), os.SCHED_FIFO,
+                                          os.sched_param(self.priority))
+                    self.raised.add(int(pid))
+            except OSError:  # gone, or not permitted (then nothing is raised)
+                continue
+
+    def _run(self) -> None:
+        while not self._stop.wait(0.1):
+            self.scan()
+
+    def __enter__(self) -> RaisedWorkers:
+        self.scan()
+        if not self.raised:
+            raise SystemExit("could not raise the kernel workers (needs root)")
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+        for pid in self.raised:
+            with contextlib.suppress(OSError):
+                os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
+
+
 def make_schedule(seconds: float, rate: float) -> Schedule:
     profile = get_profile(MODEL)
     reg = profile.register("body_z")
@@ -170,6 +218,7 @@ class Variant:
     nice: int = 0  # this thread's nice value during the show (the writers inherit it)
     clock: MonotonicClock | None = None
     handoff: float | None = None  # seconds a real-time writer sleeps after a write
+    raise_workers: bool = False  # the pty's kernel workers under SCHED_FIFO (RaisedWorkers)
 
 
 @dataclass
@@ -222,8 +271,10 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
             policy = f"nice {os.getpriority(os.PRIO_PROCESS, 0)}"
     gc.callbacks.append(on_gc)
     before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
+    workers = RaisedWorkers() if variant.raise_workers else contextlib.nullcontext()
     try:
-        result = runner.run(lead=0.3, handle_signals=False)
+        with workers:
+            result = runner.run(lead=0.3, handle_signals=False)
     finally:
         involuntary = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
         gc.callbacks.remove(on_gc)
@@ -233,6 +284,8 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
             os.setpriority(os.PRIO_PROCESS, 0, 0)
     if not result.completed:
         raise SystemExit(f"our run did not complete: {result.reason}")
+    if isinstance(workers, RaisedWorkers):
+        policy += f"; {len(workers.raised)} pty workers SCHED_FIFO {workers.priority}"
     # Only collections while the show played (the runner's own gc.collect() before it starts
     # and the one after it ends are no stall of a write).
     first, last = result.start_at, max((t for t, _, _ in issued), default=result.start_at)
@@ -325,8 +378,10 @@ def measure(
     return errors, drifts, deliveries
 
 
-def variants(diagnose: bool) -> list[Variant]:
+def variants(diagnose: bool, raise_workers: bool) -> list[Variant]:
     out = [Variant("ours (default)"), Variant("ours --no-realtime", realtime=False)]
+    if raise_workers:
+        out.append(Variant("  pty workers raised", raise_workers=True))
     if diagnose:
         out += [
             Variant("  gc on (no hold)", hold_gc=False),
@@ -346,9 +401,10 @@ def p(errs: list[float], q: float) -> float:
 
 
 def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
-         plays: list[Variant | None]) -> None:
+         plays: list[Variant | None], diagnose: bool) -> None:
     """Play the show once per entry (None: the naive loop) and print one row each."""
-    windows: list[tuple[Variant | None, float, float, dict[str, float], OursRun | None]] = []
+    windows: list[tuple[Variant | None, float, float, dict[str, float], OursRun | None,
+                        float]] = []
     for variant in plays:
         t0 = time.monotonic()
         if variant is None:
@@ -357,28 +413,58 @@ def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
             run = run_ours(schedule, links, variant)
             starts = run.starts
         time.sleep(0.3)
-        windows.append((variant, t0, time.monotonic(), starts, run))
+        # The 1-minute load average as the row ends: about the row's own minute.
+        windows.append((variant, t0, time.monotonic(), starts, run, os.getloadavg()[0]))
     time.sleep(0.2)  # the simulators' last records reach their files
     got = {perf.name: read_records(record)
            for perf, record in zip(schedule.performers, records, strict=True)}
-    for variant, t0, t1, starts, run in windows:
+    for variant, t0, t1, starts, run, load in windows:
         errs, drifts, delivery = measure(schedule, got, (t0, t1), starts, schedule.control_rate,
                                          None if run is None else run.sends)
         name = "naive (write, sleep)" if variant is None else variant.name
-        line = (f"{name:<22}{p(errs, 0.5):>8.3f}{p(errs, 0.99):>8.3f}{p(errs, 0.999):>8.3f}"
-                f"{p(errs, 1.0):>8.2f}{max(abs(d) for d in drifts):>7.2f}")
+        line = (f"{name:<22}{load:>5.1f} |{p(errs, 0.5):>8.3f}{p(errs, 0.99):>8.3f}"
+                f"{p(errs, 0.999):>8.3f}{p(errs, 1.0):>8.2f}{max(abs(d) for d in drifts):>7.2f}")
         if run is not None:
             issued = [e for _, _, e in run.issued]
-            late = sum(1 for e in issued if e > LATE_MS)
-            gcs = (f"{len(run.gc_pauses)}/{max(run.gc_pauses) * 1000:.1f}"
-                   if run.gc_pauses else "0")
-            line += (f" |{p(issued, 0.99):>7.3f}{p(issued, 0.999):>8.3f}{p(issued, 1.0):>7.2f}"
-                     f" |{p(delivery, 0.99):>7.3f}{p(delivery, 0.999):>8.3f}"
-                     f"{p(delivery, 1.0):>7.2f} |{late:>5}{bursts(run.issued):>6}"
-                     f"{run.gc_late:>4} {gcs:>8}{run.involuntary:>7}")
+            line += (f" |{p(issued, 0.5):>7.3f}{p(issued, 0.99):>7.3f}{p(issued, 0.999):>8.3f}"
+                     f"{p(issued, 1.0):>7.2f} |{p(delivery, 0.99):>8.3f}"
+                     f"{p(delivery, 0.999):>8.3f}{p(delivery, 1.0):>8.2f}")
+            if diagnose:
+                late = sum(1 for e in issued if e > LATE_MS)
+                gcs = (f"{len(run.gc_pauses)}/{max(run.gc_pauses) * 1000:.1f}"
+                       if run.gc_pauses else "0")
+                line += (f" |{late:>5}{bursts(run.issued):>6}{run.gc_late:>4} {gcs:>8}"
+                         f"{run.involuntary:>7}")
             if variant is not None:
                 line += f"  ({run.policy})"
         print(line)
+
+
+def header(diagnose: bool) -> None:
+    print(f"{'':<22}{'load':>5} |{'send-time error (receive - planned)':^39} |"
+          f"{'issue lateness':^29} |{'delivery (pty+sim)':^24} |")
+    line = (f"{'ms':<22}{'avg':>5} |{'p50':>8}{'p99':>8}{'p99.9':>8}{'max':>8}{'drift':>7}"
+            f" |{'p50':>7}{'p99':>7}{'p99.9':>8}{'max':>7} |{'p99':>8}{'p99.9':>8}{'max':>8}")
+    if diagnose:
+        line += f" |{'>1ms':>5}{'burst':>6}{'gc':>4}{'gc n/max':>9}{'invol':>7}"
+    print(line)
+
+
+def on_sims(schedule: Schedule, tmp: Path, mode: str, plays: list[Variant | None],
+            diagnose: bool) -> None:
+    """Start simulators of priority ``mode``, play ``plays`` on them, stop them."""
+    sims = start_sims(tmp, mode)
+    links: dict[str, Transport] = {}
+    try:
+        for perf, path in zip(schedule.performers, sims.paths, strict=True):
+            links[perf.name] = open_transport(path, baudrate=perf.link.baud)
+            links[perf.name].open()
+        print(f"   (simulators: {sims.priority})")
+        play(schedule, links, sims.records, plays, diagnose)
+    finally:
+        for link in links.values():
+            link.close()
+        stop_sims(sims)
 
 
 def main() -> None:
@@ -390,8 +476,14 @@ def main() -> None:
     which.add_argument("--only-load", action="store_true", help="only with one CPU kept busy")
     parser.add_argument("--diagnose", action="store_true",
                         help="also play with each suspect of late writes switched off")
-    parser.add_argument("--sim-nice", action="store_true",
-                        help="simulators at nice -15 instead of SCHED_FIFO 20")
+    parser.add_argument("--sim", choices=["fifo", "nice", "normal"], default="fifo",
+                        help="the simulators' priority: SCHED_FIFO 20 (default), nice -15, or "
+                        "normal")
+    parser.add_argument("--compare-sim", action="store_true",
+                        help="also play the default with normal-priority simulators")
+    parser.add_argument("--raise-workers", action="store_true",
+                        help="also play the default with the pty's kernel workers under "
+                        "SCHED_FIFO 5 (root; an intervention that shows their share)")
     parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
     parser.add_argument("--sim-mode", default="fifo", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -407,40 +499,31 @@ def main() -> None:
         # The simulators and the load start before this process changes its scheduling: a
         # child inherits SCHED_FIFO and nice values, and a SCHED_FIFO busy loop would take a
         # whole CPU from the kernel workers that move pty data and from the simulators.
-        sims = start_sims(Path(tmpdir), "nice" if args.sim_nice else "fifo")
-        links: dict[str, Transport] = {}
-        try:
-            for perf, path in zip(schedule.performers, sims.paths, strict=True):
-                links[perf.name] = open_transport(path, baudrate=perf.link.baud)
-                links[perf.name].open()
-            for loaded in loads:
-                busy = None
-                if loaded:
-                    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
-                try:
-                    print(f"\n-- {'one CPU kept busy' if loaded else 'no extra load'} "
-                          f"(simulators: {sims.priority}); load average "
-                          f"{os.getloadavg()[0]:.2f}")
-                    print(f"{'':<22}{'send-time error, ms (receive - planned)':^39} |"
-                          f"{'issue lateness':^22} |{'delivery (pty+sim)':^22} |")
-                    print(f"{'':<22}{'|p50|':>8}{'|p99|':>8}{'|p99.9|':>8}"
-                          f"{'max':>8}{'drift':>7} |{'p99':>7}{'p99.9':>8}{'max':>7}"
-                          f" |{'p99':>7}{'p99.9':>8}{'max':>7} |{'>1ms':>5}{'burst':>6}"
-                          f"{'gc':>4}{'gc n/max':>9}{'invol':>7}")
-                    plays: list[Variant | None] = [*variants(args.diagnose), None]
-                    play(schedule, links, sims.records, plays)
-                finally:
-                    if busy is not None:
-                        busy.kill()
-                        busy.wait()
-        finally:
-            for link in links.values():
-                link.close()
-            stop_sims(sims)
-    print("\ntargets for ours: p99 <= 0.5 ms, p99.9 <= 2 ms, drift <= 1 ms (with one CPU "
-          "busy). Issued late: >1ms counts writes issued over 1 ms late, burst those of them "
-          "with 3+ writers late within 2 ms, gc those during or just after a collection; "
-          "gc n/max: collections and the longest (ms); invol: involuntary context switches")
+        for loaded in loads:
+            busy = None
+            if loaded:
+                busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+            try:
+                print(f"\n-- {'one CPU kept busy' if loaded else 'no extra load'}; load "
+                      f"average {os.getloadavg()[0]:.2f}")
+                header(args.diagnose)
+                plays: list[Variant | None] = [*variants(args.diagnose, args.raise_workers),
+                                               None]
+                on_sims(schedule, Path(tmpdir), args.sim, plays, args.diagnose)
+                if args.compare_sim and args.sim != "normal":
+                    on_sims(schedule, Path(tmpdir), "normal",
+                            [Variant("  simulators normal")], args.diagnose)
+            finally:
+                if busy is not None:
+                    busy.kill()
+                    busy.wait()
+    print("\ntargets for ours: send-time error p99 <= 0.5 ms, p99.9 <= 2 ms, drift <= 1 ms "
+          "(with one CPU busy). load avg: the 1-minute load average as the row ended.")
+    if args.diagnose:
+        print("Issued late: >1ms counts writes issued over 1 ms late, burst those of them "
+              "with 3+ writers late within 2 ms, gc those during or just after a collection; "
+              "gc n/max: collections and the longest (ms); invol: involuntary context "
+              "switches")
     print(f"load average at the end: {os.getloadavg()[0]:.2f}")
 
 
