@@ -259,10 +259,25 @@ def main() -> None:
                 workers = rt.RaisedWorkers()
                 stack.enter_context(workers)
             issued: list[tuple[float, str, int]] = []
+            late: list[tuple[float, float, int]] = []  # (planned, issued, writer) > 1 ms late
 
             def on_frame(event: Event) -> None:
                 if isinstance(event, FrameSent) and event.kind == "frame":
                     issued.append((event.t, event.performer, rt.threading.get_native_id()))
+                    if event.error is not None and event.error > 0.001:
+                        late.append((event.t - event.error, event.t,
+                                     rt.threading.get_native_id()))
+
+            names: dict[int, str] = {}  # this process's threads: native id -> name
+            sampling = rt.threading.Event()
+
+            def sample() -> None:
+                while not sampling.wait(0.5):
+                    names.update({th.native_id: th.name for th in rt.threading.enumerate()
+                                  if th.native_id is not None})
+
+            sampler = rt.threading.Thread(target=sample, daemon=True)
+            sampler.start()
 
             runner = local_runner(schedule, links, clock=MonotonicClock())
             runner.events.subscribe(on_frame, FrameSent)
@@ -275,6 +290,7 @@ def main() -> None:
             finally:
                 lines = tracer.stop()
                 realtime.restore(saved)
+                sampling.set()
             if not result.completed:
                 raise SystemExit(f"the run did not complete: {result.reason}")
             if args.raise_kworkers:
@@ -312,6 +328,7 @@ def main() -> None:
         share = sum(f.parts.get(part, 0.0) for f in slow) / slow_total * 100
         print(f"{part:<10}{percentile(vals, .5):>8.3f}{percentile(vals, .99):>8.3f}"
               f"{percentile(vals, .999):>8.3f}{max(vals):>8.2f}{len(vals):>7}   {share:5.1f} %")
+    late_issues(tr, late, names, args.worst)
     slowest = sorted(frames, key=lambda f: f.receive - f.issue)[-args.worst:]
     slow_writes = [f for f in sorted(frames, key=lambda f: f.parts["write"])[-args.worst:]
                    if f.parts["write"] > 0.5 and f not in slowest]
@@ -334,6 +351,30 @@ def main() -> None:
             top = sorted(ran.items(), key=lambda kv: -kv[1])[:5]
             print(f"    while the worker waited on CPU {f.kw_cpu}: "
                   + ", ".join(f"{k} {v:.2f}" for k, v in top))
+
+def late_issues(tr: Trace, late: list[tuple[float, float, int]], names: dict[int, str],
+                worst: int) -> None:
+    """For the latest issues: what the writer did meanwhile, and which other threads of this
+    process were preempted (runnable, off their CPU) while it waited: a thread preempted while
+    holding Python's lock keeps a real-time writer waiting for it."""
+    print(f"\n{len(late)} writes issued more than 1 ms late; the {worst} latest:")
+    for planned, issued, tid in sorted(late, key=lambda x: x[1] - x[0])[-worst:]:
+        print(f"  {names.get(tid, tid)} at {planned:.4f}: issued {(issued - planned) * 1000:.2f}"
+              " ms late")
+        for pid, name in sorted(names.items()):
+            for t, state, cpu in tr.switched_out.get(pid, []):
+                ins = [i for i in tr.switched_in.get(pid, []) if i >= t]
+                back = ins[0] if ins else issued
+                if back < planned or t > issued:
+                    continue
+                if pid != tid and not state.startswith("R"):
+                    continue  # another thread that blocked on its own: not in the writer's way
+                ran = who_ran(tr, cpu, max(t, planned), min(back, issued))
+                top = sorted(ran.items(), key=lambda kv: -kv[1])[:3]
+                print(f"    {name} ({'the writer' if pid == tid else 'preempted'}, {state}) off "
+                      f"CPU {cpu} {(t - planned) * 1000:+.2f} to {(back - planned) * 1000:+.2f}"
+                      " ms: " + ", ".join(f"{k} {v:.2f}" for k, v in top))
+
 
 if __name__ == "__main__":
     main()
