@@ -58,20 +58,42 @@ def test_the_environment_gives_the_mode_when_no_option_does(monkeypatch) -> None
         realtime.configure(None)
 
 
+def _policies(prefix: str) -> set[tuple[int, int]]:
+    """(policy, priority) of this process's threads whose names start with ``prefix``."""
+    return {(os.sched_getscheduler(th.native_id), os.sched_getparam(th.native_id).sched_priority)
+            for th in threading.enumerate()
+            if th.name.startswith(prefix) and th.native_id is not None and th.is_alive()}
+
+
 @needs_fifo
-def test_writer_threads_run_fifo_and_nothing_else_does(auto, rig, perf, sched) -> None:  # type: ignore[no-untyped-def]
+def test_writers_readers_and_the_supervisor_are_raised_for_the_show_only(auto, rig, perf, sched) -> None:  # type: ignore[no-untyped-def]
     assert auto.granted and "SCHED_FIFO priority 10" in auto.summary
     schedule = sched(perf("rex", count=5, spacing=0.01), perf("ivy", count=5, spacing=0.01))
     rig.for_schedule(schedule)
     runner = local_runner(schedule, rig.transports)
-    seen: dict[str, int] = {}
-    # Listeners run on the writer thread that sent the frame.
-    runner.events.subscribe(
-        lambda e: seen.setdefault(e.performer, _policy_of_thread()), FrameSent
-    )
+    assert runner.performers["rex"].telemetry is not None  # a reader thread runs
+    seen: dict[str, object] = {}
+    show_thread = threading.get_native_id()
+
+    def look(event: FrameSent) -> None:  # listeners run on the writer that sent the frame
+        if event.kind != "frame" or event.index != 2:  # well into the show
+            return
+        seen[event.performer] = (_policy_of_thread(), os.sched_getparam(0).sched_priority)
+        seen["readers"] = _policies("xgo-show reader")
+        seen["supervisor"] = (os.sched_getscheduler(show_thread),
+                              os.sched_getparam(show_thread).sched_priority)
+        seen["other"] = _policies("Thread-") | _policies("ThreadPool")
+
+    runner.events.subscribe(look, FrameSent)  # type: ignore[arg-type]
     assert runner.run(handle_signals=False).completed
-    assert seen == {"rex": os.SCHED_FIFO, "ivy": os.SCHED_FIFO}
-    assert _policy_of_thread() == os.SCHED_OTHER  # the thread that ran the show
+    fifo = os.SCHED_FIFO
+    assert seen["rex"] == seen["ivy"] == (fifo, realtime.PRIORITY)
+    # Python's lock knows no priorities: the other threads that take it during the show sit
+    # just below the writers, so no normal thread holds it while a writer waits.
+    assert seen["readers"] == {(fifo, realtime.HELPER_PRIORITY)}
+    assert seen["supervisor"] == (fifo, realtime.HELPER_PRIORITY)
+    assert all(policy == os.SCHED_OTHER for policy, _ in seen["other"])  # type: ignore[attr-defined]
+    assert _policy_of_thread() == os.SCHED_OTHER  # after the show, the thread that ran it
 
 
 @needs_fifo

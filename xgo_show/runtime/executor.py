@@ -42,7 +42,7 @@ from xgo_show.runtime.events import (
     StateChanged,
     TelemetryRead,
 )
-from xgo_show.runtime.realtime import enter_show_thread, leave_show_thread
+from xgo_show.runtime.realtime import HELPER_PRIORITY, enter_show_thread, leave_show_thread
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryItem, TelemetryPoller
 from xgo_show.transports.base import Transport
@@ -627,15 +627,22 @@ class PerformerExecutor:
 
     def _read_loop(self) -> None:
         assert self.telemetry is not None
-        while not self._reader_stop.is_set():
-            try:
-                chunk = self.transport.read(256, timeout=0.05)
-            except (TransportError, OSError) as exc:
-                if not self._reader_stop.is_set() and not self.done:
-                    self._report_fault(f"port {self.transport.url}: {exc}")
-                return
-            if chunk and not self.received(chunk, self.clock.now()):
-                return
+        # Below the writers but above every normal thread: this thread takes Python's lock
+        # while frames are due, and one preempted while holding it keeps the writers waiting.
+        raised = not isinstance(self.clock, FakeClock) and enter_show_thread(HELPER_PRIORITY)
+        try:
+            while not self._reader_stop.is_set():
+                try:
+                    chunk = self.transport.read(256, timeout=0.05)
+                except (TransportError, OSError) as exc:
+                    if not self._reader_stop.is_set() and not self.done:
+                        self._report_fault(f"port {self.transport.url}: {exc}")
+                    return
+                if chunk and not self.received(chunk, self.clock.now()):
+                    return
+        finally:
+            if raised:
+                leave_show_thread()
 
     def received(self, chunk: bytes, now: float) -> bool:
         """Bytes read from the port at ``now``: publish the readings they complete; a fault

@@ -42,6 +42,7 @@ __all__ = [
     "ENV",
     "GUARD_PERIOD",
     "GUARD_SHARE",
+    "HELPER_PRIORITY",
     "PRIORITY",
     "Mode",
     "RealtimePolicy",
@@ -61,6 +62,14 @@ MODES: tuple[Mode, ...] = ("auto", "required", "off")
 #: threaded interrupt handlers (50, which move a USB adapter's bytes) and audio servers
 #: (PipeWire's data threads get 20 through rtkit).
 PRIORITY = 10
+
+#: SCHED_FIFO priority of the show's other threads that run Python while frames are due (each
+#: performer's telemetry reader, the thread that supervises the show): one below the writers.
+#: Python's lock (the GIL) knows no priorities: a writer that needs it waits for whichever
+#: thread holds it, and a normal thread preempted while holding it kept a real-time writer
+#: waiting for tens of ms on a busy machine (docs/realtime.md). Raised, they are never
+#: preempted by normal threads, and each holds the lock for microseconds at a time.
+HELPER_PRIORITY = PRIORITY - 1
 
 #: The environment variable that gives the mode when no option does (``auto``, ``off``,
 #: ``required``); child processes (a relay child of ``run``) inherit it.
@@ -194,15 +203,17 @@ def _probe() -> str:
     return out[0] if out else "the probe thread failed"
 
 
-def enter_show_thread() -> bool:
-    """Raise the calling (writer) thread to SCHED_FIFO if the policy grants it.
+def enter_show_thread(priority: int = PRIORITY) -> bool:
+    """Raise the calling thread to SCHED_FIFO ``priority`` if the policy grants it: a writer
+    at :data:`PRIORITY`, a telemetry reader or the show's supervising thread at
+    :data:`HELPER_PRIORITY`.
 
     Returns whether it did. Pair with :func:`leave_show_thread` when the thread's work ends.
     """
     if not _policy.granted:
         return False
     try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(PRIORITY))
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except OSError:
         return False
     _GUARD.watch(threading.get_native_id())
@@ -267,7 +278,7 @@ class _Guard:
                 _to_normal(native)
                 self.demoted += 1
                 self.report(
-                    f"warning: writer thread {native} used over {GUARD_SHARE:.0%} of a CPU "
+                    f"warning: show thread {native} used over {GUARD_SHARE:.0%} of a CPU "
                     f"for {GUARD_PERIOD:g} s under SCHED_FIFO: back to normal priority"
                 )
 

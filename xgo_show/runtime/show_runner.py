@@ -33,7 +33,7 @@ from typing import Any
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule
 from xgo_show.errors import SetupError, UsageError
 from xgo_show.profiles.model import Profile
-from xgo_show.runtime.clock import Clock, MonotonicClock
+from xgo_show.runtime.clock import Clock, FakeClock, MonotonicClock
 from xgo_show.runtime.events import (
     Event,
     EventBus,
@@ -49,6 +49,7 @@ from xgo_show.runtime.events import (
 )
 from xgo_show.runtime.executor import ExecutorState, Progress, ReachFn, SafeStopResult
 from xgo_show.runtime.performer import Performer
+from xgo_show.runtime.realtime import HELPER_PRIORITY, enter_show_thread, leave_show_thread
 from xgo_show.runtime.stats import SendStats
 
 __all__ = ["FAILURE_POLICIES", "ShowProgress", "ShowResult", "ShowRunner", "default_reach"]
@@ -250,6 +251,7 @@ class ShowRunner:
             gc.collect()
             gc.freeze()
             gc.disable()
+        raised = False
         result = ShowResult(False, "")
         self.result = result
         result.performers = dict(self.performers)
@@ -273,6 +275,10 @@ class ShowRunner:
             )
             for p in self.performers.values():
                 p.start(begin, offset=offset)
+            # This thread publishes progress and handles faults while frames are due: below
+            # the writers, above normal threads (Python's lock: realtime.HELPER_PRIORITY).
+            # Raised only now, so the threads the performers started do not inherit it.
+            raised = not isinstance(self.clock, FakeClock) and enter_show_thread(HELPER_PRIORITY)
             self._supervise(result)
         except BaseException as exc:
             # Whatever broke the coordinating thread (a progress listener, a bug, a
@@ -290,6 +296,8 @@ class ShowRunner:
                 sub.close()
             self._restore_signals(restore)
             self._waker.close()
+            if raised:
+                leave_show_thread()
             sys.setswitchinterval(switch)
             if self.hold_gc:
                 gc.unfreeze()
