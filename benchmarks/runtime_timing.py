@@ -52,6 +52,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -219,6 +220,7 @@ class Variant:
     clock: MonotonicClock | None = None
     handoff: float | None = None  # seconds a real-time writer sleeps after a write
     raise_workers: bool = False  # the pty's kernel workers under SCHED_FIFO (RaisedWorkers)
+    helpers: bool = True  # readers and the supervising thread raised too (False: writers only)
 
 
 @dataclass
@@ -273,7 +275,7 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
     before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
     workers = RaisedWorkers() if variant.raise_workers else contextlib.nullcontext()
     try:
-        with workers:
+        with workers, writers_only(not variant.helpers):
             result = runner.run(lead=0.3, handle_signals=False)
     finally:
         involuntary = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
@@ -284,6 +286,8 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
             os.setpriority(os.PRIO_PROCESS, 0, 0)
     if not result.completed:
         raise SystemExit(f"our run did not complete: {result.reason}")
+    if not variant.helpers:
+        policy += "; readers and supervisor normal"
     if isinstance(workers, RaisedWorkers):
         policy += f"; {len(workers.raised)} pty workers SCHED_FIFO {workers.priority}"
     # Only collections while the show played (the runner's own gc.collect() before it starts
@@ -295,6 +299,26 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
                   if any(a <= t - LATE_MS / 1000 <= b + 0.002 or a <= t <= b for a, b in pauses))
     return OursRun({name: result.start_at for name in links}, issued, sends,
                    [b - a for a, b in pauses], gc_late, involuntary, policy)
+
+
+@contextlib.contextmanager
+def writers_only(active: bool) -> Iterator[None]:
+    """While entered (if ``active``): only the writers are raised, as before the readers and
+    the supervising thread were (the benchmark swaps the function the runtime calls)."""
+    if not active:
+        yield
+        return
+    from xgo_show.runtime import executor, show_runner
+
+    def enter(priority: int = realtime.PRIORITY) -> bool:
+        return priority == realtime.PRIORITY and realtime.enter_show_thread(priority)
+
+    saved = executor.enter_show_thread, show_runner.enter_show_thread
+    executor.enter_show_thread = show_runner.enter_show_thread = enter
+    try:
+        yield
+    finally:
+        executor.enter_show_thread, show_runner.enter_show_thread = saved
 
 
 def bursts(issued: list[tuple[float, str, float]], writers: int = 3) -> int:
@@ -380,6 +404,7 @@ def measure(
 
 def variants(diagnose: bool, raise_workers: bool) -> list[Variant]:
     out = [Variant("ours (default)"), Variant("ours --no-realtime", realtime=False)]
+    out.append(Variant("  writers only raised", helpers=False))
     if raise_workers:
         out.append(Variant("  pty workers raised", raise_workers=True))
     if diagnose:

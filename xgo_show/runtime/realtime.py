@@ -14,8 +14,11 @@ writer thread calls :func:`enter_show_thread` as it starts:
   clear error before anything opens;
 - ``off`` (``--no-realtime``, or ``XGO_SHOW_REALTIME=off``): normal priority.
 
-Only the threads that pace frames are raised, never the process: Zenoh's threads, telemetry
-readers, the progress display and simulators keep normal priority. A FIFO thread that never
+Only the show's own threads are raised, never the process, and only while a show plays: the
+writers at :data:`PRIORITY`, and at :data:`HELPER_PRIORITY` the other threads that run Python
+code while frames are due (each performer's telemetry reader, the thread that supervises the
+show), since a writer waits for Python's lock behind whichever thread holds it. Zenoh's
+threads, listeners' own threads and simulators keep normal priority. A FIFO thread that never
 blocked would keep every lower-priority thread off its CPU, so the design is bounded twice:
 the real clock's waits block in the kernel for the whole wait under FIFO (no spinning, see
 :class:`~xgo_show.runtime.clock.MonotonicClock`), and a :class:`_Guard` thread checks the CPU
