@@ -31,6 +31,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from collections import defaultdict
 from dataclasses import dataclass, field
@@ -47,6 +48,7 @@ from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.report import percentile
 from xgo_show.transports import open_transport
 from xgo_show.transports.base import Transport
+from xgo_show.wire.xgo import TYPE_READ
 
 TRACEFS = Path("/sys/kernel/tracing")
 LINE = re.compile(r"^\s*(?P<comm>.+?)-(?P<pid>\d+)\s+\[(?P<cpu>\d+)\]\s+\S+\s+"
@@ -263,20 +265,20 @@ def main() -> None:
 
             def on_frame(event: Event) -> None:
                 if isinstance(event, FrameSent) and event.kind == "frame":
-                    issued.append((event.t, event.performer, rt.threading.get_native_id()))
+                    issued.append((event.t, event.performer, threading.get_native_id()))
                     if event.error is not None and event.error > 0.001:
                         late.append((event.t - event.error, event.t,
-                                     rt.threading.get_native_id()))
+                                     threading.get_native_id()))
 
             names: dict[int, str] = {}  # this process's threads: native id -> name
-            sampling = rt.threading.Event()
+            sampling = threading.Event()
 
-            def sample() -> None:
-                while not sampling.wait(0.5):
-                    names.update({th.native_id: th.name for th in rt.threading.enumerate()
+            def sample() -> None:  # rarely: this thread holds Python's lock meanwhile
+                while not sampling.wait(2.0):
+                    names.update({th.native_id: th.name for th in threading.enumerate()
                                   if th.native_id is not None})
 
-            sampler = rt.threading.Thread(target=sample, daemon=True)
+            sampler = threading.Thread(target=sample, daemon=True)
             sampler.start()
 
             runner = local_runner(schedule, links, clock=MonotonicClock())
@@ -294,7 +296,8 @@ def main() -> None:
             if not result.completed:
                 raise SystemExit(f"the run did not complete: {result.reason}")
             if args.raise_kworkers:
-                print(f"  {len(workers.raised)} unbound kernel workers ran under SCHED_FIFO 5")
+                stack.close()
+                print(f"  {workers.raised} unbound kernel workers ran under SCHED_FIFO 5")
         finally:
             stack.close()
             if busy is not None:
@@ -308,7 +311,7 @@ def main() -> None:
         wanted = {bytes(f.data) for p in schedule.performers for f in p.frames}
         for perf, record in zip(schedule.performers, sims.records, strict=True):
             received[perf.name] = [t for t, data in rt.read_records(record)
-                                   if data[3] != rt.TYPE_READ and data in wanted]
+                                   if data[3] != TYPE_READ and data in wanted]
     print(f"load average {os.getloadavg()[0]:.2f} at the end; {len(lines)} trace lines")
     tr = parse(lines)
     sim_tid = {p.name: tid for p, tid in zip(schedule.performers, sims.tids, strict=True)}

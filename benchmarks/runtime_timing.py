@@ -147,44 +147,62 @@ class RaisedWorkers:
     An intervention for measuring, not a fix (root only; it changes the whole machine while
     it lasts): it shows what the robot would receive if the pty's worker never waited for a
     CPU, as a USB serial adapter's write needs no worker. The pool starts new workers when
-    it needs them, so it looks again every 0.1 s.
+    it needs them, so a child process looks again every 0.1 s (a thread of this process
+    would hold Python's lock while it reads /proc, and make the writers wait for it).
     """
 
     def __init__(self, priority: int = 5) -> None:
         self.priority = priority
-        self.raised: set[int] = set()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-
-    def scan(self) -> None:
-        for pid in os.listdir("/proc"):
-            if not pid.isdigit() or int(pid) in self.raised:
-                continue
-            try:
-                if Path(f"/proc/{pid}/comm").read_text().startswith("kworker/u"):
-                    os.sched_setscheduler(int(pid), os.SCHED_FIFO,
-                                          os.sched_param(self.priority))
-                    self.raised.add(int(pid))
-            except OSError:  # gone, or not permitted (then nothing is raised)
-                continue
-
-    def _run(self) -> None:
-        while not self._stop.wait(0.1):
-            self.scan()
+        self.raised = 0
+        self._proc: subprocess.Popen[str] | None = None
 
     def __enter__(self) -> RaisedWorkers:
-        self.scan()
-        if not self.raised:
+        self._proc = subprocess.Popen(
+            [sys.executable, __file__, "--raise-workers-child", str(self.priority)],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        assert self._proc.stdout is not None
+        if not self._proc.stdout.readline().strip().isdigit():
             raise SystemExit("could not raise the kernel workers (needs root)")
-        self._thread.start()
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self._stop.set()
-        self._thread.join()
-        for pid in self.raised:
-            with contextlib.suppress(OSError):
-                os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
+        assert self._proc is not None and self._proc.stdin is not None
+        assert self._proc.stdout is not None
+        self._proc.stdin.close()
+        self.raised = int(self._proc.stdout.read().strip() or 0)
+        self._proc.wait(10)
+
+
+def raise_workers_child(priority: int) -> None:
+    """Child process of :class:`RaisedWorkers`: raise, look again every 0.1 s until stdin
+    closes, set every one back, print how many were raised."""
+    raised: set[int] = set()
+    done = threading.Event()
+
+    def scan() -> None:
+        for pid in os.listdir("/proc"):
+            if not pid.isdigit() or int(pid) in raised:
+                continue
+            try:
+                if Path(f"/proc/{pid}/comm").read_text().startswith("kworker/u"):
+                    os.sched_setscheduler(int(pid), os.SCHED_FIFO, os.sched_param(priority))
+                    raised.add(int(pid))
+            except OSError:  # gone, or not permitted
+                continue
+
+    def watch_stdin() -> None:
+        sys.stdin.read()
+        done.set()
+
+    scan()
+    print(len(raised) if raised else "refused", flush=True)
+    threading.Thread(target=watch_stdin, daemon=True).start()
+    while not done.wait(0.1):
+        scan()
+    for pid in raised:
+        with contextlib.suppress(OSError):
+            os.sched_setscheduler(pid, os.SCHED_OTHER, os.sched_param(0))
+    print(len(raised), flush=True)
 
 
 def make_schedule(seconds: float, rate: float) -> Schedule:
@@ -289,7 +307,7 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
     if not variant.helpers:
         policy += "; readers and supervisor normal"
     if isinstance(workers, RaisedWorkers):
-        policy += f"; {len(workers.raised)} pty workers SCHED_FIFO {workers.priority}"
+        policy += f"; {workers.raised} pty workers SCHED_FIFO {workers.priority}"
     # Only collections while the show played (the runner's own gc.collect() before it starts
     # and the one after it ends are no stall of a write).
     first, last = result.start_at, max((t for t, _, _ in issued), default=result.start_at)
@@ -313,12 +331,15 @@ def writers_only(active: bool) -> Iterator[None]:
     def enter(priority: int = realtime.PRIORITY) -> bool:
         return priority == realtime.PRIORITY and realtime.enter_show_thread(priority)
 
-    saved = executor.enter_show_thread, show_runner.enter_show_thread
-    executor.enter_show_thread = show_runner.enter_show_thread = enter
+    name = "enter_show_thread"  # each module's own reference to realtime's function
+    saved = [(mod, getattr(mod, name)) for mod in (executor, show_runner)]
+    for mod, _ in saved:
+        setattr(mod, name, enter)
     try:
         yield
     finally:
-        executor.enter_show_thread, show_runner.enter_show_thread = saved
+        for mod, original in saved:
+            setattr(mod, name, original)
 
 
 def bursts(issued: list[tuple[float, str, float]], writers: int = 3) -> int:
@@ -511,7 +532,11 @@ def main() -> None:
                         "SCHED_FIFO 5 (root; an intervention that shows their share)")
     parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
     parser.add_argument("--sim-mode", default="fifo", help=argparse.SUPPRESS)
+    parser.add_argument("--raise-workers-child", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.raise_workers_child is not None:
+        raise_workers_child(args.raise_workers_child)
+        return
     if args.serve_sim:
         serve_sim(Path(args.serve_sim), args.sim_mode)
         return
