@@ -468,13 +468,13 @@ def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
         errs, drifts, delivery = measure(schedule, got, (t0, t1), starts, schedule.control_rate,
                                          None if run is None else run.sends)
         name = "naive (write, sleep)" if variant is None else variant.name
-        line = (f"{name:<22}{load:>5.1f} |{p(errs, 0.5):>8.3f}{p(errs, 0.99):>8.3f}"
-                f"{p(errs, 0.999):>8.3f}{p(errs, 1.0):>8.2f}{max(abs(d) for d in drifts):>7.2f}")
+        line = (f"{name:<22} {load:>4.1f} | {p(errs, 0.5):>7.3f} {p(errs, 0.99):>7.3f}"
+                f" {p(errs, 0.999):>7.3f} {p(errs, 1.0):>7.2f} {max(abs(d) for d in drifts):>6.2f}")
         if run is not None:
             issued = [e for _, _, e in run.issued]
-            line += (f" |{p(issued, 0.5):>7.3f}{p(issued, 0.99):>7.3f}{p(issued, 0.999):>8.3f}"
-                     f"{p(issued, 1.0):>7.2f} |{p(delivery, 0.99):>8.3f}"
-                     f"{p(delivery, 0.999):>8.3f}{p(delivery, 1.0):>8.2f}")
+            line += (f" | {p(issued, 0.5):>6.3f} {p(issued, 0.99):>6.3f} {p(issued, 0.999):>7.3f}"
+                     f" {p(issued, 1.0):>6.2f} | {p(delivery, 0.99):>7.3f}"
+                     f" {p(delivery, 0.999):>7.3f} {p(delivery, 1.0):>7.2f}")
             if diagnose:
                 late = sum(1 for e in issued if e > LATE_MS)
                 gcs = (f"{len(run.gc_pauses)}/{max(run.gc_pauses) * 1000:.1f}"
