@@ -338,7 +338,7 @@ performers:
   rex: {model: mini}
 tracks:
   rex:
-    - repeat: 300
+    - repeat: 1500
       cues:
         - {move: {roll: 8, pitch: 5}, duration: 1.0}
         - {move: {roll: -8, pitch: -5}, duration: 1.0}
