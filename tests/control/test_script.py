@@ -61,8 +61,10 @@ def test_the_committed_schema_is_current() -> None:
 def test_dry_run_fast_plays_the_script(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["dry-run", str(CURTAIN), "--fast", "--triggers", str(REHEARSAL)]) == 0
     out = capsys.readouterr().out
-    assert "trigger 'go': released section 'bow'" in out
-    assert "trigger 'encore': released section 'encore'" in out
+    # The script's timing, kept in virtual time: 'go' 1.5 s into the hold at bow (4 s),
+    # 'encore' 0.5 s into the hold at encore (8 s of show, 9.5 s with the first hold).
+    assert "trigger 'go' at 5.500 s: released section 'bow'" in out
+    assert "trigger 'encore' at 10.000 s: released section 'encore'" in out
     assert "show completed" in out
 
 

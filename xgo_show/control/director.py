@@ -19,10 +19,24 @@ timeout takes the wait's ``else``: ``continue`` (release), a section (jump there
 play; a section that waits holds again at once) or ``end`` (jump to the show's end: the robots
 take its final posture and the show completes).
 
+Visits. Every time the show comes to a wait is a *visit*; each is released once, for every
+performer (when, and where the show goes on), and each performer applies that decision when
+it reaches the hold itself. Performers never share one "where the show is": each goes through
+the same visits in the same order at its own pace, so one a few frames behind the others (in
+real time), or any number of sections behind them (in virtual time, where every writer runs on
+its own fake clock), still holds at each wait and leaves it at the decided time, and a
+performer is never sent a second command before it has acted on the first one.
+
 Operator commands (pause, resume, seek, stop) go through the director too, so a wait that is
-armed is never left behind by a pause or a seek. With a :class:`~xgo_show.runtime.clock.FakeClock`
-(``dry-run --fast``) waits are armed at once and timeouts are taken only on request
-(:meth:`Director.expire`): virtual time does not pass while the show waits.
+armed is never left behind by a pause or a seek.
+
+Virtual time (a :class:`~xgo_show.runtime.clock.FakeClock`, ``dry-run --fast``). Each writer
+runs on its own fork of the clock, so "now" means nothing to the director: every decision
+carries its own time instead. Waits are armed at once; a trigger or a timeout is given with the
+clock time it happens at (:meth:`Director.trigger` and :meth:`Director.expire` take ``at=``;
+by default a trigger comes the instant the show holds and a timeout when it runs out), and each
+performer resumes at that time on its own clock: the rehearsal keeps the timing the same show
+has in real time, without waiting for it.
 """
 
 from __future__ import annotations
@@ -108,28 +122,45 @@ class TriggerOutcome:
 
 
 @dataclass
+class _Visit:
+    """One time the show comes to a wait: held from ``since``, released once for everyone."""
+
+    section: Section
+    since: float | None = None  # clock time the first performer held here
+    how: str = ""  # until released: ""; then trigger, early or timeout
+    release_at: float = float("-inf")  # clock time the show goes on (at the earliest)
+    target: float | None = None  # show time to jump to (a timeout's else), None: play on
+
+    @property
+    def released(self) -> bool:
+        return bool(self.how)
+
+
+@dataclass
 class _Track:
     """What the director knows of one performer."""
 
     anchor: tuple[float, float] | None = None  # (clock time, show time) while running
-    armed: Section | None = None  # the wait it was asked to pause at
-    held: bool = False  # holding at the current wait
-    on_hold: Callable[[], None] | None = None  # what to do when it reaches its hold
+    next: int = 0  # the visit it heads to, or holds at (an index in the show's visits)
+    armed: bool = False  # asked to pause at that visit's wait
+    held: bool = False  # holding there until the visit is released
+    hold_t: float = 0.0  # clock time it began holding (its own clock)
+    moving: bool = False  # told to resume or seek: its RUNNING is still to come
+    on_hold: Callable[[], None] | None = None  # an operator's seek, for when it holds
+    on_running: Callable[[], None] | None = None  # an operator's seek, for when it runs
     done: bool = False
-
-
-@dataclass
-class _Wait:
-    section: Section
-    released: bool = False
-    since: float | None = None  # clock time the show began holding
 
 
 @dataclass
 class _State:
     phase: str = "idle"  # idle, playing, waiting, paused, ended
-    wait: _Wait | None = None  # the wait ahead (playing) or held (waiting)
+    visits: list[_Visit] = field(default_factory=list)
+    cur: int = 0  # the first visit not released yet (== len(visits): no wait ahead)
     tracks: dict[str, _Track] = field(default_factory=dict)
+
+    @property
+    def ahead(self) -> _Visit | None:
+        return self.visits[self.cur] if self.cur < len(self.visits) else None
 
 
 class Director(WorkerClosing):
@@ -150,6 +181,8 @@ class Director(WorkerClosing):
         self.arm_margin = arm_margin
         self._cond = threading.Condition(threading.RLock())
         self._s = _State(tracks={name: _Track() for name in runner.performers})
+        self._outbox: list[Event] = []
+        self._flushing = False
         self._closed = False
         self._sub = self.events.subscribe(
             self._on_event, StateChanged, ShowStarted, ShowEnded, ShowPaused, ShowResumed
@@ -170,81 +203,93 @@ class Director(WorkerClosing):
     @property
     def waiting_for(self) -> Section | None:
         """The section whose wait holds the show now, or None."""
-        w = self._s.wait
-        return w.section if w is not None and self._s.phase == "waiting" else None
+        v = self._s.ahead
+        return v.section if v is not None and self._s.phase == "waiting" else None
 
     @property
     def wait_ahead(self) -> Section | None:
         """The next wait the show will come to (or holds at), or None."""
-        w = self._s.wait
-        return w.section if w is not None else None
+        v = self._s.ahead
+        return v.section if v is not None else None
 
     def section_now(self, show_time: float) -> Section | None:
         return section_at(self.sections, show_time)
 
     # ------------------------------------------------------------------ commands
 
-    def trigger(self, name: str) -> TriggerOutcome:
+    def trigger(self, name: str, *, at: float | None = None) -> TriggerOutcome:
         """Fire trigger ``name``: release the wait held now, or keep it for the wait ahead.
 
-        Raises :class:`ControlError` when nobody waits for it (the message says what the show
-        waits for, if anything).
+        ``at``: the clock time it was fired (default now; in virtual time, the instant the
+        show holds). Raises :class:`ControlError` when nobody waits for it (the message says
+        what the show waits for, if anything).
         """
         with self._cond:
             s = self._s
-            w = s.wait
+            v = s.ahead
             problem = None
             if s.phase in ("idle", "ended"):
                 problem = "no show is running" if s.phase == "idle" else "the show is over"
-            elif w is None or w.section.wait is None:
+            elif v is None or v.section.wait is None:
                 problem = "the show waits for no trigger from here on"
-            elif w.section.wait.trigger != name:
-                problem = (f"the show {'waits' if s.phase == 'waiting' else 'will wait'} for "
-                           f"{w.section.wait.trigger!r} (section {w.section.name!r})")
-            elif w.released:
-                problem = f"{name!r} was already given for section {w.section.name!r}"
+            elif v.section.wait.trigger != name:
+                last = s.visits[s.cur - 1] if s.cur > 0 else None
+                if (last is not None and _trigger(last.section) == name
+                        and last.how in ("trigger", "early")):
+                    problem = f"{name!r} was already given for section {last.section.name!r}"
+                else:
+                    problem = (f"the show {'waits' if s.phase == 'waiting' else 'will wait'} "
+                               f"for {v.section.wait.trigger!r} (section {v.section.name!r})")
             if problem is not None:
                 if name not in trigger_names(self.sections):
                     problem = f"no section of this show waits for {name!r}; {problem}"
-                self.events.publish(TriggerRefused(self.clock.now(), name, problem))
+                self._emit(TriggerRefused(self._stamp(at), name, problem))
                 raise ControlError(f"trigger {name!r} refused: {problem}")
-            assert w is not None and w.section.wait is not None
-            held = s.phase == "waiting"
-            self._release(w, "trigger" if held else "early", w.section.name)
-            return TriggerOutcome(name, w.section.name, held)
+            assert v is not None
+            if at is None:
+                at = self.clock.now() if not self.virtual else (
+                    v.since if v.since is not None else float("-inf"))
+            held = s.phase == "waiting" and (v.since is None or at >= v.since)
+            self._release(v, "trigger" if held else "early", at, None, v.section.name)
+            return TriggerOutcome(name, v.section.name, held)
 
-    def expire(self) -> None:
-        """Take the held wait's timeout now (its ``else``), or, without a timeout, end the
-        show with a safe stop saying no trigger came. Used by virtual-time rehearsals."""
+    def expire(self, *, at: float | None = None) -> None:
+        """Take the held wait's timeout (its ``else``), or, without a timeout, end the show
+        with a safe stop saying no trigger came. Used by virtual-time rehearsals: ``at`` (by
+        default the wait's start plus its timeout) is when it happens."""
         with self._cond:
-            w = self._s.wait
-            if self._s.phase != "waiting" or w is None or w.section.wait is None:
+            v = self._s.ahead
+            if self._s.phase != "waiting" or v is None or v.section.wait is None:
                 return
-            if w.section.wait.timeout is None:
-                self.runner.stop(f"no trigger {w.section.wait.trigger!r} came for section "
-                                 f"{w.section.name!r}, which waits without a timeout")
+            wait = v.section.wait
+            if wait.timeout is None:
+                self.runner.stop(f"no trigger {wait.trigger!r} came for section "
+                                 f"{v.section.name!r}, which waits without a timeout")
                 return
-            self._time_out(w)
+            if at is None:
+                at = (v.since or 0.0) + wait.timeout if self.virtual else self.clock.now()
+            self._time_out(v, at)
 
     def pause(self) -> None:
-        """Pause the show (robots at rest). A no-op while it holds at a wait, and when a wait
-        is due within ``arm_margin`` (the robots are about to hold there anyway)."""
+        """Pause the show (robots at rest). A no-op while it holds at a wait, when a wait is
+        due within ``arm_margin`` (the robots are about to hold there anyway) and for the
+        instant a release takes to reach every robot (one command at a time)."""
         with self._cond:
             if self._s.phase == "waiting":
                 return
             self._need_running("pause")
-            if any(tr.armed is not None for tr in self._s.tracks.values()):
+            if any(tr.armed or tr.moving for tr in self._s.tracks.values()):
                 return
             self.runner.pause()
 
     def resume(self) -> None:
         """Resume a paused show (a wait is released by its trigger, not by resume)."""
         with self._cond:
-            w = self._s.wait
-            if self._s.phase == "waiting" and w is not None and w.section.wait is not None:
+            v = self._s.ahead
+            if self._s.phase == "waiting" and v is not None and v.section.wait is not None:
                 raise ControlError(
-                    f"the show waits for trigger {w.section.wait.trigger!r} (section "
-                    f"{w.section.name!r}): fire it, or seek"
+                    f"the show waits for trigger {v.section.wait.trigger!r} (section "
+                    f"{v.section.name!r}): fire it, or seek"
                 )
             if self._s.phase != "paused":
                 raise ControlError(f"the show is not paused (it is {self._s.phase})")
@@ -258,9 +303,11 @@ class Director(WorkerClosing):
                 raise ControlError(f"seek to {show_time:g} s: outside the show (0 to "
                                    f"{self.schedule.duration:g} s)")
             s = self._s
-            if s.phase == "waiting" and s.wait is not None:
-                self.events.publish(WaitReleased(self.clock.now(), s.wait.section.name,
-                                                 _trigger(s.wait.section), "seek", ""))
+            v = s.ahead
+            if s.phase == "waiting" and v is not None:
+                v.how = "seek"
+                self._emit(WaitReleased(self.clock.now(), v.section.name, _trigger(v.section),
+                                        "seek", ""))
             self._goto(show_time, paused=s.phase == "paused")
 
     def seek_section(self, name: str) -> float:
@@ -283,13 +330,32 @@ class Director(WorkerClosing):
             raise ControlError(f"cannot {what}: " + (
                 "no show is running" if self._s.phase == "idle" else "the show is over"))
 
-    def _wait_from(self, show_time: float, *, after: bool = False) -> _Wait | None:
-        """The first wait at (or, with ``after``, strictly after) ``show_time``."""
+    def _emit(self, event: Event) -> None:
+        """Publish ``event`` after any event being published now has reached every listener:
+        a listener that fires a trigger as a wait starts (a virtual-time rehearsal) makes
+        every listener see the wait start before its release."""
+        with self._cond:
+            self._outbox.append(event)
+            if self._flushing:
+                return
+            self._flushing = True
+            try:
+                while self._outbox:
+                    self.events.publish(self._outbox.pop(0))
+            finally:
+                self._flushing = False
+
+    def _stamp(self, at: float | None) -> float:
+        """An event's time: ``at`` if it is one, else now."""
+        return at if at is not None and at != float("-inf") else self.clock.now()
+
+    def _wait_from(self, show_time: float, *, after: bool = False) -> Section | None:
+        """The first section that waits at (or, with ``after``, strictly after) ``show_time``."""
         for sec in self.sections:
             if sec.wait is None:
                 continue
             if sec.start > show_time + _EPS or (not after and sec.start >= show_time - _EPS):
-                return _Wait(sec)
+                return sec
         return None
 
     def _performer(self, name: str) -> Any:
@@ -302,71 +368,97 @@ class Director(WorkerClosing):
         must carry two times, and every robot of a release acts at the same one."""
         return self.clock.now() + self.runner.command_lead
 
-    def _release(self, w: _Wait, how: str, goto: str) -> None:
-        """End wait ``w`` (held or ahead): every performer plays on; the next wait is ahead."""
-        w.released = True
-        when = self._when()
-        for name, tr in self._s.tracks.items():
-            if tr.done:
-                continue
-            if tr.held:
-                tr.held = False
-                self._performer(name).resume(at=when)
-            elif tr.armed is w.section:
-                # Not at its hold yet (a few ms behind the others): resume it on arrival.
-                p = self._performer(name)
-                tr.on_hold = lambda p=p: p.resume(at=self._when())
-        self.events.publish(WaitReleased(self.clock.now(), w.section.name, _trigger(w.section),
-                                         how, goto))
-        self._s.wait = self._wait_from(w.section.start, after=True)
-        if self._s.phase == "waiting":
-            self._s.phase = "playing"
+    def _release(self, v: _Visit, how: str, at: float, target: float | None,
+                 goto: str) -> None:
+        """Release visit ``v`` (held or ahead) as decided at clock time ``at``: the show goes
+        on (from ``target``, if given) at ``at`` plus the runner's lead, each performer as it
+        holds there; the visit after it is the wait ahead."""
+        s = self._s
+        v.how = how
+        v.release_at = at + self.runner.command_lead
+        v.target = target
+        self._emit(WaitReleased(self._stamp(at if v.since is None else max(at, v.since)),
+                                v.section.name, _trigger(v.section), how, goto))
+        # The wait after this one is known before any performer moves on (a performer may
+        # report that it runs again from inside the resume).
+        index = s.cur
+        after = (self._wait_from(target) if target is not None
+                 else self._wait_from(v.section.start, after=True))
+        if after is not None:
+            s.visits.append(_Visit(after))
+        s.cur += 1
+        if s.phase == "waiting":
+            s.phase = "playing"
+        for name, tr in s.tracks.items():
+            if tr.held and tr.next == index and not tr.done:
+                self._leave(name, tr, v)
         self._cond.notify_all()
 
-    def _time_out(self, w: _Wait) -> None:
-        wait = w.section.wait
+    def _leave(self, name: str, tr: _Track, v: _Visit) -> None:
+        """Performer ``name``, holding at released visit ``v``, goes on as the release says."""
+        # Virtual time: at the release time on the performer's own clock (never before it
+        # held). Real time: at the release time, or as soon as a command can take effect.
+        at = max(v.release_at, tr.hold_t if self.virtual else self._when())
+        p = self._performer(name)
+        tr.held = False
+        tr.moving = True
+        tr.next += 1
+        if v.target is not None:
+            p.seek(v.target, at=at)
+        p.resume(at=at)
+
+    def _time_out(self, v: _Visit, at: float) -> None:
+        wait = v.section.wait
         assert wait is not None
         if wait.otherwise == CONTINUE:
-            self._release(w, "timeout", w.section.name)
+            self._release(v, "timeout", at, None, v.section.name)
             return
         target = self.schedule.duration if wait.otherwise == END else None
         if target is None:
             section = section_named(self.sections, wait.otherwise)
             assert section is not None  # the loader checked every else: target
             target = section.start
-        self.events.publish(WaitReleased(self.clock.now(), w.section.name, wait.trigger,
-                                         "timeout", wait.otherwise))
-        self._goto(target, paused=False)
+        self._release(v, "timeout", at, target, wait.otherwise)
 
     def _goto(self, show_time: float, *, paused: bool) -> None:
-        """Every performer jumps to ``show_time`` (then plays, unless the show is paused)."""
+        """An operator's seek: every performer jumps to ``show_time`` now (then plays,
+        unless the show is paused), wherever it is; the waits start again from there."""
         s = self._s
+        after = self._wait_from(show_time)
+        s.visits = [_Visit(after)] if after is not None else []
+        s.cur = 0
         for name, tr in s.tracks.items():
             if tr.done:
                 continue
             p = self._performer(name)
             tr.anchor = None
+            tr.next = 0
 
-            def jump(p: Any = p, paused: bool = paused) -> None:
+            def jump(p: Any = p, tr: _Track = tr) -> None:
                 when = self._when()
                 p.seek(show_time, at=when)
                 if not paused:
+                    tr.moving = True
                     p.resume(at=when)
 
+            def seek(p: Any = p, tr: _Track = tr) -> None:
+                tr.moving = True
+                p.seek(show_time, at=self._when())
+
+            tr.on_hold = tr.on_running = None
             if tr.held or paused:
                 tr.held = False
-                tr.armed = None
-                tr.on_hold = None
+                tr.armed = False
                 jump()
-            elif tr.armed is not None:
+            elif tr.armed:
                 # About to hold at its wait (its pause is already asked for, perhaps already
                 # being applied): jump from there, rather than ask for a second pause.
                 tr.on_hold = jump
+            elif tr.moving:
+                # Its last command is still to take effect: one at a time.
+                tr.on_running = seek
             else:
-                # Playing: pause now, jump, go on.
-                p.pause(at=self._when())
-                jump()
-        s.wait = self._wait_from(show_time)
+                seek()  # playing: a seek alone (catch-up frames, then on from there)
         if s.phase == "waiting":
             s.phase = "playing"
         self._cond.notify_all()
@@ -378,7 +470,9 @@ class Director(WorkerClosing):
                 self._on_state(event)
             elif isinstance(event, ShowStarted):
                 s.phase = "playing"
-                s.wait = self._wait_from(event.offset)
+                after = self._wait_from(event.offset)
+                s.visits = [_Visit(after)] if after is not None else []
+                s.cur = 0
                 # Every performer's timeline until it says otherwise: exact, where a relayed
                 # performer's RUNNING comes from a heartbeat, stamped when it arrived.
                 for tr in s.tracks.values():
@@ -391,7 +485,7 @@ class Director(WorkerClosing):
                     s.phase = "playing"
             elif isinstance(event, ShowEnded):
                 s.phase = "ended"
-                s.wait = None
+                s.visits, s.cur = [], 0
             self._cond.notify_all()
 
     def _on_state(self, event: StateChanged) -> None:
@@ -400,45 +494,65 @@ class Director(WorkerClosing):
             return
         state = event.state
         if state is ExecutorState.RUNNING:
+            tr.moving = False
+            if tr.on_running is not None:
+                action, tr.on_running = tr.on_running, None
+                tr.anchor = None
+                action()
+                return
             if tr.anchor is None or abs(
                 tr.anchor[1] + (event.t - tr.anchor[0]) - event.show_time
             ) > _SLACK:
                 tr.anchor = (event.t, event.show_time)
             tr.held = False
             if self.virtual:
-                self._arm(event.performer, tr, self.clock.now())
+                self._arm(event.performer, tr, event.t)
             return
         tr.anchor = None
         if state is ExecutorState.PAUSED:
-            armed, tr.armed = tr.armed, None  # any hold uses up the performer's pause request
-            if armed is None or abs(event.show_time - armed.start) > _SLACK:
-                return  # not this wait's hold (pause() is a no-op while a wait is armed)
-            action, tr.on_hold = tr.on_hold, None
-            if action is not None:
-                action()  # released (or sent elsewhere) before it got here
+            if not tr.armed:
+                return  # an operator's pause (refused while a wait is armed)
+            tr.armed = False  # any hold uses up the performer's pause request
+            if tr.on_hold is not None:
+                action, tr.on_hold = tr.on_hold, None
+                action()  # sent elsewhere by a seek before it got here
+                return
+            s = self._s
+            if tr.next >= len(s.visits):
+                return  # the show is over
+            v = s.visits[tr.next]
+            tr.hold_t = event.t
+            if v.released:
+                self._leave(event.performer, tr, v)  # released before it got here
                 return
             tr.held = True
-            w = self._s.wait
-            if w is not None and w.section is armed and self._s.phase != "waiting":
-                self._s.phase = "waiting"
-                w.since = event.t
-                assert armed.wait is not None
-                self.events.publish(WaitStarted(event.t, armed.name, armed.wait.trigger,
-                                                armed.start, armed.wait.timeout))
+            if v.since is None:
+                v.since = event.t
+                s.phase = "waiting"
+                wait = v.section.wait
+                assert wait is not None
+                self._emit(WaitStarted(event.t, v.section.name, wait.trigger, v.section.start,
+                                       wait.timeout))
         elif state in (ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED):
             tr.done = True
 
     def _arm(self, name: str, tr: _Track, now: float) -> float | None:
-        """Arm the wait ahead on one performer if it is due; else when it will be due."""
-        w = self._s.wait
-        if (w is None or w.released or tr.anchor is None or tr.armed is not None or tr.done
-                or self._s.phase not in ("playing", "waiting")):
+        """Arm the wait ahead of one performer if it is due; else when it will be due."""
+        s = self._s
+        if (tr.anchor is None or tr.armed or tr.held or tr.moving or tr.done
+                or s.phase not in ("playing", "waiting")):
+            return None
+        # A wait released early (before this performer came near it) is played through.
+        while (tr.next < len(s.visits) and s.visits[tr.next].released
+               and s.visits[tr.next].target is None):
+            tr.next += 1
+        if tr.next >= len(s.visits):
             return None
         clock_t, show_t = tr.anchor
-        at = clock_t + (w.section.start - show_t)
+        at = clock_t + (s.visits[tr.next].section.start - show_t)
         if not self.virtual and at - self.arm_margin > now:
             return at - self.arm_margin
-        tr.armed = w.section
+        tr.armed = True
         self._performer(name).pause(at=at)
         return None
 
@@ -451,12 +565,12 @@ class Director(WorkerClosing):
                     when = self._arm(name, tr, now)
                     if when is not None:
                         due.append(when)
-                w = self._s.wait
-                if (self._s.phase == "waiting" and w is not None and w.section.wait is not None
-                        and w.section.wait.timeout is not None and w.since is not None):
-                    expiry = w.since + w.section.wait.timeout
+                v = self._s.ahead
+                if (self._s.phase == "waiting" and v is not None and v.section.wait is not None
+                        and v.section.wait.timeout is not None and v.since is not None):
+                    expiry = v.since + v.section.wait.timeout
                     if now >= expiry:
-                        self._time_out(w)
+                        self._time_out(v, now)
                         continue
                     due.append(expiry)
                 timeout = None if not due else max(0.0, min(due) - self.clock.now())

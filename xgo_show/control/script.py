@@ -13,10 +13,12 @@ it already holds there when the entry's turn comes, S seconds after the previous
 included) after the show's start, whether the show waits for it or not, so early and unwanted
 triggers can be rehearsed too. Entries fire one after another, each once.
 
-In virtual time (``dry-run --fast``) nothing waits: each trigger fires as soon as the show holds
-for it (``at`` and ``after`` only order the entries); a wait whose trigger is not next in the
-script takes its timeout at once (and, without a timeout, ends the show with a safe stop that
-says which trigger was missing).
+In virtual time (``dry-run --fast``) nothing waits, but the script keeps its timing: as the
+show starts holding at a wait, the entries due by then fire (early, or refused, as they would
+have in real time), then the entry for that wait fires at its time if that comes before the
+wait's timeout; otherwise the timeout is taken when it runs out (without a timeout, the show
+ends with a safe stop that says which trigger was missing). Each trigger, hold and release
+happens at the same show clock time as in a real-time run of the same script.
 """
 
 from __future__ import annotations
@@ -140,8 +142,8 @@ class ScriptPlayer(WorkerClosing):
 
     def _on_event(self, event: Event) -> None:
         if self.director.virtual and isinstance(event, WaitStarted):
-            self._virtual_wait(event)
-            return
+            self._virtual_wait(event)  # called with the director's lock held: no other
+            return  # thread plays this show's script
         with self._cond:
             if isinstance(event, ShowStarted):
                 self._start = event.start_at
@@ -151,28 +153,45 @@ class ScriptPlayer(WorkerClosing):
                 self._ended = True
             self._cond.notify_all()
 
-    def _fire(self, name: str) -> None:
+    def _fire(self, name: str, at: float | None = None) -> bool:
+        """Fire ``name`` (in virtual time, at clock time ``at``); True if it released or was
+        kept for a wait."""
         start = self._start if self._start is not None else self.clock.now()
-        t = self.clock.now() - start
+        when = at if at is not None else self.clock.now()
         try:
-            outcome = self.director.trigger(name)
+            outcome = self.director.trigger(name, at=at)
         except ControlError as exc:
-            result = str(exc)
+            result, ok = str(exc), False
         else:
             result = f"{'released' if outcome.held else 'kept for'} section {outcome.section!r}"
+            ok = True
+        t = when - start
         self.fired.append(Fired(name, t, result))
-        when = "" if self.director.virtual else f" at {t:.3f} s"
-        self.say(f"trigger {name!r}{when}: {result}")
+        self.say(f"trigger {name!r} at {t:.3f} s: {result}")
+        return ok
 
     def _virtual_wait(self, event: WaitStarted) -> None:
-        # Called in a writer thread as the show starts holding: fire or expire from another
-        # thread, so the writer goes on into its hold first.
-        if self.cues and self.cues[0].trigger == event.trigger:
-            cue = self.cues.pop(0)
-            action: Callable[[], None] = lambda: self._fire(cue.trigger)  # noqa: E731
-        else:
-            action = self.director.expire
-        threading.Thread(target=action, name="xgo-show trigger", daemon=True).start()
+        """The show holds at a wait (virtual time): play the script up to its release."""
+        hold = event.t
+        start = self._start if self._start is not None else hold
+        expiry = None if event.timeout is None else hold + event.timeout
+        turn = max(self._turn, start)
+        while self.cues:
+            cue = self.cues[0]
+            if cue.at is not None:
+                due = max(turn, start + cue.at)
+            elif cue.trigger == event.trigger:
+                assert cue.after is not None
+                due = max(hold, turn) + cue.after
+            else:
+                break  # it waits for a hold of its own trigger: this wait times out
+            if expiry is not None and due > expiry:
+                break
+            self.cues.pop(0)
+            turn = self._turn = due
+            if self._fire(cue.trigger, at=due) and cue.trigger == event.trigger:
+                return
+        self.director.expire(at=expiry)
 
     def _loop(self) -> None:
         with self._cond:
