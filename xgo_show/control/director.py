@@ -542,14 +542,17 @@ class Director(WorkerClosing):
         if (tr.anchor is None or tr.armed or tr.held or tr.moving or tr.done
                 or s.phase not in ("playing", "waiting")):
             return None
-        # A wait released early (before this performer came near it) is played through.
-        while (tr.next < len(s.visits) and s.visits[tr.next].released
-               and s.visits[tr.next].target is None):
-            tr.next += 1
-        if tr.next >= len(s.visits):
-            return None
         clock_t, show_t = tr.anchor
-        at = clock_t + (s.visits[tr.next].section.start - show_t)
+        while tr.next < len(s.visits):
+            v = s.visits[tr.next]
+            at = clock_t + (v.section.start - show_t)
+            # A wait released for a time before this performer gets there (an early
+            # trigger) is played through; any other it holds at, to leave it as decided.
+            if not (v.released and v.target is None and v.release_at <= at):
+                break
+            tr.next += 1
+        else:
+            return None
         if not self.virtual and at - self.arm_margin > now:
             return at - self.arm_margin
         tr.armed = True
