@@ -377,8 +377,6 @@ class Director(WorkerClosing):
         v.how = how
         v.release_at = at + self.runner.command_lead
         v.target = target
-        self._emit(WaitReleased(self._stamp(at if v.since is None else max(at, v.since)),
-                                v.section.name, _trigger(v.section), how, goto))
         # The wait after this one is known before any performer moves on (a performer may
         # report that it runs again from inside the resume).
         index = s.cur
@@ -392,6 +390,9 @@ class Director(WorkerClosing):
         for name, tr in s.tracks.items():
             if tr.held and tr.next == index and not tr.done:
                 self._leave(name, tr, v)
+        # Said once the robots are on their way: listeners cost the release no time.
+        self._emit(WaitReleased(self._stamp(at if v.since is None else max(at, v.since)),
+                                v.section.name, _trigger(v.section), how, goto))
         self._cond.notify_all()
 
     def _leave(self, name: str, tr: _Track, v: _Visit) -> None:
