@@ -307,7 +307,7 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
     """Run ``schedule`` with ``opts``: the launch stages, printing pre-flight, progress and
     the report (and, on simulators, what each robot did)."""
     out = sys.stdout
-    script = check_triggers(schedule, opts.triggers)  # before anything opens
+    script = check_triggers(schedule, opts.triggers, follow=opts.follow)  # before any open
     decide(opts.realtime, virtual=opts.fast)  # the writer threads raise themselves
     sim_names = [p.name for p in schedule.performers if p.name not in opts.maps] if opts.sim else []
     music = prepare_music(schedule, enabled=opts.music, fast=opts.fast, device=opts.audio_device)
@@ -383,7 +383,9 @@ def play(schedule: Schedule, opts: PlayOptions) -> int:
             flush=True,
         )
         say = lambda line: print(line, file=out, flush=True)  # noqa: E731
-        with directed(runner, launch.clock, script, say=say):
+        with directed(runner, launch.clock, script, say=say) as director:
+            if follow is not None:
+                follow.director = director  # the desk's cues keep the waits (None: none)
             result = launch.run(offset=offset, start_at=start_at)
         if live is not None:
             live.finish(runner.snapshot(), completed=result.completed)

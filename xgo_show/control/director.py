@@ -270,20 +270,22 @@ class Director(WorkerClosing):
                 at = (v.since or 0.0) + wait.timeout if self.virtual else self.clock.now()
             self._time_out(v, at)
 
-    def pause(self) -> None:
-        """Pause the show (robots at rest). A no-op while it holds at a wait, when a wait is
-        due within ``arm_margin`` (the robots are about to hold there anyway) and for the
-        instant a release takes to reach every robot (one command at a time)."""
+    def pause(self, *, at: float | None = None) -> None:
+        """Pause the show (robots at rest) at clock time ``at`` (default: as soon as it can
+        take effect). A no-op while it holds at a wait, when a wait is due within
+        ``arm_margin`` (the robots are about to hold there anyway) and for the instant a
+        release takes to reach every robot (one command at a time)."""
         with self._cond:
             if self._s.phase == "waiting":
                 return
             self._need_running("pause")
             if any(tr.armed or tr.moving for tr in self._s.tracks.values()):
                 return
-            self.runner.pause()
+            self.runner.pause(at=at)
 
-    def resume(self) -> None:
-        """Resume a paused show (a wait is released by its trigger, not by resume)."""
+    def resume(self, *, at: float | None = None) -> None:
+        """Resume a paused show at clock time ``at`` (default: as soon as it can take
+        effect); a wait is released by its trigger, not by resume."""
         with self._cond:
             v = self._s.ahead
             if self._s.phase == "waiting" and v is not None and v.section.wait is not None:
@@ -293,10 +295,11 @@ class Director(WorkerClosing):
                 )
             if self._s.phase != "paused":
                 raise ControlError(f"the show is not paused (it is {self._s.phase})")
-            self.runner.resume()
+            self.runner.resume(at=at)
 
-    def seek(self, show_time: float) -> None:
-        """Jump to ``show_time`` and play from there (paused: on resume)."""
+    def seek(self, show_time: float, *, at: float | None = None) -> None:
+        """Jump to ``show_time`` and play from there (paused: on resume), at clock time
+        ``at`` (default: as soon as it can take effect)."""
         with self._cond:
             self._need_running("seek")
             if not 0.0 <= show_time < self.schedule.duration:
@@ -308,7 +311,7 @@ class Director(WorkerClosing):
                 v.how = "seek"
                 self._emit(WaitReleased(self.clock.now(), v.section.name, _trigger(v.section),
                                         "seek", ""))
-            self._goto(show_time, paused=s.phase == "paused")
+            self._goto(show_time, paused=s.phase == "paused", at=at)
 
     def seek_section(self, name: str) -> float:
         """Jump to the start of section ``name``; returns its show time."""
@@ -421,7 +424,7 @@ class Director(WorkerClosing):
             target = section.start
         self._release(v, "timeout", at, target, wait.otherwise)
 
-    def _goto(self, show_time: float, *, paused: bool) -> None:
+    def _goto(self, show_time: float, *, paused: bool, at: float | None = None) -> None:
         """An operator's seek: every performer jumps to ``show_time`` now (then plays,
         unless the show is paused), wherever it is; the waits start again from there."""
         s = self._s
@@ -436,7 +439,7 @@ class Director(WorkerClosing):
             tr.next = 0
 
             def jump(p: Any = p, tr: _Track = tr) -> None:
-                when = self._when()
+                when = self._when() if at is None else max(at, self._when())
                 p.seek(show_time, at=when)
                 if not paused:
                     tr.moving = True
@@ -444,7 +447,7 @@ class Director(WorkerClosing):
 
             def seek(p: Any = p, tr: _Track = tr) -> None:
                 tr.moving = True
-                p.seek(show_time, at=self._when())
+                p.seek(show_time, at=self._when() if at is None else max(at, self._when()))
 
             tr.on_hold = tr.on_running = None
             if tr.held or paused:

@@ -23,13 +23,25 @@ from xgo_show.runtime.show_runner import ShowRunner
 __all__ = ["check_triggers", "directed"]
 
 
-def check_triggers(schedule: Schedule, script: str | Path | None) -> TriggerScript | None:
+def check_triggers(
+    schedule: Schedule, script: str | Path | None, *, follow: str | None = None
+) -> TriggerScript | None:
     """The trigger script to play (None: none needed), or an error saying what is missing.
 
     A script's triggers must all be ones the show waits for: a typo would otherwise only show
-    as a wait that times out.
+    as a wait that times out. A show that waits cannot chase MIDI timecode (``follow``):
+    the timecode sets the show time every frame, so a hold at a wait would be taken for a
+    timecode jump and undone.
     """
     names = trigger_names(schedule.sections)
+    if names and follow is not None and follow.startswith("mtc"):
+        raise UsageError(
+            f"--follow {follow}: this show waits for trigger(s) {', '.join(names)}, but MIDI "
+            "timecode sets the show time every frame, so a hold at a wait would be taken for "
+            "a timecode jump; follow the desk's OSC cues instead (--follow osc:PORT, waits "
+            "released by --triggers SCRIPT.yaml), or serve the show ('xgo-show serve') and "
+            "fire its triggers with 'xgo-show trigger NAME'"
+        )
     if script is None:
         if names:
             raise UsageError(

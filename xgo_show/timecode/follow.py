@@ -4,6 +4,12 @@
 ``/pause``, ``/resume``, ``/seek``, ``/bar`` and ``/stop`` steer it. ``mtc:PORT`` chases MIDI
 timecode from the MIDI input PORT (see :mod:`.chase`; needs python-rtmidi): the show starts when
 the timecode locks and holds or stops on a jump or dropout, as ``--chase-policy`` says.
+
+A show whose sections wait for triggers follows OSC cues through its
+:class:`~xgo_show.control.director.Director` (set :attr:`Follow.director`): the desk starts,
+pauses, resumes and seeks the show, the triggers release its waits (a ``/resume`` cannot
+release one: it is refused with the reason). Such a show cannot chase MTC (see
+:func:`xgo_show.control.rehearsal.check_triggers`).
 """
 
 from __future__ import annotations
@@ -58,6 +64,7 @@ class Follow:
         self.out = out
         self.offset = offset
         self.runner: Any = None
+        self.director: Any = None  # a show with waits: cues go through its director
         self._start: tuple[float, float] | None = None
         self._started = threading.Event()
         self._stopped: str | None = None
@@ -150,16 +157,32 @@ class Follow:
         self._started.set()
 
     def pause(self, at: float) -> None:
-        if self.runner is not None:
+        if self.director is not None:
+            self._direct("pause", lambda: self.director.pause(at=at))
+        elif self.runner is not None:
             self.runner.pause(at=at)
 
     def resume(self, at: float) -> None:
-        if self.runner is not None:
+        if self.director is not None:
+            self._direct("resume", lambda: self.director.resume(at=at))
+        elif self.runner is not None:
             self.runner.resume(at=at)
 
     def seek(self, show_time: float, at: float) -> None:
-        if self.runner is not None:
-            self.runner.seek(min(max(0.0, show_time), self.schedule.duration), at=at)
+        show_time = min(max(0.0, show_time), self.schedule.duration)
+        if self.director is not None:
+            self._direct("seek", lambda: self.director.seek(show_time, at=at))
+        elif self.runner is not None:
+            self.runner.seek(show_time, at=at)
+
+    def _direct(self, what: str, command: Callable[[], None]) -> None:
+        """A cue through the director: one line saying why, if it refuses it."""
+        from xgo_show.errors import ControlError
+
+        try:
+            command()
+        except ControlError as exc:
+            print(f"osc: /{what} refused: {exc}", file=self.out, flush=True)
 
     def stop(self, reason: str) -> None:
         self._stopped = reason
