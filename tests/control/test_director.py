@@ -163,3 +163,42 @@ def test_virtual_time_plays_the_waits_in_order(
     assert seen == ["b", "c"]
     assert [(e.section, e.how, e.goto) for e in played.events if isinstance(e, WaitReleased)] \
         == [("b", "trigger", "b"), ("c", "timeout", "d")]
+
+
+def test_a_pause_in_a_released_section_resumes_it_without_repeating_or_skipping_a_frame(
+    triggered_schedule: Schedule, wait: Wait, directed: Callable[..., Any]
+) -> None:
+    with directed(triggered_schedule) as (director, played, go):
+        go()
+        wait(lambda: director.phase == "waiting", timeout=5.0)
+        director.trigger("go")  # section b (0.6 to 1.2 s of show) plays
+        time.sleep(0.3)
+        paused_at = time.monotonic()
+        director.pause()
+        wait(lambda: director.phase == "paused")
+        time.sleep(0.3)
+        resumed_at = time.monotonic()
+        director.resume()
+        wait(lambda: played.result is not None, timeout=10.0)
+    assert played.result is not None and played.result.completed, played.result
+    for name in ("rex", "ivy"):
+        frames = triggered_schedule.performer(name).frames
+        first_b = _first_index_at(triggered_schedule, name, 0.6)
+        first_c = _first_index_at(triggered_schedule, name, 1.2)
+        first_d = _first_index_at(triggered_schedule, name, 1.8)
+        sent = [f.index for f in played.scheduled(name)]
+        # Each frame once, in order: a and b whole (the pause cut b in two), c skipped by its
+        # timeout, d whole.
+        assert sent == [*range(first_c), *range(first_d, len(frames))], name
+        b = [f for f in played.scheduled(name) if f.index is not None
+             and first_b <= f.index < first_c]
+        before = [f for f in b if f.t < paused_at + 0.05]
+        after = [f for f in b if f.t >= resumed_at]
+        assert before and after and len(before) + len(after) == len(b), name  # cut by it
+        # The resume first brings the robot back where the pause left it (catch-up frames),
+        # then the rest of b keeps its own timing, 0.3 s later.
+        reach = [f for f in played.frames if f.performer == name and f.kind == "reach"
+                 and resumed_at <= f.t < after[0].t]
+        assert reach, name
+        shift = [(f.planned or 0.0) - (f.planned_show or 0.0) for f in after]
+        assert max(shift) - min(shift) < 1e-6
