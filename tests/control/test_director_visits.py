@@ -316,3 +316,42 @@ def test_a_virtual_rehearsal_keeps_the_real_time_timeline(data: st.DataObject) -
         assert len(finished) == 1
         assert 0.0 <= finished[0].show_time - schedule.duration < 0.02  # (+ its rest frames)
         assert -1e-9 <= finished[0].t - start - want.end <= slack + 0.02
+
+
+def test_a_script_plays_the_same_in_virtual_and_in_real_time(triggered_schedule: Schedule) -> None:
+    """The same script, once in real time on simulators (real ptys), once in virtual time:
+    the same holds, triggers and releases, at the same times from the start."""
+    from tests.conftest import wait_until
+    from tests.control.conftest import directed_show
+
+    script = TriggerScript(triggers=[
+        ScriptCue(trigger="go", after=0.2),  # released 0.2 s into the hold at b (0.6 s)
+        ScriptCue(trigger="go", at=0.3),  # its turn comes then: refused, already given
+        ScriptCue(trigger="encore", at=0.4),  # and then: kept for c, which is played through
+    ])
+    runs: list[list[tuple[str, str, str, float]]] = []
+    for fast in (False, True):
+        with directed_show(triggered_schedule, fast=fast) as (director, played, go):
+            player = ScriptPlayer(script, director, say=lambda _: None)
+            go()
+            wait_until(lambda: played.result is not None, timeout=10.0)
+            player.close()
+        assert played.result is not None and played.result.completed
+        start = next(e for e in played.events if isinstance(e, ShowStarted)).start_at
+        runs.append([
+            (type(e).__name__, e.section, getattr(e, "how", ""), e.t - start)
+            for e in played.events if isinstance(e, (WaitStarted, WaitReleased))
+        ])
+        assert [(f.trigger, f.result.split(":")[0]) for f in player.fired] == [
+            ("go", "released section 'b'"),
+            ("go", "trigger 'go' refused"),
+            ("encore", "kept for section 'c'"),
+        ]
+        assert all(abs(f.t - 0.8) < 0.03 for f in player.fired), player.fired
+    real, virtual = runs
+    assert [r[:3] for r in real] == [v[:3] for v in virtual] == [
+        ("WaitStarted", "b", ""), ("WaitReleased", "b", "trigger"),
+        ("WaitReleased", "c", "early"),
+    ]
+    for r, v in zip(real, virtual, strict=True):
+        assert abs(r[3] - v[3]) < 0.03, (real, virtual)

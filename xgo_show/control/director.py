@@ -126,6 +126,7 @@ class _Visit:
     """One time the show comes to a wait: held from ``since``, released once for everyone."""
 
     section: Section
+    due: float  # clock time the show comes here, as the release before it says
     since: float | None = None  # clock time the first performer held here
     how: str = ""  # until released: ""; then trigger, early or timeout
     release_at: float = float("-inf")  # clock time the show goes on (at the earliest)
@@ -134,6 +135,12 @@ class _Visit:
     @property
     def released(self) -> bool:
         return bool(self.how)
+
+    def then(self, section: Section) -> _Visit:
+        """The visit to ``section`` after this one is released."""
+        go = max(self.release_at, self.due if self.since is None else self.since)
+        start = self.section.start if self.target is None else self.target
+        return _Visit(section, go + (section.start - start))
 
 
 @dataclass
@@ -214,6 +221,14 @@ class Director(WorkerClosing):
 
     def section_now(self, show_time: float) -> Section | None:
         return section_at(self.sections, show_time)
+
+    def hold_ahead(self) -> float | None:
+        """The clock time the show holds (or will hold) at the wait ahead, or None. Exact in
+        virtual time; in real time, as the release before it said (the robots may come a
+        few milliseconds later)."""
+        with self._cond:
+            v = self._s.ahead
+            return None if v is None else v.due if v.since is None else v.since
 
     # ------------------------------------------------------------------ commands
 
@@ -386,7 +401,7 @@ class Director(WorkerClosing):
         after = (self._wait_from(target) if target is not None
                  else self._wait_from(v.section.start, after=True))
         if after is not None:
-            s.visits.append(_Visit(after))
+            s.visits.append(v.then(after))
         s.cur += 1
         if s.phase == "waiting":
             s.phase = "playing"
@@ -429,7 +444,8 @@ class Director(WorkerClosing):
         unless the show is paused), wherever it is; the waits start again from there."""
         s = self._s
         after = self._wait_from(show_time)
-        s.visits = [_Visit(after)] if after is not None else []
+        when = self._when() if at is None else max(at, self._when())
+        s.visits = [_Visit(after, when + after.start - show_time)] if after is not None else []
         s.cur = 0
         for name, tr in s.tracks.items():
             if tr.done:
@@ -475,7 +491,8 @@ class Director(WorkerClosing):
             elif isinstance(event, ShowStarted):
                 s.phase = "playing"
                 after = self._wait_from(event.offset)
-                s.visits = [_Visit(after)] if after is not None else []
+                s.visits = ([_Visit(after, event.start_at + after.start - event.offset)]
+                            if after is not None else [])
                 s.cur = 0
                 # Every performer's timeline until it says otherwise: exact, where a relayed
                 # performer's RUNNING comes from a heartbeat, stamped when it arrived.

@@ -141,9 +141,14 @@ class ScriptPlayer(WorkerClosing):
             self._thread.start()
 
     def _on_event(self, event: Event) -> None:
-        if self.director.virtual and isinstance(event, WaitStarted):
-            self._virtual_wait(event)  # called with the director's lock held: no other
-            return  # thread plays this show's script
+        if self.director.virtual and isinstance(event, (ShowStarted, WaitStarted)):
+            # Called with the director's lock held: no other thread plays this script.
+            if isinstance(event, ShowStarted):
+                self._start = event.start_at
+                self._virtual_early()
+            else:
+                self._virtual_wait(event)
+            return
         with self._cond:
             if isinstance(event, ShowStarted):
                 self._start = event.start_at
@@ -190,8 +195,25 @@ class ScriptPlayer(WorkerClosing):
             self.cues.pop(0)
             turn = self._turn = due
             if self._fire(cue.trigger, at=due) and cue.trigger == event.trigger:
+                self._virtual_early()
                 return
         self.director.expire(at=expiry)
+        self._virtual_early()
+
+    def _virtual_early(self) -> None:
+        """Fire the entries due before the show comes to the wait ahead (virtual time), as
+        they would fire while it plays: kept for that wait, or refused."""
+        start = self._start if self._start is not None else self.clock.now()
+        while self.cues and self.cues[0].at is not None:
+            hold = self.director.hold_ahead()
+            cue = self.cues[0]
+            assert cue.at is not None
+            due = max(self._turn, start + cue.at)
+            if hold is None or due >= hold or self.director.phase != "playing":
+                return
+            self.cues.pop(0)
+            self._turn = due
+            self._fire(cue.trigger, at=due)
 
     def _loop(self) -> None:
         with self._cond:
