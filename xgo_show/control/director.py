@@ -131,6 +131,7 @@ class _Visit:
     how: str = ""  # until released: ""; then trigger, early or timeout
     release_at: float = float("-inf")  # clock time the show goes on (at the earliest)
     target: float | None = None  # show time to jump to (a timeout's else), None: play on
+    go_at: float | None = None  # real time: the clock time the robots held here go on
 
     @property
     def released(self) -> bool:
@@ -386,6 +387,11 @@ class Director(WorkerClosing):
         must carry two times, and every robot of a release acts at the same one."""
         return self.clock.now() + self.runner.command_lead
 
+    def _shared(self, at: float) -> float:
+        """``at`` if a command given now can still take effect then, else the first time it
+        can: a command for several robots keeps one time wherever it can."""
+        return max(at, self._when())
+
     def _release(self, v: _Visit, how: str, at: float, target: float | None,
                  goto: str) -> None:
         """Release visit ``v`` (held or ahead) as decided at clock time ``at``: the show goes
@@ -405,19 +411,29 @@ class Director(WorkerClosing):
         s.cur += 1
         if s.phase == "waiting":
             s.phase = "playing"
+        if not self.virtual:
+            # One time for every robot held: the robots of one relay take one command
+            # for all of them, sent once per (operation, time).
+            v.go_at = max(v.release_at, self._when())
         for name, tr in s.tracks.items():
             if tr.held and tr.next == index and not tr.done:
-                self._leave(name, tr, v)
+                self._leave(name, tr, v, v.go_at)
         # Said once the robots are on their way: listeners cost the release no time.
         self._emit(WaitReleased(self._stamp(at if v.since is None else max(at, v.since)),
                                 v.section.name, _trigger(v.section), how, goto))
         self._cond.notify_all()
 
-    def _leave(self, name: str, tr: _Track, v: _Visit) -> None:
-        """Performer ``name``, holding at released visit ``v``, goes on as the release says."""
+    def _leave(self, name: str, tr: _Track, v: _Visit, at: float | None = None) -> None:
+        """Performer ``name``, holding at released visit ``v``, goes on as the release says
+        (at clock time ``at``, when given)."""
         # Virtual time: at the release time on the performer's own clock (never before it
-        # held). Real time: at the release time, or as soon as a command can take effect.
-        at = max(v.release_at, tr.hold_t if self.virtual else self._when())
+        # held). Real time, one that holds after the release: with the robots held at the
+        # release, if that is still to come, else as soon as a command can take effect.
+        if at is None:
+            if self.virtual:
+                at = max(v.release_at, tr.hold_t)
+            else:
+                at = self._shared(v.go_at if v.go_at is not None else v.release_at)
         p = self._performer(name)
         tr.held = False
         tr.moving = True
@@ -444,7 +460,7 @@ class Director(WorkerClosing):
         unless the show is paused), wherever it is; the waits start again from there."""
         s = self._s
         after = self._wait_from(show_time)
-        when = self._when() if at is None else max(at, self._when())
+        when = self._when() if at is None else self._shared(at)  # one time for all
         s.visits = [_Visit(after, when + after.start - show_time)] if after is not None else []
         s.cur = 0
         for name, tr in s.tracks.items():
@@ -454,22 +470,22 @@ class Director(WorkerClosing):
             tr.anchor = None
             tr.next = 0
 
-            def jump(p: Any = p, tr: _Track = tr) -> None:
-                when = self._when() if at is None else max(at, self._when())
-                p.seek(show_time, at=when)
+            def jump(p: Any = p, tr: _Track = tr, now: bool = False) -> None:
+                go = when if now else self._shared(when)
+                p.seek(show_time, at=go)
                 if not paused:
                     tr.moving = True
-                    p.resume(at=when)
+                    p.resume(at=go)
 
             def seek(p: Any = p, tr: _Track = tr) -> None:
                 tr.moving = True
-                p.seek(show_time, at=self._when() if at is None else max(at, self._when()))
+                p.seek(show_time, at=self._shared(when))
 
             tr.on_hold = tr.on_running = None
             if tr.held or paused:
                 tr.held = False
                 tr.armed = False
-                jump()
+                jump(now=True)
             elif tr.armed:
                 # About to hold at its wait (its pause is already asked for, perhaps already
                 # being applied): jump from there, rather than ask for a second pause.
@@ -478,7 +494,8 @@ class Director(WorkerClosing):
                 # Its last command is still to take effect: one at a time.
                 tr.on_running = seek
             else:
-                seek()  # playing: a seek alone (catch-up frames, then on from there)
+                tr.moving = True  # playing: a seek alone (catch-up frames, then on from there)
+                p.seek(show_time, at=when)
         if s.phase == "waiting":
             s.phase = "playing"
         self._cond.notify_all()
