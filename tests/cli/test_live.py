@@ -36,7 +36,7 @@ def _screen(width: int) -> list[str]:
     try:
         deadline = time.monotonic() + 60
         while not done.exists() and time.monotonic() < deadline:
-            time.sleep(0.2)
+            time.sleep(0.02)
         assert done.exists(), "dry-run did not finish"
         text = subprocess.run([*tmux, "capture-pane", "-p", "-J", "-S", "-200", "-t", session],
                               check=True, capture_output=True, text=True).stdout
