@@ -55,7 +55,6 @@ import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -66,7 +65,7 @@ from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFra
 from xgo_show.errors import NetworkError
 from xgo_show.net.keys import relay_key
 from xgo_show.net.session import SessionOptions, open_session
-from xgo_show.net.testhooks import CLOCK_ENV, DELAY_ENV
+from xgo_show.net.testhooks import CLOCK_ENV, DELAY_ENV, TRACE_ENV
 from xgo_show.net.timesync import ClockTracker, measure
 from xgo_show.profiles import get_profile
 from xgo_show.relay.client import RelayClient
@@ -76,7 +75,6 @@ from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import EventBus, EventRecorder, FrameSent
 from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.report import percentile
-from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 from xgo_show.transports import open_transport
 from xgo_show.wire.xgo import write_frame
 
@@ -150,8 +148,14 @@ class Rig:
     tmp: Path
     relays: list[Relay] = field(default_factory=list)
     sims: list[Sim] = field(default_factory=list)
+    locals: list[subprocess.Popen[str]] = field(default_factory=list)  # --local-child ones
 
     def close(self) -> None:
+        for proc in self.locals:
+            if proc.stdin is not None:
+                proc.stdin.close()  # its end of input: it closes its ports and exits
+        for proc in self.locals:
+            _wait(proc)
         for relay in self.relays:
             if relay.client is not None:
                 relay.client.stop_heartbeat()
@@ -353,8 +357,9 @@ class Run:
     sent: float
     ended: float
     start_at: float | None  # the intended start (synced runs)
-    # robot -> when its first frame was written (this machine's clock; a relay's show clock)
-    writes: dict[str, float] = field(default_factory=dict)
+    # robot -> (planned, actual) time of its first frame's write, on this machine's clock
+    writes: dict[str, tuple[float, float]] = field(default_factory=dict)
+    load: float = 0.0  # the 1-minute load average when it started
 
 
 def received_in(sim: Sim, run: Run) -> list[float]:
@@ -373,48 +378,59 @@ def skew(relays: Sequence[Relay], run: Run, index: int) -> float | None:
     return (max(times) - min(times)) * 1000
 
 
-def first_writes(relay: Relay) -> dict[float, float]:
-    """start time -> when that show's first frame was written, from the relay's run log.
-
-    Both on the relay's show clock (the conductor's time as the relay knows it)."""
+def first_frames(relay: Relay) -> dict[float, tuple[float, float]]:
+    """start time -> (planned, actual) time of that show's first frame on this machine's
+    clock, from the relay's run log (its ``first_frame`` records, ``XGO_SHOW_TEST_TRACE``)."""
     assert relay.log is not None
-    out: dict[float, float] = {}
-    start: float | None = None
+    out: dict[float, tuple[float, float]] = {}
     for line in relay.log.read_text(encoding="utf-8").splitlines():
         rec = json.loads(line)
-        if rec.get("event") == "start":
-            start = float(rec["start_at"]) - float(rec["offset"])
-        elif rec.get("kind") == "frame" and rec.get("send") == "frame" and start is not None:
-            out[round(start, 6)] = start + float(rec["actual"])
-            start = None
+        if rec.get("event") == "first_frame":
+            out[round(float(rec["start_at"]), 6)] = (
+                float(rec["planned_host"]),
+                float(rec["actual_host"]),
+            )
     return out
 
 
-def parts(robots: Sequence[Relay], runs: Sequence[Run]) -> tuple[list[float], ...]:
-    """Where the start skew comes from, over ``runs`` (ms): per start, the spread across the
-    robots of their lateness (write - start) and of their delivery (receive - write); and
-    every robot's lateness and delivery."""
-    late_spread, delivery_spread, late, delivery = [], [], [], []
+#: the parts of a robot's first-frame receive time against the intended start
+PARTS = (
+    ("clock", "(a) planned - start: the relay's clock estimate's error"),
+    ("late", "(b) write - planned: issue lateness (wake-up, GIL, CPU)"),
+    ("delivery", "(c) receive - write: the pseudo-terminal and the simulator"),
+    ("total", "receive - start"),
+)
+
+
+def parts(robots: Sequence[Relay], runs: Sequence[Run]) -> dict[str, tuple[list[float], ...]]:
+    """Where the start skew comes from, over ``runs`` (ms): for each part of :data:`PARTS`,
+    every robot's value and, per start, the spread of the values across the robots."""
+    values: dict[str, list[float]] = {k: [] for k, _ in PARTS}
+    spreads: dict[str, list[float]] = {k: [] for k, _ in PARTS}
     for run in runs:
         assert run.start_at is not None
         got = {r.name: received_in(r.sim, run) for r in robots}
         if any(not got[r.name] or r.name not in run.writes for r in robots):
             continue
-        lates = [(run.writes[r.name] - run.start_at) * 1000 for r in robots]
-        deliveries = [(got[r.name][0] - run.writes[r.name]) * 1000 for r in robots]
-        late_spread.append(max(lates) - min(lates))
-        delivery_spread.append(max(deliveries) - min(deliveries))
-        late += lates
-        delivery += deliveries
-    return late_spread, delivery_spread, late, delivery
+        rows = {k: [] for k, _ in PARTS}
+        for r in robots:
+            planned, actual = run.writes[r.name]
+            rows["clock"].append((planned - run.start_at) * 1000)
+            rows["late"].append((actual - planned) * 1000)
+            rows["delivery"].append((got[r.name][0] - actual) * 1000)
+            rows["total"].append((got[r.name][0] - run.start_at) * 1000)
+        for k, row in rows.items():
+            values[k] += row
+            spreads[k].append(max(row) - min(row))
+    return {k: (values[k], spreads[k]) for k, _ in PARTS}
 
 
 def print_parts(label: str, robots: Sequence[Relay], runs: Sequence[Run]) -> None:
-    late_spread, delivery_spread, late, delivery = parts(robots, runs)
-    print(f"   {label:21s} write - start    {stats(late)}")
-    print(f"   {'':21s}   spread         {stats(late_spread)}")
-    print(f"   {'':21s} receive - write  {stats(delivery)}")
-    print(f"   {'':21s}   spread         {stats(delivery_spread)}")
+    print(f"   {label}")
+    for k, (every, spread) in parts(robots, runs).items():
+        what = dict(PARTS)[k]
+        print(f"     {what:58s} {stats(every)}")
+        print(f"     {'  its spread across the robots, per start':58s} {stats(spread)}")
 
 
 def send_errors(relays: Sequence[Relay], run: Run, schedule: Schedule) -> list[float]:
@@ -432,6 +448,7 @@ def play(relays: Sequence[Relay], schedule: Schedule, mode: str) -> Run:
     """Upload ``schedule`` to every relay and play it; a ``mode`` ending in ``naive`` starts
     each relay when its command arrives, any other at one start time."""
     upload(relays, schedule)
+    load = os.getloadavg()[0]
     sent = time.monotonic()
     naive = mode.endswith("naive")
     try:
@@ -442,9 +459,9 @@ def play(relays: Sequence[Relay], schedule: Schedule, mode: str) -> Run:
             assert relay.client is not None
             relay.client.command("stop", reason="benchmark: a start failed")
         wait_ended(relays, 10)
-        return Run("failed", sent, time.monotonic(), None)
+        return Run("failed", sent, time.monotonic(), None, load=load)
     wait_ended(relays, lead(relays) + schedule.duration + 10)
-    return Run(mode, sent, time.monotonic(), None if naive else start_at)
+    return Run(mode, sent, time.monotonic(), None if naive else start_at, load=load)
 
 
 # ---------------------------------------------------------------------------- phases
@@ -456,19 +473,30 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
     short, long = make_schedule(SHORT), make_schedule(args.drift_seconds)
     runs: list[Run] = []
     rates: list[str] = []
+    n = args.relays
+    trace = {TRACE_ENV: "1"}
     try:
-        # The local runs first, while this process has nothing else to do (as a local show).
-        local: dict[str, tuple[list[Relay], list[Run]]] = {
-            group: play_local(rig, args.relays, args.starts, rt=not flags, prefix=f"local{i}")
-            for i, (group, flags) in enumerate(GROUPS.items())
+        # The baselines, started in turn with the relays so that every column sees the same
+        # load: N robots driven by one process, and N processes driving one robot each (the
+        # relays' shape without Zenoh and without a clock to estimate).
+        locals_: dict[str, list[LocalProcess]] = {
+            "local, one process": [start_local(rig, [f"one{i}" for i in range(n)], rt=True)],
+            "local, one process --no-realtime": [
+                start_local(rig, [f"nort{i}" for i in range(n)], rt=False)
+            ],
+            f"local, {n} processes": [start_local(rig, [f"each{i}"], rt=True) for i in range(n)],
         }
-        relays = start_relays(rig, args.relays, rng, prefix="stage")
-        plain = start_relays(rig, args.relays, rng, prefix="plain", flags=GROUPS[" --no-realtime"])
+        relays = start_relays(rig, n, rng, prefix="stage", env=trace)
+        plain = start_relays(
+            rig, n, rng, prefix="plain", env=trace, flags=GROUPS[" --no-realtime"]
+        )
         session = connect([*relays, *plain])
         for relay in [*relays, *plain]:
             claim(session, relay)
         for _ in range(args.starts):
             runs.append(play(relays, short, "start synced"))
+            for mode, procs in locals_.items():
+                runs.append(play_local(procs, mode, lead(relays)))
             runs.append(play(plain, short, "start synced --no-realtime"))
             runs.append(play(relays, short, "start naive"))
         if args.drift_seconds > 0:
@@ -494,35 +522,34 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
             runs.append(play(relays, long, "drift naive"))
     finally:
         rig.close()
-    logged = {relay.name: first_writes(relay) for relay in [*relays, *plain]}
+    logged = {relay.name: first_frames(relay) for relay in [*relays, *plain]}
     for run in runs:
-        if run.start_at is not None:
+        if run.start_at is not None and not run.writes:
             for name, writes in logged.items():
                 if (t := writes.get(round(run.start_at, 6))) is not None:
                     run.writes[name] = t
+    loads = [r.load for r in runs if r.mode.startswith("start")]
     print(
-        f"\n{args.relays} relays, clocks off by up to +-100 s and +-100 ppm "
-        f"({', '.join(f'{r.offset:+.1f} s {r.ppm:+.0f} ppm' for r in relays)})"
+        f"\n{n} relays, clocks off by up to +-100 s and +-100 ppm "
+        f"({', '.join(f'{r.offset:+.1f} s {r.ppm:+.0f} ppm' for r in relays)}); "
+        f"load average (1 min) during the starts {min(loads):.2f}-{max(loads):.2f}"
     )
-    print(
-        f"\n1. start skew: spread of the first frame across the robots, {args.starts} starts (ms)"
-    )
+    print(f"\n1. start skew: spread of the first frame across the robots, {args.starts} starts, ms")
     groups = {"": relays, " --no-realtime": plain}
     for mode in ("synced", "synced --no-realtime", "naive"):
         group = groups[mode[6:]] if mode.startswith("synced") else relays
         values = [skew(group, r, 0) for r in runs if r.mode == f"start {mode}"]
-        print(f"   {mode:27s} {stats([v for v in values if v is not None])}")
-    for group, (robots, local_runs) in local.items():
-        values = [skew(robots, r, 0) for r in local_runs]
-        print(f"   {'local' + group:27s} {stats([v for v in values if v is not None])}")
-    print("   (local: the same robots on one host, one runner)")
-    print("   its parts (ms): each robot's first write against the start, and its receive time")
-    print("   against that write (for a relay: its clock's error + the pseudo-terminal)")
+        print(f"   {'relayed, ' + mode:34s} {stats([v for v in values if v is not None])}")
+    local_robots = {mode: [r for p in procs for r in p.robots] for mode, procs in locals_.items()}
+    for mode, robots in local_robots.items():
+        values = [skew(robots, r, 0) for r in runs if r.mode == mode]
+        print(f"   {mode:34s} {stats([v for v in values if v is not None])}")
+    print("   its parts (ms): every robot's value, and the spread of each part across the robots")
     for group, members in groups.items():
         started = [r for r in runs if r.mode == f"start synced{group}"]
         print_parts(f"relayed{group}", members, started)
-    for group, (robots, local_runs) in local.items():
-        print_parts(f"local{group}", robots, local_runs)
+    for mode, robots in local_robots.items():
+        print_parts(mode, robots, [r for r in runs if r.mode == mode])
     if args.drift_seconds > 0:
         print(
             f"\n2. skew after {args.drift_seconds:g} s of show: "
@@ -540,71 +567,100 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
     for group, members in groups.items():
         relayed = [e for r in runs if r.mode == f"start synced{group}"
                    for e in send_errors(members, r, short)]
-        print(f"   {'relayed' + group:21s} {stats(relayed)}")
-    for group, (robots, local_runs) in local.items():
-        errors = [e for r in local_runs for e in send_errors(robots, r, short)]
-        print(f"   {'local' + group:21s} {stats(errors)}")
+        print(f"   {'relayed' + group:34s} {stats(relayed)}")
+    for mode, robots in local_robots.items():
+        errors = [e for r in runs if r.mode == mode for e in send_errors(robots, r, short)]
+        print(f"   {mode:34s} {stats(errors)}")
 
 
-def play_local(
-    rig: Rig, count: int, starts: int, *, rt: bool, prefix: str
-) -> tuple[list[Relay], list[Run]]:
-    """The same short show on ``count`` robots by one local runner (``xgo-show run``'s way,
-    with ``rt``: its default real-time writers, else ``--no-realtime``), ``starts`` times; each
-    robot a simulator process of its own, as behind the relays."""
-    names = [f"{prefix}-{i}" for i in range(count)]
-    schedule = make_schedule(SHORT, names)
+@dataclass
+class LocalProcess:
+    """A process (this script with ``--local-child``) that plays the short show on its own
+    robots with a local runner: no Zenoh, no clock to estimate, the floor a relay is compared
+    with. It reads start times (this machine's clock) on stdin and answers each with its
+    robots' first writes."""
+
+    proc: subprocess.Popen[str]
+    robots: list[Relay]  # stand-ins holding the simulators, for skew() and parts()
+
+    def start(self, start_at: float) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write(f"{start_at!r}\n")
+        self.proc.stdin.flush()
+
+    def writes(self) -> dict[str, tuple[float, float]]:
+        assert self.proc.stdout is not None
+        reply = json.loads(self.proc.stdout.readline())
+        if not reply["completed"]:
+            raise SystemExit(f"a local run did not complete: {reply['reason']}")
+        return {name: (float(p), float(a)) for name, (p, a) in reply["writes"].items()}
+
+
+def start_local(rig: Rig, names: Sequence[str], *, rt: bool) -> LocalProcess:
+    """A :class:`LocalProcess` for robots ``names`` (a simulator each), writers under
+    SCHED_FIFO with ``rt`` (``run``'s default), else at normal priority."""
     sims = [start_sim(rig.tmp, name) for name in names]
     rig.sims += sims
+    pairs = [f"{n}={s.path}" for n, s in zip(names, sims, strict=True)]
+    proc = subprocess.Popen(
+        [sys.executable, __file__, "--local-child", *pairs, *([] if rt else ["--no-realtime"])],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    if proc.stdout.readline().strip() != "ready":
+        raise SystemExit("a local process did not start")
+    rig.locals.append(proc)
+    robots = [Relay(n, 0, proc, s, 0.0, 0.0) for n, s in zip(names, sims, strict=True)]
+    return LocalProcess(proc, robots)
+
+
+def play_local(procs: Sequence[LocalProcess], mode: str, lead_s: float) -> Run:
+    """The short show on every local process, all at one start ``lead_s`` from now."""
+    load = os.getloadavg()[0]
+    sent = time.monotonic()
+    start_at = sent + lead_s
+    for proc in procs:
+        proc.start(start_at)
+    writes: dict[str, tuple[float, float]] = {}
+    for proc in procs:
+        writes.update(proc.writes())
+    return Run(mode, sent, time.monotonic(), start_at, writes, load)
+
+
+def local_child(pairs: Sequence[str], rt: bool) -> int:
+    """``--local-child NAME=PTY...``: see :class:`LocalProcess`."""
+    names = [p.partition("=")[0] for p in pairs]
+    schedule = make_schedule(SHORT, names)
     links = {
-        n: open_transport(s.path, baudrate=schedule.performers[0].link.baud)
-        for n, s in zip(names, sims, strict=True)
+        n: open_transport(p.partition("=")[2], baudrate=schedule.performers[0].link.baud)
+        for n, p in zip(names, pairs, strict=True)
     }
-    runs = []
+    realtime.configure("required" if rt else "off")  # as run does: writers raise themselves
     for link in links.values():
         link.open()
+    print("ready", flush=True)
     try:
-        for _ in range(starts):
+        for line in sys.stdin:
+            start_at = float(line)
             bus = EventBus()
             recorder = EventRecorder(bus, FrameSent)
             runner = local_runner(
                 schedule, links, clock=MonotonicClock(), events=bus, telemetry=False
             )
-            sent = time.monotonic()
-            start_at = sent + LEAD
-            result = _run_local(runner, start_at, rt)
-            if not result.completed:
-                raise SystemExit(f"the local run did not complete: {result.reason}")
-            writes = {}
+            result = runner.run(start_at=start_at, lead=0.0, handle_signals=False)
+            writes: dict[str, tuple[float, float]] = {}
             for ev in recorder.sent():
-                if ev.kind == "frame" and ev.performer not in writes:
-                    writes[ev.performer] = ev.t
+                if ev.kind == "frame" and ev.planned is not None and ev.performer not in writes:
+                    writes[ev.performer] = (ev.planned, ev.t)
             recorder.close()
-            runs.append(Run("local", sent, time.monotonic(), start_at, writes))
+            reply = {"completed": result.completed, "reason": result.reason, "writes": writes}
+            print(json.dumps(reply), flush=True)
     finally:
         for link in links.values():
             link.close()
-    # Stand-ins with the simulators, for skew() and send_errors()
-    return [Relay(n, 0, s.proc, s, 0.0, 0.0) for n, s in zip(names, sims, strict=True)], runs
-
-
-def _run_local(runner: ShowRunner, start_at: float, rt: bool) -> ShowResult:
-    """``runner.run`` in a thread of its own; with ``rt`` its writer threads raise themselves
-    to SCHED_FIFO, as ``run``'s do by default (this process's other threads stay normal)."""
-    out: list[ShowResult] = []
-
-    def play() -> None:
-        out.append(runner.run(start_at=start_at, handle_signals=False))
-
-    # As run does: the writer threads raise themselves (this thread stays normal).
-    saved = realtime.policy()
-    realtime.configure("required" if rt else "off")
-
-    thread = threading.Thread(target=play, name="local show")
-    thread.start()
-    thread.join()
-    realtime.restore(saved)
-    return out[0]
+    return 0
 
 
 def phase_delay(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
@@ -710,7 +766,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="simulators under SCHED_FIFO (chrt): a robot has its own CPU; here they share ours",
     )
+    parser.add_argument("--local-child", nargs="+", metavar="NAME=PTY", help=argparse.SUPPRESS)
+    parser.add_argument("--no-realtime", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.local_child:
+        return local_child(args.local_child, not args.no_realtime)
     if args.sim_realtime:
         SIM_PREFIX.extend(["chrt", "-f", "20"])
     if args.quick:

@@ -19,7 +19,7 @@ from types import FrameType
 from typing import Any
 
 from xgo_show.net.session import add_session_arguments, open_session, session_options
-from xgo_show.net.testhooks import clock_from_env, delay_from_env
+from xgo_show.net.testhooks import clock_from_env, delay_from_env, trace_from_env
 from xgo_show.relay.robots import close_robots, open_robots, parse_pairs
 from xgo_show.relay.server import Relay
 from xgo_show.runtime.realtime import add_realtime_arguments, decide
@@ -170,6 +170,7 @@ def run(args: argparse.Namespace) -> int:
                     log=log,
                     telemetry=not args.no_telemetry,
                     sync_delay=delay_from_env(),
+                    trace=trace_from_env(),
                 )
                 with relay:
                     rows = ", ".join(f"{r.name} ({r.model} on {r.url})" for r in robots.values())

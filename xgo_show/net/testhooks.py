@@ -9,6 +9,10 @@ environment variables, read by the relay process, change that; nothing reads the
 - ``XGO_SHOW_TEST_SYNC_DELAY="mean=0.005,jitter=0.002,seed=1"``: every time-sync reply waits a
   uniformly random 3-7 ms after the relay stamped it, a one-way (so asymmetric) network delay
   (:class:`DelayInjector`; ``tc netem`` is not available in this kernel).
+- ``XGO_SHOW_TEST_TRACE=1``: the relay's run log gets a ``first_frame`` record per robot and
+  show (:class:`StartTracer`): the first frame's planned and actual write time on the show
+  clock and on this machine's own monotonic clock, which the simulators share, so a benchmark
+  can split a start's skew into the clock estimate's error, the relay's lateness and delivery.
 """
 
 from __future__ import annotations
@@ -17,22 +21,28 @@ import os
 import random
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 from xgo_show.runtime.clock import Clock, MonotonicClock
+from xgo_show.runtime.events import EventBus, FrameSent, ShowStarted, Subscription
 
 __all__ = [
     "CLOCK_ENV",
     "DELAY_ENV",
+    "TRACE_ENV",
     "DelayInjector",
     "SkewedClock",
+    "StartTracer",
     "clock_from_env",
     "delay_from_env",
+    "host_time",
+    "trace_from_env",
 ]
 
 CLOCK_ENV = "XGO_SHOW_TEST_CLOCK"
 DELAY_ENV = "XGO_SHOW_TEST_SYNC_DELAY"
+TRACE_ENV = "XGO_SHOW_TEST_TRACE"
 
 
 class SkewedClock:
@@ -124,3 +134,71 @@ def delay_from_env(env: Mapping[str, str] | None = None) -> DelayInjector | None
     return DelayInjector(
         values.get("mean", 0.0), values.get("jitter", 0.0), None if seed is None else int(seed)
     )
+
+
+def trace_from_env(env: Mapping[str, str] | None = None) -> bool:
+    """Whether the test asked for :class:`StartTracer` records."""
+    env = os.environ if env is None else env
+    return env.get(TRACE_ENV, "").strip() not in ("", "0")
+
+
+def host_time(clock: Clock, t: float) -> float:
+    """This machine's monotonic time at which ``clock`` reads ``t``.
+
+    Walks down the chain of clocks that say how they map onto their base (a relay's
+    :class:`~xgo_show.net.slew.SlewingClock` onto a :class:`SkewedClock` onto the real clock).
+    """
+    while True:
+        to_base = getattr(clock, "to_base", None)
+        base = getattr(clock, "base", None)
+        if to_base is None or base is None:
+            return t
+        t = to_base(t)
+        clock = base
+
+
+class StartTracer:
+    """Records each robot's first scheduled frame of each show on ``log(event, **fields)``.
+
+    ``planned``/``actual`` are on ``clock`` (the relay's show clock); ``planned_host`` and
+    ``actual_host`` the same instants on this machine's monotonic clock (:func:`host_time`), and
+    ``start_host`` the start. The conversion runs in the writer thread after its first write,
+    once per robot and show.
+    """
+
+    def __init__(
+        self, bus: EventBus, clock: Clock, log: Callable[..., object]
+    ) -> None:
+        self.clock = clock
+        self._log = log
+        self._lock = threading.Lock()
+        self._start: float | None = None
+        self._pending: set[str] = set()
+        self._sub: Subscription = bus.subscribe(self._on_event, ShowStarted, FrameSent)
+
+    def _on_event(self, ev: object) -> None:
+        if isinstance(ev, ShowStarted):
+            with self._lock:
+                self._start = ev.start_at
+                self._pending = set(ev.performers)
+            return
+        if not isinstance(ev, FrameSent) or ev.kind != "frame" or ev.planned is None:
+            return
+        with self._lock:
+            if ev.performer not in self._pending or self._start is None:
+                return
+            self._pending.discard(ev.performer)
+            start = self._start
+        self._log(
+            "first_frame",
+            performer=ev.performer,
+            start_at=start,
+            planned=ev.planned,
+            actual=ev.t,
+            start_host=host_time(self.clock, start),
+            planned_host=host_time(self.clock, ev.planned),
+            actual_host=host_time(self.clock, ev.t),
+        )
+
+    def close(self) -> None:
+        self._sub.close()

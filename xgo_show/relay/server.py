@@ -37,7 +37,7 @@ from xgo_show.net import messages as msg
 from xgo_show.net.keys import check_relay_name, relay_key
 from xgo_show.net.offset import Timebase
 from xgo_show.net.slew import SlewingClock
-from xgo_show.net.testhooks import DelayInjector
+from xgo_show.net.testhooks import DelayInjector, StartTracer
 from xgo_show.net.timesync import TimeServer, serve_time
 from xgo_show.net.watchdog import Watchdog
 from xgo_show.relay.forward import EventCollector
@@ -98,7 +98,9 @@ class Relay:
 
     Keyword options: ``namespace``, ``clock`` (this host's clock; tests give a skewed one),
     ``allow_unsafe``, ``log`` (a :class:`RunLog`), ``telemetry`` (poll robots during shows),
-    ``sync_delay`` (test-only: hold time-sync replies back, as a slow network would).
+    ``sync_delay`` (test-only: hold time-sync replies back, as a slow network would),
+    ``trace`` (test-only: log each robot's first frame on this machine's clock too,
+    :class:`~xgo_show.net.testhooks.StartTracer`).
     Use as a context manager, or call :meth:`start` and :meth:`close`.
     """
 
@@ -114,6 +116,7 @@ class Relay:
         log: RunLog | None = None,
         telemetry: bool = True,
         sync_delay: DelayInjector | None = None,
+        trace: bool = False,
     ) -> None:
         self.session = session
         self.name = check_relay_name(name)
@@ -131,6 +134,7 @@ class Relay:
         self.events = EventBus()
         self._log_sub = self.log.attach(self.events)
         self._collector = EventCollector(self.events)  # sent back in heartbeat answers
+        self._tracer = StartTracer(self.events, self.clock, self.log.event) if trace else None
         self.telemetry = telemetry
         self.instance = uuid.uuid4().hex[:12]  # tells a restarted relay from the old one
         self._lock = threading.RLock()
@@ -195,6 +199,8 @@ class Relay:
         self.log.event("relay_stop", relay=self.name, reason=reason)
         self._log_sub.close()
         self._collector.close()
+        if self._tracer is not None:
+            self._tracer.close()
 
     def __enter__(self) -> Relay:
         return self.start()
