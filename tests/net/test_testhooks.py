@@ -53,3 +53,58 @@ def test_bad_values_are_one_line_errors(env: dict[str, str], message: str) -> No
             clock_from_env(env, FakeClock())
         else:
             delay_from_env(env)
+
+
+def test_host_time_walks_a_relay_clock_down_to_this_machine() -> None:
+    from xgo_show.net.offset import Timebase
+    from xgo_show.net.slew import SlewingClock
+    from xgo_show.net.testhooks import host_time
+
+    host = FakeClock(500.0)
+    skewed = SkewedClock(host, offset=40.0, ppm=100.0)  # the relay's own clock
+    show = SlewingClock(skewed)  # the conductor's time as the relay knows it
+    show.follow(Timebase(offset=39.9, rate=100e-6, ref=500.0))
+    host.advance(2.0)
+    # What each clock reads now maps back to the host's own reading, and a time ahead too.
+    assert host_time(show, show.now()) == pytest.approx(502.0, abs=1e-9)
+    assert host_time(skewed, skewed.now()) == pytest.approx(502.0, abs=1e-9)
+    assert host_time(show, show.now() + 1.0) == pytest.approx(503.0, abs=1e-6)
+    assert host_time(host, 7.5) == 7.5  # a clock with no base is the host's
+
+
+def test_the_start_tracer_logs_each_robots_first_frame_once_per_show() -> None:
+    from xgo_show.net.testhooks import SkewedClock as Skewed
+    from xgo_show.net.testhooks import StartTracer
+    from xgo_show.runtime.events import EventBus, FrameSent, ShowStarted
+
+    host = FakeClock(100.0)
+    clock = Skewed(host, offset=10.0)
+    bus = EventBus()
+    logged: list[tuple[str, dict[str, object]]] = []
+    tracer = StartTracer(bus, clock, lambda event, **fields: logged.append((event, fields)))
+
+    def frame(performer: str, kind: str, planned: float | None, t: float) -> FrameSent:
+        return FrameSent(t, performer, kind, 0, planned, b"\x00", "", None, 0.0)
+
+    def show(start: float) -> None:
+        bus.publish(ShowStarted(start - 1, "s", 0.0, start, ("a", "b"), "halt_all", 0.0))
+        bus.publish(frame("a", "read", None, start - 0.5))  # not a scheduled frame
+        bus.publish(frame("a", "frame", start, start + 0.002))
+        bus.publish(frame("a", "frame", start + 0.05, start + 0.051))  # not the first
+        bus.publish(frame("b", "frame", start, start + 0.001))
+
+    show(120.0)
+    show(130.0)
+    tracer.close()
+    bus.publish(ShowStarted(139.0, "s", 0.0, 140.0, ("a",), "halt_all", 0.0))
+    bus.publish(frame("a", "frame", 140.0, 140.0))  # after close: nothing
+    assert [(e, f["performer"], f["start_at"]) for e, f in logged] == [
+        ("first_frame", "a", 120.0),
+        ("first_frame", "b", 120.0),
+        ("first_frame", "a", 130.0),
+        ("first_frame", "b", 130.0),
+    ]
+    first = logged[0][1]
+    assert first["actual_host"] == pytest.approx(110.002)  # 10 s behind the relay's clock
+    assert first["planned_host"] == pytest.approx(110.0)
+    assert first["start_host"] == pytest.approx(110.0)
