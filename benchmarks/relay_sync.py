@@ -135,11 +135,12 @@ class Relay:
         )
         self.tracker.start()
         if not track:
-            self.tracker.close()
+            self.tracker.close()  # kept (closed): a claim again syncs it again
 
     def unsync(self) -> None:
         if self.tracker is not None:
             self.tracker.close()
+            self.tracker = None
 
 
 @dataclass
@@ -324,7 +325,14 @@ def upload(relays: Sequence[Relay], schedule: Schedule) -> None:
         assert relay.client is not None
         # 3 s without a heartbeat before a relay lets go: the machine is shared, and a relay
         # process starved for half a second must not end the measurement.
-        reply = relay.client.upload(text, sha, watchdog_ms=3000)
+        try:
+            reply = relay.client.upload(text, sha, watchdog_ms=3000)
+        except NetworkError as exc:
+            if "does not hold" not in str(exc):
+                raise
+            print(f"   ({exc}; its log: {released(relay)}; claiming it again)")
+            claim(relay.client.session, relay, sync=relay.tracker is not None)
+            reply = relay.client.upload(text, sha, watchdog_ms=3000)
         if not reply["preflight_ok"]:
             raise SystemExit(f"relay {relay.name}: pre-flight failed: {reply['preflight']}")
         relay.sha = sha
@@ -540,6 +548,7 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
             if plain:
                 runs.append(play(plain, short, "start synced --no-realtime"))
             runs.append(play(relays, short, "start naive"))
+        report_starts(args, runs, relays, plain, locals_, short)
         if args.drift_seconds > 0:
             if plain:
                 runs.append(play(plain, long, "drift synced --no-realtime"))
@@ -564,6 +573,33 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
             runs.append(play(relays, long, "drift naive"))
     finally:
         rig.close()
+    if args.drift_seconds > 0:
+        loads = [r.load for r in runs if r.mode.startswith("drift")]
+        print(
+            f"\n2. skew after {args.drift_seconds:g} s of show: spread of the first and of the "
+            f"last frame (ms; load average {min(loads):.2f}-{max(loads):.2f})"
+        )
+        for r in runs:
+            if r.mode.startswith("drift"):
+                group = plain if r.mode.endswith("--no-realtime") else relays
+                first, last = skew(group, r, 0), skew(group, r, -1)
+                print(f"   {r.mode[6:]:26s} first {first or 0:8.3f}   last {last or 0:8.3f}")
+        print("   the clock tracker's drift estimates at the end of the synced show:")
+        for line in rates:
+            print(f"     {line}")
+
+
+def report_starts(
+    args: argparse.Namespace,
+    runs: Sequence[Run],
+    relays: Sequence[Relay],
+    plain: Sequence[Relay],
+    locals_: dict[str, list[LocalProcess]],
+    short: Schedule,
+) -> None:
+    """Parts 1 and 3: the start skew and its parts, the send-time error (printed while the
+    processes still run: their records are flushed as they go)."""
+    n = len(relays)
     logged = {relay.name: first_frames(relay) for relay in [*relays, *plain]}
     for run in runs:
         if run.start_at is not None and not run.writes:
@@ -594,19 +630,6 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
         print_parts(f"relayed{group}", members, started)
     for mode, robots in local_robots.items():
         print_parts(mode, robots, [r for r in runs if r.mode == mode])
-    if args.drift_seconds > 0:
-        print(
-            f"\n2. skew after {args.drift_seconds:g} s of show: "
-            "spread of the first and of the last frame (ms)"
-        )
-        for r in runs:
-            if r.mode.startswith("drift"):
-                group = plain if r.mode.endswith("--no-realtime") else relays
-                first, last = skew(group, r, 0), skew(group, r, -1)
-                print(f"   {r.mode[6:]:26s} first {first or 0:8.3f}   last {last or 0:8.3f}")
-        print("   the clock tracker's drift estimates at the end of the synced show:")
-        for line in rates:
-            print(f"     {line}")
     print("\n3. send-time error at the robot: receive time - planned time (ms)")
     for group, members in groups.items():
         relayed = [e for r in runs if r.mode == f"start synced{group}"
