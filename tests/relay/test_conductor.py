@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -13,6 +14,7 @@ import pytest
 
 from tests.relay.conftest import claim, upload_text
 from xgo_show.compiler.artifact import save_schedule
+from xgo_show.net.testhooks import CLOCK_ENV, TRACE_ENV
 
 
 def conduct(show_file: Path, *args: str, relay=None) -> subprocess.Popen[str]:  # type: ignore[no-untyped-def]
@@ -165,9 +167,20 @@ def test_a_lost_relay_stops_the_whole_show_within_the_watchdog(
 def test_relays_with_skewed_clocks_start_together(relays, walk, tmp_path: Path) -> None:
     # Each relay's clock is seconds off this machine's and runs at another rate: only the
     # time sync (offset measured, timebase pushed) can put their first frames together.
-    left = relays.start("left", {"rex": "mini"}, env={"XGO_SHOW_TEST_CLOCK": "offset=7.25,ppm=90"})
+    traced = {TRACE_ENV: "1"}
+    left = relays.start(
+        "left",
+        {"rex": "mini"},
+        "--log",
+        str(tmp_path / "left.jsonl"),
+        env={CLOCK_ENV: "offset=7.25,ppm=90", **traced},
+    )
     right = relays.start(
-        "right", {"lola": "lite"}, env={"XGO_SHOW_TEST_CLOCK": "offset=-3.5,ppm=-90"}
+        "right",
+        {"lola": "lite"},
+        "--log",
+        str(tmp_path / "right.jsonl"),
+        env={CLOCK_ENV: "offset=-3.5,ppm=-90", **traced},
     )
     show = walk(0.5, rex="mini", lola="lite")
     save_schedule(show, tmp_path / "s.xshow.json")
@@ -186,6 +199,8 @@ def test_relays_with_skewed_clocks_start_together(relays, walk, tmp_path: Path) 
             left.endpoint,
             "--connect",
             right.endpoint,
+            "--log",
+            str(tmp_path / "run.jsonl"),
         ],
         capture_output=True,
         text=True,
@@ -194,6 +209,20 @@ def test_relays_with_skewed_clocks_start_together(relays, walk, tmp_path: Path) 
     assert out.returncode == 0, out.stdout + out.stderr
     assert "clock offset +7.25" in out.stdout and "clock offset -3.5" in out.stdout
     assert out.stdout.count(", round trip ") == 2  # each relay's, from its first burst
+    found = re.findall(r"clock offset [-+][\d.]+ s \+- ([\d.]+) ms", out.stdout)
+    bounds = [float(b) for b in found]
+    assert len(bounds) == 2
+    # Where each relay's clock put the first frame, on this machine's clock (its trace), is the
+    # conductor's start to within the bound the estimate gave (plus its drift since): scheduling
+    # on a busy machine cannot move this part, only the clock sync can.
+    from xgo_show.runtime.runlog import read_log
+
+    start_at = next(r for r in read_log(tmp_path / "run.jsonl") if r.get("event") == "start")
+    for relay in ("left", "right"):
+        log = read_log(tmp_path / f"{relay}.jsonl")
+        first = next(r for r in log if r.get("event") == "first_frame")
+        assert first["start_at"] == pytest.approx(start_at["start_at"], abs=1e-6)
+        assert abs(first["planned_host"] - start_at["start_at"]) < max(bounds) / 1e3 + 0.0005
     firsts = []
     for relay, name in ((left, "rex"), (right, "lola")):
         first = show.performer(name).frames[0].data
