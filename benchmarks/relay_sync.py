@@ -323,18 +323,23 @@ def upload(relays: Sequence[Relay], schedule: Schedule) -> None:
     sha = schedule_digest(text)
     for relay in relays:
         assert relay.client is not None
-        # 3 s without a heartbeat before a relay lets go: the machine is shared, and a relay
-        # process starved for half a second must not end the measurement.
-        try:
-            reply = relay.client.upload(text, sha, watchdog_ms=3000)
-        except NetworkError as exc:
-            if "does not hold" not in str(exc):
-                raise
-            print(f"   ({exc}; its log: {released(relay)}; claiming it again)")
-            claim(relay.client.session, relay, sync=relay.tracker is not None)
-            reply = relay.client.upload(text, sha, watchdog_ms=3000)
-        if not reply["preflight_ok"]:
-            raise SystemExit(f"relay {relay.name}: pre-flight failed: {reply['preflight']}")
+        for _attempt in range(3):
+            try:
+                # 3 s without a heartbeat before a relay lets go: the machine is shared, and
+                # a relay process starved for half a second must not end the measurement.
+                reply = relay.client.upload(text, sha, watchdog_ms=3000)
+            except NetworkError as exc:
+                if "does not hold" not in str(exc):
+                    raise
+                print(f"   ({exc}; its log: {released(relay)}; claiming it again)")
+                claim(relay.client.session, relay, sync=relay.tracker is not None)
+                continue
+            if reply["preflight_ok"]:
+                break
+            # A simulator starved past the pre-flight's 0.5 s reply time: not what is measured.
+            print(f"   (relay {relay.name}: pre-flight failed, again: {reply['preflight']})")
+        else:
+            raise SystemExit(f"relay {relay.name}: no upload in 3 attempts")
         relay.sha = sha
 
 
