@@ -71,9 +71,10 @@ from xgo_show.profiles import get_profile
 from xgo_show.relay.client import RelayClient
 from xgo_show.relay.validate import schedule_digest
 from xgo_show.runtime import realtime
-from xgo_show.runtime.clock import MonotonicClock
+from xgo_show.runtime.clock import MonotonicClock, hand_off_cpu, tighten_timer_slack
 from xgo_show.runtime.events import EventBus, EventRecorder, FrameSent
 from xgo_show.runtime.launch import local_runner
+from xgo_show.runtime.realtime import enter_show_thread
 from xgo_show.runtime.report import percentile
 from xgo_show.transports import open_transport
 from xgo_show.wire.xgo import write_frame
@@ -82,6 +83,7 @@ MODEL = "mini"
 RATE = 20.0  # frames per second in the shows
 LEAD = 0.5  # seconds between the start commands and the start
 SHORT = 0.3  # seconds of show per start
+WAKE = "bare wake-up"  # the floor: processes that only wake at the start (start_waker)
 #: the relays' (and local runner's) real-time options, by group: the default and the opt-out
 GROUPS: dict[str, tuple[str, ...]] = {"": (), " --no-realtime": ("--no-realtime",)}
 #: with --sim-realtime: the simulators' SCHED_FIFO priority, so they wake at once like robots
@@ -533,6 +535,7 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
         locals_: dict[str, list[LocalProcess]] = {
             "local, one process": [start_local(rig, [f"one{i}" for i in range(n)], rt=True)],
             f"local, {n} processes": [start_local(rig, [f"each{i}"], rt=True) for i in range(n)],
+            WAKE: [start_waker(rig, f"wake{i}") for i in range(n)],
         }
         relays = start_relays(rig, n, rng, prefix="stage", env=trace)
         plain: list[Relay] = []
@@ -625,10 +628,18 @@ def report_starts(
         group = groups[mode[6:]] if mode.startswith("synced") else relays
         values = [skew(group, r, 0) for r in runs if r.mode == f"start {mode}"]
         print(f"   {'relayed, ' + mode:34s} {stats([v for v in values if v is not None])}")
-    local_robots = {mode: [r for p in procs for r in p.robots] for mode, procs in locals_.items()}
+    local_robots = {
+        mode: [r for p in procs for r in p.robots]
+        for mode, procs in locals_.items()
+        if mode != WAKE
+    }
     for mode, robots in local_robots.items():
         values = [skew(robots, r, 0) for r in runs if r.mode == mode]
         print(f"   {mode:34s} {stats([v for v in values if v is not None])}")
+    late, spread = wake_spreads([r for r in runs if r.mode == WAKE])
+    print(f"   {WAKE + f' of {n} processes':34s} {stats(spread)}")
+    print(f"     (their lateness: {stats(late)})")
+    print("     (the floor: a SCHED_FIFO thread in each of N processes, woken at the start)")
     print("   its parts (ms): every robot's value, and the spread of each part across the robots")
     for group, members in groups.items():
         started = [r for r in runs if r.mode == f"start synced{group}"]
@@ -699,6 +710,51 @@ def play_local(procs: Sequence[LocalProcess], mode: str, lead_s: float) -> Run:
     for proc in procs:
         writes.update(proc.writes())
     return Run(mode, sent, time.monotonic(), start_at, writes, load)
+
+
+def start_waker(rig: Rig, name: str) -> LocalProcess:
+    """A process whose one SCHED_FIFO thread only sleeps to each start and notes when it woke
+    (``--wake-child``): the floor of N processes woken at one instant on this machine, with
+    neither a show, a port nor a robot."""
+    proc = subprocess.Popen(
+        [sys.executable, __file__, "--wake-child", name],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    if proc.stdout.readline().strip() != "ready":
+        raise SystemExit("a wake-up process did not start")
+    rig.locals.append(proc)
+    return LocalProcess(proc, [])
+
+
+def wake_child(name: str) -> int:
+    """``--wake-child NAME``: see :func:`start_waker`."""
+    realtime.configure("required")
+    tighten_timer_slack()
+    enter_show_thread()  # as a writer thread does
+    clock = MonotonicClock()
+    print("ready", flush=True)
+    for line in sys.stdin:
+        start_at = float(line)
+        clock.sleep_until(start_at)
+        woke = clock.now()
+        hand_off_cpu()  # as a writer does after its write
+        reply = {"completed": True, "reason": "", "writes": {name: [start_at, woke]}}
+        print(json.dumps(reply), flush=True)
+    return 0
+
+
+def wake_spreads(runs: Sequence[Run]) -> tuple[list[float], list[float]]:
+    """Every waker's lateness and, per start, their spread (ms)."""
+    late: list[float] = []
+    spread: list[float] = []
+    for run in runs:
+        row = [(woke - planned) * 1000 for planned, woke in run.writes.values()]
+        late += row
+        spread.append(max(row) - min(row))
+    return late, spread
 
 
 def local_child(pairs: Sequence[str], rt: bool) -> int:
@@ -843,9 +899,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="also relays and a local runner with --no-realtime (4 more relays, 4 more robots)",
     )
+    parser.add_argument("--wake-child", metavar="NAME", help=argparse.SUPPRESS)
     parser.add_argument("--local-child", nargs="+", metavar="NAME=PTY", help=argparse.SUPPRESS)
     parser.add_argument("--no-realtime", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.wake_child:
+        return wake_child(args.wake_child)
     if args.local_child:
         return local_child(args.local_child, not args.no_realtime)
     if args.sim_realtime:
