@@ -7,9 +7,9 @@ rate error of up to +-100 ppm. The simulators timestamp what they receive with t
 monotonic clock, which they all share, so the spread of those timestamps is the true skew.
 
 Each relay plays as ``xgo-show relay`` does by default (its writer thread under SCHED_FIFO
-where permitted, docs/realtime.md); a second group of relays with ``--no-realtime`` (normal
-priority, last session's default) plays the same synced starts and drift show in the same run.
-Two ways to start the same show on every relay, in the same run:
+where permitted, docs/realtime.md); with ``--no-realtime-too`` a second group of relays with
+``--no-realtime`` (normal priority) plays the same synced starts and drift show in the same
+run. Two ways to start the same show on every relay, in the same run:
 
 - **synced**: the conductor measures each relay's clock (NTP-style, lowest round trips) and
   pushes the timebase, which the relay's show clock follows; ``start`` carries a start time,
@@ -18,30 +18,37 @@ Two ways to start the same show on every relay, in the same run:
 - **naive**: ``start`` with ``start_in``: each relay starts a fixed lead after the command
   arrives on its own (uncorrected) clock, as a system without clock sync would.
 
-Figures (ms, p50/p99/p99.9/max; with 20 starts p99 and up are the largest values):
+Figures (ms, p50/p99/p99.9/max; with 20 starts p99 and up are the largest values), each
+with the load average it was taken at:
 
-1. start skew: spread of the first frame's receive time across the robots, per start, and
-   where it comes from: each relay's own lateness (its write against the start, on its show
-   clock, from its run log), and receive time - that write (the clock's error plus the
-   pseudo-terminal's delivery), beside the same parts for N local robots that one process
-   starts (the floor: no network, no clock to estimate);
+1. start skew: spread of the first frame's receive time across the robots, per start, beside
+   baselines started in turn with the relays (so every column sees the same load): the same
+   robots driven by one local process, by N local processes (one robot each: the relays'
+   shape with no network and no clock to estimate), and a bare wake-up floor (N processes
+   whose one SCHED_FIFO thread only sleeps to the start). Its parts, per robot and as their
+   spread across the robots: (a) the relay's clock estimate's error (where its clock put the
+   start, on this machine's clock: ``XGO_SHOW_TEST_TRACE`` makes each relay log its first
+   frame's planned and actual write time on both clocks), (b) issue lateness (the write
+   against the planned time), (c) delivery (the simulator's receive time against the write);
 2. skew after a long show (``--drift-seconds``, 60 by default): spread of the receive time of
    the show's last frame, synced with tracking, synced without tracking (offset only), naive;
 3. send-time error at the robot (receive time - planned time) of a relayed robot vs the same
-   schedule played by a local runner in this process: what the relay adds;
+   schedule played by the local processes: what the relay adds;
 4. the estimator with a test-only delay on every time-sync reply (5 ms +- 2 ms, one way): its
    error against the bound it reports, and the start skew it gives;
 5. scale: the same start with ``--scale`` relays (16 by default): set-up time, start skew,
    command round trip, and the conductor's CPU per second while it keeps them synced.
 
-Prints figures only (no asserts). Run it alone (``flock /work/land.lock``)::
+Prints figures only (no asserts). It takes minutes: run it outside the land lock, under
+``nice`` on a shared machine::
 
     python benchmarks/relay_sync.py [--relays 4] [--starts 20] [--drift-seconds 60] [--scale 16]
     python benchmarks/relay_sync.py --quick     # about a minute: 5 starts, 10 s drift, no scale
 
-``--sim-realtime`` runs the simulators (the measuring instrument) under SCHED_FIFO 20, above
-the writers, so their wake-ups (a robot has a CPU of its own) leave the figures;
-``--estimates 0`` skips part 4.
+``--sim-realtime`` raises the simulators (the measuring instrument) to SCHED_FIFO 20, above
+the writers, once they are ready, so their wake-ups (a robot has a CPU of its own) leave the
+figures; ``--estimates 0`` skips part 4; ``--no-realtime-too`` adds relays and a local runner
+with ``--no-realtime``.
 """
 
 from __future__ import annotations
