@@ -416,6 +416,7 @@ class Run:
     # robot -> (planned, actual) time of its first frame's write, on this machine's clock
     writes: dict[str, tuple[float, float]] = field(default_factory=dict)
     load: float = 0.0  # the 1-minute load average when it started
+    lates: list[float] = field(default_factory=list)  # every frame's write - planned (s)
 
 
 def received_in(sim: Sim, run: Run) -> list[float]:
@@ -432,6 +433,26 @@ def skew(relays: Sequence[Relay], run: Run, index: int) -> float | None:
             return None
         times.append(got[index])
     return (max(times) - min(times)) * 1000
+
+
+def frame_lates(relay: Relay) -> dict[float, list[float]]:
+    """start time -> every frame's write - planned time (s) in that show, from the relay's
+    run log (show times on its show clock, which runs at the conductor's rate)."""
+    assert relay.log is not None
+    out: dict[float, list[float]] = {}
+    current: list[float] | None = None
+    for line in relay.log.read_text(encoding="utf-8").splitlines():
+        rec = json.loads(line)
+        if rec.get("event") == "start":
+            current = out.setdefault(round(float(rec["start_at"]) - float(rec["offset"]), 6), [])
+        elif (
+            rec.get("kind") == "frame"
+            and rec.get("send") == "frame"
+            and rec.get("planned") is not None
+            and current is not None
+        ):
+            current.append(float(rec["actual"]) - float(rec["planned"]))
+    return out
 
 
 def first_frames(relay: Relay) -> dict[float, tuple[float, float]]:
@@ -616,11 +637,13 @@ def report_starts(
     processes still run: their records are flushed as they go)."""
     n = len(relays)
     logged = {relay.name: first_frames(relay) for relay in [*relays, *plain]}
+    lates = {relay.name: frame_lates(relay) for relay in [*relays, *plain]}
     for run in runs:
         if run.start_at is not None and not run.writes:
             for name, writes in logged.items():
                 if (t := writes.get(round(run.start_at, 6))) is not None:
                     run.writes[name] = t
+                run.lates.extend(lates[name].get(round(run.start_at, 6), []))
     loads = [r.load for r in runs if r.mode.startswith("start")]
     print(
         f"\n{n} relays, clocks off by up to +-100 s and +-100 ppm "
@@ -661,6 +684,13 @@ def report_starts(
     for mode, robots in local_robots.items():
         errors = [e for r in runs if r.mode == mode for e in send_errors(robots, r, short)]
         print(f"   {mode:34s} {stats(errors)}")
+    print("   its issue lateness: write - planned time of every frame (ms)")
+    for group in groups:
+        late = [x * 1000 for r in runs if r.mode == f"start synced{group}" for x in r.lates]
+        print(f"   {'relayed' + group:34s} {stats(late)}")
+    for mode in local_robots:
+        late = [x * 1000 for r in runs if r.mode == mode for x in r.lates]
+        print(f"   {mode:34s} {stats(late)}")
 
 
 @dataclass
@@ -678,12 +708,14 @@ class LocalProcess:
         self.proc.stdin.write(f"{start_at!r}\n")
         self.proc.stdin.flush()
 
-    def writes(self) -> dict[str, tuple[float, float]]:
+    def writes(self) -> tuple[dict[str, tuple[float, float]], list[float]]:
+        """Each robot's first (planned, actual) write, and every frame's lateness (s)."""
         assert self.proc.stdout is not None
         reply = json.loads(self.proc.stdout.readline())
         if not reply["completed"]:
             raise SystemExit(f"a local run did not complete: {reply['reason']}")
-        return {name: (float(p), float(a)) for name, (p, a) in reply["writes"].items()}
+        firsts = {name: (float(p), float(a)) for name, (p, a) in reply["writes"].items()}
+        return firsts, [float(x) for x in reply.get("lates", [])]
 
 
 def start_local(rig: Rig, names: Sequence[str], *, rt: bool) -> LocalProcess:
@@ -714,9 +746,12 @@ def play_local(procs: Sequence[LocalProcess], mode: str, lead_s: float) -> Run:
     for proc in procs:
         proc.start(start_at)
     writes: dict[str, tuple[float, float]] = {}
+    lates: list[float] = []
     for proc in procs:
-        writes.update(proc.writes())
-    return Run(mode, sent, time.monotonic(), start_at, writes, load)
+        firsts, late = proc.writes()
+        writes.update(firsts)
+        lates += late
+    return Run(mode, sent, time.monotonic(), start_at, writes, load, lates)
 
 
 def start_waker(rig: Rig, name: str) -> LocalProcess:
@@ -786,11 +821,18 @@ def local_child(pairs: Sequence[str], rt: bool) -> int:
             )
             result = runner.run(start_at=start_at, lead=0.0, handle_signals=False)
             writes: dict[str, tuple[float, float]] = {}
+            lates: list[float] = []
             for ev in recorder.sent():
-                if ev.kind == "frame" and ev.planned is not None and ev.performer not in writes:
-                    writes[ev.performer] = (ev.planned, ev.t)
+                if ev.kind == "frame" and ev.planned is not None:
+                    lates.append(ev.t - ev.planned)
+                    writes.setdefault(ev.performer, (ev.planned, ev.t))
             recorder.close()
-            reply = {"completed": result.completed, "reason": result.reason, "writes": writes}
+            reply = {
+                "completed": result.completed,
+                "reason": result.reason,
+                "writes": writes,
+                "lates": lates,
+            }
             print(json.dumps(reply), flush=True)
     finally:
         for link in links.values():
