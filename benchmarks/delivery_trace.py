@@ -75,6 +75,10 @@ class Tracer:
             "sched/sched_switch": "",
             "raw_syscalls/sys_exit": sim_pids,
         }
+        # The kernel stack of a writer (SCHED_FIFO 10: kernel priority 89) that goes to sleep
+        # uninterruptibly (state D): what in the kernel it waits for.
+        self._write("events/sched/sched_switch/trigger",
+                    "stacktrace if prev_prio == 89 && prev_state == 2")
         self._write("trace_clock", "mono")
         self._write("buffer_size_kb", "65536")
         for event, filt in self.events.items():
@@ -99,6 +103,8 @@ class Tracer:
         return text.splitlines()
 
     def close(self) -> None:
+        self._write("events/sched/sched_switch/trigger",
+                    "!stacktrace if prev_prio == 89 && prev_state == 2")
         for event in self.events:
             self._write(f"events/{event}/enable", "0")
         self._write("trace", "")
@@ -313,6 +319,19 @@ def main() -> None:
             received[perf.name] = [t for t, data in rt.read_records(record)
                                    if data[3] != TYPE_READ and data in wanted]
     print(f"load average {os.getloadavg()[0]:.2f} at the end; {len(lines)} trace lines")
+    stacks: dict[str, int] = defaultdict(int)
+    for i, line in enumerate(lines):
+        if "<stack trace>" in line:
+            frames = []
+            for follow in lines[i + 1:i + 20]:
+                if not follow.lstrip().startswith("=>"):
+                    break
+                frames.append(follow.strip()[3:].split("+")[0])
+            stacks[" < ".join(frames[4:14])] += 1
+    if stacks:
+        print("writers gone to sleep uninterruptibly (state D), by kernel stack:")
+        for stack, n in sorted(stacks.items(), key=lambda kv: -kv[1])[:6]:
+            print(f"  {n:4d}  {stack}")
     tr = parse(lines)
     sim_tid = {p.name: tid for p, tid in zip(schedule.performers, sims.tids, strict=True)}
     frames = breakdown(tr, issued, received, sim_tid)

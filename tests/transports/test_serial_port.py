@@ -91,6 +91,36 @@ def test_pty_both_directions(pty_pair: PtyPair) -> None:
         assert link.set_low_latency() is False
 
 
+def test_a_write_that_fits_never_polls_the_port(pty_pair: PtyPair, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # A tty's poll waits for the kernel worker that moves received bytes: a frame that fits
+    # in the buffer must go out in one write, without pyserial's select() after it.
+    import serial
+
+    def no_pyserial_write(self: object, data: bytes) -> int:
+        raise AssertionError("pyserial's write (which selects after writing) was called")
+
+    with open_transport(pty_pair.path) as link:
+        os.write(pty_pair.master, b"reply pending")  # bytes for the worker to move meanwhile
+        monkeypatch.setattr(serial.Serial, "write", no_pyserial_write)
+        link.write(b"a frame")
+        assert read_exactly(pty_pair.master, 7) == b"a frame"
+
+
+def test_a_full_port_still_times_out(pty_pair: PtyPair) -> None:
+    # Nobody reads the master: the pty's buffer fills, the rest of a write waits for room
+    # (pyserial's write) and gives up after the write timeout.
+    from xgo_show.errors import TransportTimeout
+
+    link = SerialTransport(pty_pair.path, write_timeout=0.2)
+    link.open()
+    try:
+        with pytest.raises(TransportTimeout, match=r"blocked for more than 0.2 s"):
+            for _ in range(1000):
+                link.write(bytes(4096))
+    finally:
+        link.close()
+
+
 def test_unopenable_path_names_port_and_reason() -> None:
     link = open_transport("/dev/ttyUSB9-does-not-exist")
     with pytest.raises(TransportError) as info:

@@ -81,6 +81,22 @@ class SerialTransport(Transport):
 
     def write(self, data: bytes) -> None:
         port = self._require_open()
+        fd = self._fileno(port)
+        if fd is not None:
+            # The port is non-blocking: a frame that fits in the driver's buffer (every one,
+            # unless the link is stuck) goes in one call. pyserial's write would then select()
+            # on the port, and a tty's poll first waits for the kernel worker to move any
+            # bytes received meanwhile: traced, a real-time writer slept up to 100 ms there
+            # behind a normal-priority worker (docs/realtime.md).
+            try:
+                sent = os.write(fd, data)
+            except BlockingIOError:
+                sent = 0
+            except OSError as exc:
+                raise TransportError(f"write to {self.url} failed: {describe_error(exc)}") from exc
+            if sent == len(data):
+                return
+            data = data[sent:]  # the rest waits for room, up to the write timeout
         try:
             port.write(data)
         except serial.SerialTimeoutException as exc:
