@@ -15,6 +15,9 @@ CLOCK_MONOTONIC time base the runner and the simulators use). Each frame's deliv
 - ``sim busy``: frames that found the serving thread already running (no wake-up needed):
   woken/queued -> timestamp.
 
+It also records the kernel stack of every writer that goes to sleep uninterruptibly (state
+D) and, for the latest issues, which of this process's threads were preempted meanwhile.
+
 Needs root (or tracefs access). Prints figures only. Usage::
 
     python benchmarks/delivery_trace.py [--seconds 20] [--busy] [--sim fifo|nice|normal]
