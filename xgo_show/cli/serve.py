@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import signal
 import threading
+from pathlib import Path
 from typing import Any
 
 from xgo_show.errors import UsageError
@@ -48,6 +49,9 @@ def add_parser(sub: Any) -> None:
                         help="do not poll battery, status and attitude during shows")
     parser.add_argument("--allow-unsafe", action="store_true",
                         help="allow schedules that write unsafe registers")
+    parser.add_argument("--log", metavar="FILE",
+                        help="write the run log (JSON lines) of every show played to FILE, with "
+                        "each trigger's times (received, decided, released, first frame)")
     add_conductor_arguments(parser)
     add_realtime_arguments(parser)
     parser.set_defaults(func=run)
@@ -83,6 +87,7 @@ def run(args: argparse.Namespace) -> int:
         sim=args.sim,
         telemetry=not args.no_telemetry,
         allow_unsafe=args.allow_unsafe,
+        log=Path(args.log) if args.log else None,
     )
     if not opts.maps and not opts.sim:
         raise UsageError("serve needs robots: give --map NAME=PORT (repeatable) or --sim")

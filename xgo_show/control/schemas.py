@@ -129,9 +129,11 @@ class NextWait(_Piece):
 class Counters(_Piece):
     """What came in since the server started, and what became of it."""
 
-    triggers: int = Field(description="Well-formed triggers received (puts and queries).")
+    triggers: int = Field(description="Triggers received (puts and queries), malformed apart.")
     accepted: int = Field(description="Triggers that released a wait or were kept for one.")
     refused: int = Field(description="Triggers nobody waited for.")
+    unknown: int = Field(description="Of the refused: triggers no section of the loaded show "
+                         "waits for, refused before their payload is read.")
     malformed: int = Field(description="Triggers whose payload was refused (dropped).")
     busy: int = Field(description="Commands refused because 64 were queued.")
     cancelled: int = Field(description="Commands (and starts being armed) a panic cancelled.")
@@ -372,6 +374,9 @@ class WarningEvent(_Event):
     event: Literal["warning"]
     message: str
     suppressed: int | None = Field(None, description="Refused triggers not published.")
+    unknown: int | None = Field(None, description="Triggers no section waits for, refused "
+                                "since the last such warning (at most one a second).")
+    trigger: str | None = Field(None, description="With unknown: the last of them.")
 
 
 EVENTS: dict[str, tuple[type[BaseModel], ...]] = {

@@ -13,12 +13,22 @@ Threads. Zenoh calls the handlers on its own threads: status, triggers and ``pan
 answered there at once (each takes a lock for microseconds, or sends stop frames); the other
 commands queue for one control thread (bounded: a full queue is answered "busy"), so a long
 compile never delays a panic or a trigger. A show runs in a thread of its own.
+
+Triggers. A trigger's name is looked up first, in the set of triggers the loaded show's
+sections wait for: one nobody waits for is refused there and then (counted; a query gets an
+error reply, at most :data:`UNKNOWN_REPLIES` a second), before its payload is parsed or any
+lock is taken, so a flood of them costs the show's writer threads next to nothing. A known one
+is decided in the callback (the director releases the wait: a flag per robot) and only then
+told about (events, the reply), so nothing stands between the trigger and the first frame.
+``log``: the trigger's times (received, decided, the writer's release, the section's first
+frame written) go to the run log as ``trigger`` records, beside the show's own.
 """
 
 from __future__ import annotations
 
 import collections
 import contextlib
+import itertools
 import threading
 import time
 from collections.abc import Callable
@@ -26,6 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from xgo_show.choreo.sections import trigger_names
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.director import ControlError, Director
 from xgo_show.control.keys import control_key, status_key, trigger_key
@@ -45,19 +56,59 @@ from xgo_show.control.status import place, robots_status, show_summary, wall_tim
 from xgo_show.errors import XgoShowError
 from xgo_show.relay.options import ConductorOptions, use_relays
 from xgo_show.runtime.clock import MonotonicClock
-from xgo_show.runtime.events import EventBus
+from xgo_show.runtime.events import Event, EventBus, FrameSent, StateChanged
+from xgo_show.runtime.executor import ExecutorState
 from xgo_show.runtime.launch import Launch
 from xgo_show.runtime.preflight import PreflightError
+from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 from xgo_show.sim.bench import SimBench
 
 if TYPE_CHECKING:
     import zenoh
 
-__all__ = ["ServeOptions", "ShowServer"]
+__all__ = ["UNKNOWN_REPLIES", "ServeOptions", "ShowServer"]
 
 _QUEUE = 64  # control commands waiting for the control thread
-_COUNTERS = ("triggers", "accepted", "refused", "malformed", "busy", "cancelled")
+_COUNTERS = ("triggers", "accepted", "refused", "unknown", "malformed", "busy", "cancelled")
+#: Error replies a second, at most, to queries for triggers nobody waits for (the rest are
+#: dropped unanswered, counted): a flood of queries is not answered by a flood of replies.
+UNKNOWN_REPLIES = 100
+_EMPTY = (b"", b"{}", b'{"v":1}', b'{"v": 1}')  # trigger payloads with nothing to parse
+_NO_PAYLOAD = TriggerRequest.model_validate({})
+
+
+class _Tally:
+    """A counter any thread bumps without a lock: ``next()`` on an :func:`itertools.count`
+    is one step under the GIL. Reading takes a value from it too, so reads are counted and
+    taken off (:meth:`value`: under the caller's lock, one reader at a time)."""
+
+    def __init__(self) -> None:
+        self._bumps = itertools.count()
+        self._reads = 0
+
+    def bump(self) -> None:
+        next(self._bumps)
+
+    def value(self) -> int:
+        n = next(self._bumps) - self._reads
+        self._reads += 1
+        return n
+
+
+@dataclass
+class _Trace:
+    """One trigger that released a held wait, timed (clock seconds) for the run log."""
+
+    trigger: str
+    section: str
+    received: float  # the Zenoh callback began
+    parsed: float  # the payload was read
+    decided: float  # the director released the wait (every robot's resume asked)
+    woke: float | None = None  # the first writer took the release (catch-up frames begin)
+    released: float | None = None  # ... and plays the section
+    first_write: float | None = None  # its first write after the release (catch-up or frame)
+    first_frame: float | None = None  # the section's first scheduled frame written
 
 
 @dataclass(frozen=True)
@@ -73,6 +124,7 @@ class ServeOptions:
     telemetry: bool = True
     arm_margin: float = 0.1
     allow_unsafe: bool = False
+    log: Path | None = None  # run log (JSON lines) of every show played, and triggers' times
 
 
 @dataclass
@@ -119,7 +171,15 @@ class ShowServer:
         self._closed = False
         self._panics = 0  # panics so far: a start armed across one is cancelled
         #: what came in and what became of it (status replies carry them)
-        self.counters = dict.fromkeys(_COUNTERS, 0)
+        self._tallies = {name: _Tally() for name in _COUNTERS}
+        self._tally_lock = threading.Lock()  # readers of the tallies, one at a time
+        #: the triggers the loaded show's sections wait for (replaced whole, read unlocked)
+        self._waited: frozenset[str] = frozenset()
+        self._unknown_window = (float("-inf"), 0)  # (start, replies sent in it)
+        self._warned_at = float("-inf")  # when unknown triggers were last told of
+        self._unknown_told = 0  # the unknown tally then
+        self._trace: _Trace | None = None  # a release being timed (with a log)
+        self.log = RunLog(opts.log) if opts.log is not None else None
         self.publisher = EventPublisher(self.ns, self._put, clock=self.clock)
         if load is not None:  # before answering anyone: a client never sees it unloaded
             self._cmd_load(load)
@@ -157,30 +217,74 @@ class ShowServer:
         self._reply(query, "status", self.status())
 
     def _on_trigger_put(self, sample: Any) -> None:
-        name = str(sample.key_expr).rsplit("/", 1)[-1]
+        received = self.clock.now()
+        name = str(sample.key_expr).rpartition("/")[2]
+        if name not in self._waited:
+            self._unknown(name)
+            return
         try:
-            request = parse_request("trigger", sample.payload.to_bytes())
+            request = _trigger_request(sample.payload.to_bytes())
         except ControlError as exc:
             self._count("malformed")
             self.publisher.publish_noisy("warning", message=f"trigger {name!r} dropped: {exc}")
             return
         # A refusal is said in the trigger event (rate-limited): a put has no one to answer.
         with contextlib.suppress(ControlError):
-            self._trigger(name, request)  # type: ignore[arg-type]
+            self._trigger(name, request, received)
 
     def _on_trigger_query(self, query: Any) -> None:
-        name = str(query.key_expr).rsplit("/", 1)[-1]
+        received = self.clock.now()
+        name = str(query.key_expr).rpartition("/")[2]
+        if name not in self._waited:
+            message = self._unknown(name)
+            if self._may_reply_unknown(received):
+                self._reply_err(query, "trigger", "refused", message)
+            else:
+                query.drop()  # over the rate: no reply (the querier's timeout says so)
+            return
         try:
             try:
-                request = parse_request("trigger", _payload(query))
+                request = _trigger_request(_payload(query))
             except ControlError:
                 self._count("malformed")
                 raise
-            fields = self._trigger(name, request)  # type: ignore[arg-type]
+            fields = self._trigger(name, request, received)
         except ControlError as exc:
             self._reply_err(query, "trigger", exc.code, str(exc))
         else:
             self._reply(query, "trigger", fields)
+
+    def _unknown(self, name: str) -> str:
+        """Refuse a trigger no section of the loaded show waits for: counted, told in a
+        ``warning`` event at most once a second (how many, and the last name). No lock, no
+        parse: this is what a flood of them costs. Returns the refusal's message."""
+        for what in ("triggers", "refused", "unknown"):
+            self._tallies[what].bump()
+        now = self.clock.now()
+        if now - self._warned_at >= 1.0:  # a race may tell twice: harmless
+            self._warned_at = now
+            with self._tally_lock:
+                total = self._tallies["unknown"].value()
+            n, self._unknown_told = total - self._unknown_told, total
+            self.publisher.publish(  # once a second at most: not one of the noisy events
+                "warning", unknown=n, trigger=name,
+                message=f"{n} trigger(s) no section waits for refused since the last such "
+                f"warning (the last: {name!r})")
+        waited = self._waited
+        if not waited:
+            return f"trigger {name!r} refused: no show with triggers is loaded"
+        return (f"trigger {name!r} refused: no section of this show waits for {name!r} "
+                f"(its triggers: {', '.join(sorted(waited))})")
+
+    def _may_reply_unknown(self, now: float) -> bool:
+        """Whether a query for an unknown trigger gets its error reply (the rate's limit)."""
+        start, sent = self._unknown_window
+        if now - start >= 1.0:
+            start, sent = now, 0
+        if sent >= UNKNOWN_REPLIES:
+            return False
+        self._unknown_window = (start, sent + 1)
+        return True
 
     def _reply(self, query: Any, command: str, fields: dict[str, Any]) -> None:
         try:
@@ -236,6 +340,7 @@ class ShowServer:
         schedule, source = _load(req)
         with self._lock:
             self._loaded = (schedule, source)
+            self._waited = frozenset(trigger_names(schedule.sections))
         summary = show_summary(schedule, source)
         self.say(f"loaded {schedule.name!r} ({source}); triggers: "
                  f"{', '.join(summary['triggers']) or 'none'}")
@@ -308,6 +413,9 @@ class ShowServer:
             configure(self.opts.conductor, session=self.session)
         sims = SimBench(schedule, sim_names) if sim_names else None
         bus = EventBus()
+        if self.log is not None:
+            self.log.attach(bus)
+            bus.subscribe(self._timed)
         bus.subscribe(self.publisher.listen(schedule))
         try:
             if sims is not None:
@@ -404,10 +512,11 @@ class ShowServer:
             return self._ended(run, timeout=1.0)
         return {"state": "idle", "note": "no show is running: nothing is moving"}
 
-    def _trigger(self, name: str, req: TriggerRequest) -> dict[str, Any]:
+    def _trigger(self, name: str, req: TriggerRequest, received: float) -> dict[str, Any]:
+        """A trigger some section waits for: decided first (the release), told after."""
+        parsed = self.clock.now()
         self._count("triggers")
-        with self._lock:
-            run = self._run
+        run = self._run  # one read of one reference: no lock on the way to the release
         try:
             if run is None:
                 reason = "no show is running"
@@ -418,14 +527,44 @@ class ShowServer:
         except ControlError:
             self._count("refused")
             raise
+        if self.log is not None and outcome.held:
+            self._trace = _Trace(name, outcome.section, received, parsed, self.clock.now())
         self._count("accepted")
         self.publisher.publish("trigger", trigger=name, accepted=True, section=outcome.section,
                                held=outcome.held, source=req.source, data=req.data)
         return {"trigger": name, "section": outcome.section, "held": outcome.held}
 
+    def _timed(self, event: Event) -> None:
+        """Bus listener (with a log): the writer's side of the release being timed."""
+        trace = self._trace
+        if trace is None:
+            return
+        if isinstance(event, StateChanged):
+            if event.state is ExecutorState.REACHING and trace.woke is None:
+                trace.woke = event.t
+            elif event.state is ExecutorState.RUNNING and trace.released is None:
+                trace.released = event.t
+                if trace.woke is None:
+                    trace.woke = event.t
+        elif isinstance(event, FrameSent) and event.kind in ("frame", "reach"):
+            if trace.first_write is None:
+                trace.first_write = event.t
+            if event.kind == "frame":
+                trace.first_frame = event.t
+                self._trace = None
+                assert self.log is not None
+                times: dict[str, Any] = {k: round(v, 6) if isinstance(v, float) else v
+                                         for k, v in vars(trace).items()}
+                self.log.write("trigger", **times)
+
     def _count(self, what: str) -> None:
-        with self._lock:
-            self.counters[what] += 1
+        self._tallies[what].bump()
+
+    @property
+    def counters(self) -> dict[str, int]:
+        """What came in since the server started, and what became of it."""
+        with self._tally_lock:
+            return {name: tally.value() for name, tally in self._tallies.items()}
 
     # ------------------------------------------------------------------ status
 
@@ -461,8 +600,7 @@ class ShowServer:
         return out
 
     def _counters(self) -> dict[str, int]:
-        with self._lock:
-            out = dict(self.counters)
+        out = self.counters
         out["events_dropped"] = self.publisher.dropped
         out["events_suppressed"] = self.publisher.suppressed
         return out
@@ -485,6 +623,8 @@ class ShowServer:
             decl.undeclare()
         self._decls = []
         self.publisher.close()
+        if self.log is not None:
+            self.log.close()
 
 
 def _disarm(run: _Run) -> None:
@@ -493,6 +633,16 @@ def _disarm(run: _Run) -> None:
     run.launch.close()
     if run.sims is not None:
         run.sims.close()
+
+
+def _trigger_request(payload: bytes | None) -> TriggerRequest:
+    """A trigger's request: the usual empty payloads without a parse, anything else parsed
+    and checked like every request."""
+    if payload is None or payload in _EMPTY:
+        return _NO_PAYLOAD
+    request = parse_request("trigger", payload)
+    assert isinstance(request, TriggerRequest)
+    return request
 
 
 def _payload(query: Any) -> bytes | None:
