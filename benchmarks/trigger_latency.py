@@ -2,30 +2,39 @@
 the robot, and a running show's timing under a flood of triggers.
 
 Every part is its own OS process, as on a stage: ``xgo-show serve`` drives a simulated Mini on
-a real pseudo-terminal (the simulator runs here, so each frame's arrival is timed where the
-robot would see it); the clients that fire the triggers are started from this script
-(``--client``); one more process keeps a CPU busy the whole time. Zenoh runs on 127.0.0.1 with
-multicast scouting off. All times are CLOCK_MONOTONIC, which every process on the host shares.
+a real pseudo-terminal; the simulator is a process of its own under SCHED_FIFO priority 20
+(above the writers' 10: it stands in for a robot's UART, which is never late, so the figures
+are the server's and not the instrument's waiting for a CPU) and records every frame's arrival;
+the clients that fire the triggers are started from this script (``--client``); one more
+process keeps a CPU busy the whole time. Zenoh runs on 127.0.0.1 with multicast scouting off.
+All times are CLOCK_MONOTONIC, which every process on the host shares.
 
 1. A show of 200 sections, each waiting for ``go``. Side by side, two clients release them:
    - *push*: subscribes to the ``wait`` events and puts ``NS/trigger/go`` the moment one says
      the show holds;
    - *polling*: asks ``NS/status`` every 20 ms and, when it sees the show holding, fires the
      trigger as a query (the way a client that polls does everything).
-   For each: trigger sent -> the section's first frame at the simulator, and the show began
-   holding (its ``wait`` event) -> that frame.
-2. A 14 s show without waits, played twice: alone, then while a client puts 1,000 triggers a
-   second nobody waits for. Send-time error: each frame's arrival at the simulator minus its
-   planned time (the start time the ``start`` reply gives, plus the frame's time).
+   For each: trigger sent -> the section's first scheduled frame at the simulator, and the show
+   began holding (its ``wait`` event) -> that frame. Then the push client again, against a
+   server started with ``--log``: where the time goes, from the run log's ``trigger`` records
+   (sent -> the server's Zenoh callback -> decided (payload read, director released the wait)
+   -> the writer thread took the release -> its first write -> the section's first frame
+   written -> arrival at the simulator).
+2. A 14 s show without waits, played ``--runs`` times alone and as often while a client puts
+   1,000 triggers a second nobody waits for, alternately (alone, flood, alone, ...) in one
+   server. Send-time error: each frame's arrival at the simulator minus its planned time (the
+   start time the ``start`` reply gives, plus the frame's time). Per run and pooled, with the
+   load average.
 
 Prints figures only (no asserts)::
 
-    python benchmarks/trigger_latency.py [--triggers 200]
+    python benchmarks/trigger_latency.py [--triggers 200] [--runs 3]
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import queue
@@ -36,6 +45,7 @@ import tempfile
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -46,11 +56,11 @@ from xgo_show.compiler import compile_show
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.client import ControlClient
 from xgo_show.control.keys import event_key, trigger_key
+from xgo_show.runtime.runlog import read_log
 from xgo_show.runtime.stats import percentile
-from xgo_show.sim import create_robot
-from xgo_show.sim.pty_server import PtyServer
 
 NS = "bench-triggers"
+SIM_FIFO = 20  # the simulator's SCHED_FIFO priority: above the writers' 10
 POLL = 0.02  # seconds between the polling client's status queries
 SECTION = 0.1  # seconds each section plays before the next wait
 
@@ -149,6 +159,24 @@ def flood_client(endpoint: str, rate: int, seconds: float) -> None:
 # ---------------------------------------------------------------------- the bench
 
 
+def serve_sim(record: Path) -> None:
+    """Child process: a simulated Mini on a pty, every frame recorded, until stdin closes.
+
+    Under SCHED_FIFO (where permitted) its thread runs the moment bytes arrive, so arrival
+    times are the link's, not the simulator's wait for a CPU; its thread blocks in poll()
+    between frames and takes no CPU from the kernel worker that moves them.
+    """
+    from xgo_show.sim import PtyServer, create_robot
+
+    priority = "normal-priority"
+    with contextlib.suppress(OSError):
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(SIM_FIFO))
+        priority = f"SCHED_FIFO-{SIM_FIFO}"
+    with PtyServer(create_robot("mini"), record=record) as server:
+        print(priority, server.path, flush=True)
+        sys.stdin.read()
+
+
 def _free_endpoint() -> str:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -156,13 +184,18 @@ def _free_endpoint() -> str:
 
 
 @contextmanager
-def _process(*args: str) -> Iterator[subprocess.Popen[str]]:
-    proc = subprocess.Popen(list(args), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def _process(*args: str, stdin: bool = False) -> Iterator[subprocess.Popen[str]]:
+    proc = subprocess.Popen(list(args), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdin=subprocess.PIPE if stdin else None, text=True)
     try:
         yield proc
     finally:
         if proc.poll() is None:
-            proc.terminate()
+            if stdin and proc.stdin is not None:
+                proc.stdin.close()  # the simulator's cue to close (and write its last records)
+                proc.stdin = None
+            else:
+                proc.terminate()
         try:
             proc.communicate(timeout=10)
         except subprocess.TimeoutExpired:
@@ -184,28 +217,62 @@ def _client(endpoint: str, mode: str, *extra: str) -> subprocess.Popen[str]:
     return proc
 
 
-class Bench:
-    """The serve process, its simulated robot and an operator's session."""
+class Sim:
+    """The simulator process's recorded frames, read back from its record file."""
 
-    def __init__(self, server: PtyServer, session: zenoh.Session, endpoint: str) -> None:
-        self.server = server
+    def __init__(self, record: Path) -> None:
+        self.record = record
+
+    def frames_since(self, t: float) -> list[tuple[float, bytes]]:
+        time.sleep(0.2)  # the last frames reach the record file
+        out = []
+        with self.record.open(encoding="utf-8") as fh:
+            for line in fh:
+                if line.strip():
+                    rec = json.loads(line)
+                    if rec["t"] >= t:
+                        out.append((float(rec["t"]), bytes.fromhex(rec["hex"])))
+        return out
+
+
+@contextmanager
+def serving(sim_path: str, *, log: Path | None = None) -> Iterator[tuple[str, zenoh.Session]]:
+    """A serve process driving the simulator, and an operator's session on it."""
+    endpoint = _free_endpoint()
+    with _process(sys.executable, "-m", "xgo_show", "serve", "--map", f"rex={sim_path}",
+                  "--no-telemetry", "--listen", endpoint, "--namespace", NS,
+                  *(["--log", str(log)] if log is not None else [])) as proc, \
+            _session(endpoint) as session:
+        deadline = time.monotonic() + 30
+        while True:
+            try:
+                ControlClient(session, NS, timeout=1.0).status()
+                break
+            except Exception:
+                if proc.poll() is not None or time.monotonic() > deadline:
+                    proc.terminate()
+                    raise SystemExit(f"serve did not answer: {proc.communicate()}") from None
+        yield endpoint, session
+
+
+class Bench:
+    """One serve process, the simulator and an operator's session."""
+
+    def __init__(self, sim: Sim, session: zenoh.Session, endpoint: str) -> None:
+        self.sim = sim
         self.endpoint = endpoint
         self.client = ControlClient(session, NS, timeout=30.0)
         self.session = session
         # wall clock -> monotonic, for the events' and replies' Unix times
         self.wall_offset = time.time() - time.monotonic()
 
-    def frames_since(self, t: float) -> list[tuple[float, bytes]]:
-        with self.server.lock:
-            return [(f.t, f.data) for f in self.server.robot.received if f.t >= t]
-
     def wait_until_loaded(self) -> None:
         while self.client.status()["state"] != "loaded":
             time.sleep(0.05)
 
-    def triggered(self, path: Path, schedule: Schedule, mode: str, n: int
-                  ) -> tuple[list[float], list[float]]:
-        """(trigger sent -> first frame, hold began -> first frame) in seconds, per section."""
+    def triggered(self, path: Path, schedule: Schedule, mode: str, n: int) -> Released:
+        """Each section's release: when its trigger was sent, when the show began holding,
+        when the section's first frame arrived."""
         waits: dict[str, float] = {}
         sub = self.session.declare_subscriber(event_key(NS, "wait"), lambda s: _wait(s, waits))
         self.client.command("load", path=str(path))
@@ -216,17 +283,18 @@ class Bench:
         out, _ = proc.communicate(timeout=60 + n * 2)
         self.wait_until_loaded()
         sub.undeclare()
-        frames = self.frames_since(began)
-        sent_to_frame, hold_to_frame = [], []
+        frames = self.sim.frames_since(began)
+        released = Released()
         for line in out.splitlines():
             if not line.startswith("sent "):
                 continue
             _, section, stamp = line.split()
             sent = float(stamp)
             arrived = next(t for t, data in frames if t > sent and data == first[section])
-            sent_to_frame.append(arrived - sent)
-            hold_to_frame.append(arrived - (waits[section] - self.wall_offset))
-        return sent_to_frame, hold_to_frame
+            released.sent[section] = sent
+            released.held[section] = waits[section] - self.wall_offset
+            released.arrived[section] = arrived
+        return released
 
     def steady(self, path: Path, schedule: Schedule, flood: bool) -> list[float]:
         """Each frame's arrival minus its planned time, in seconds."""
@@ -243,13 +311,28 @@ class Bench:
         planned = [start + f.t for f in schedule.performers[0].frames]
         datas = [f.data for f in schedule.performers[0].frames]
         errors, i = [], 0
-        for t, data in self.frames_since(start - 0.5):
+        for t, data in self.sim.frames_since(start - 0.5):
             if i < len(datas) and data == datas[i]:
                 errors.append(t - planned[i])
                 i += 1
         if i != len(datas):
             raise SystemExit(f"only {i} of {len(datas)} frames of the steady show arrived")
         return errors
+
+
+@dataclass
+class Released:
+    """Clock times per section: trigger sent, show began holding, first frame arrived."""
+
+    sent: dict[str, float] = field(default_factory=dict)
+    held: dict[str, float] = field(default_factory=dict)
+    arrived: dict[str, float] = field(default_factory=dict)
+
+    def sent_to_frame(self) -> list[float]:
+        return [self.arrived[s] - self.sent[s] for s in self.sent]
+
+    def held_to_frame(self) -> list[float]:
+        return [self.arrived[s] - self.held[s] for s in self.sent]
 
 
 def _wait(sample: zenoh.Sample, waits: dict[str, float]) -> None:
@@ -262,19 +345,60 @@ def _frame_at(schedule: Schedule, t: float) -> bytes:
     return next(f.data for f in schedule.performers[0].frames if abs(f.t - t) < 1e-9)
 
 
+#: The steps of a release, from the run log's ``trigger`` records: (label, from, to).
+STEPS = (
+    ("sent -> server's Zenoh callback", "sent", "received"),
+    ("callback -> payload read", "received", "parsed"),
+    ("payload read -> decided (wait released)", "parsed", "decided"),
+    ("decided -> writer took the release", "decided", "woke"),
+    ("writer took it -> its first write", "woke", "first_write"),
+    ("first write -> section's first frame written", "first_write", "first_frame"),
+    ("first frame written -> arrival at the robot", "first_frame", "arrived"),
+    ("total: sent -> arrival", "sent", "arrived"),
+)
+
+
+def breakdown(released: Released, log: Path) -> list[tuple[str, list[float]]]:
+    """Per step of :data:`STEPS`, the seconds each release took."""
+    traces = {r["section"]: r for r in read_log(log) if r["kind"] == "trigger"}
+    rows: list[tuple[str, list[float]]] = []
+    for label, a, b in STEPS:
+        values = []
+        for section, sent in released.sent.items():
+            trace = traces.get(section)
+            if trace is None:
+                continue
+            times = {**trace, "sent": sent, "arrived": released.arrived[section]}
+            if times.get(a) is not None and times.get(b) is not None:
+                values.append(times[b] - times[a])
+        rows.append((label, values))
+    return rows
+
+
 def row(name: str, seconds: list[float]) -> str:
+    if not seconds:
+        return f"{name:<58} {'-':>8} {'-':>8} {'-':>8} {'-':>8}  (n=0)"
     ms = sorted(s * 1000 for s in seconds)
     p = [percentile(ms, q) for q in (0.5, 0.99, 0.999)]
     return f"{name:<58} {p[0]:8.2f} {p[1]:8.2f} {p[2]:8.2f} {ms[-1]:8.2f}  (n={len(ms)})"
 
 
+def load_average() -> str:
+    return " ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--triggers", type=int, default=200, help="triggers per client")
+    parser.add_argument("--runs", type=int, default=3,
+                        help="plays of the steady show alone, and as many under the flood")
+    parser.add_argument("--no-polling", action="store_true", help="leave the polling client out")
+    parser.add_argument("--no-steady", action="store_true", help="leave part 2 out")
     parser.add_argument("--client", choices=("push", "polling", "flood"), help=argparse.SUPPRESS)
     parser.add_argument("--connect", help=argparse.SUPPRESS)
     parser.add_argument("--count", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=0.0, help=argparse.SUPPRESS)
+    parser.add_argument("--serve-sim", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.client == "push":
         return push_client(args.connect, args.count)
@@ -282,46 +406,63 @@ def main() -> None:
         return polling_client(args.connect, args.count)
     if args.client == "flood":
         return flood_client(args.connect, 1000, args.seconds)
+    if args.serve_sim:
+        return serve_sim(Path(args.serve_sim))
     n = args.triggers
-    with tempfile.TemporaryDirectory() as tmp, PtyServer(create_robot("mini")) as server:
+    with tempfile.TemporaryDirectory() as tmp:
         triggered_path, steady_path = Path(tmp) / "triggered.yaml", Path(tmp) / "steady.yaml"
         triggered_path.write_text(triggered_routine(n), encoding="utf-8")
         steady_path.write_text(STEADY, encoding="utf-8")
         triggered, steady = (compile_show(load_show(p)) for p in (triggered_path, steady_path))
-        endpoint = _free_endpoint()
+        record, log = Path(tmp) / "robot.jsonl", Path(tmp) / "serve.jsonl"
         with _process(sys.executable, "-c", "while True: pass"), \
-                _process(sys.executable, "-m", "xgo_show", "serve", "--map",
-                         f"rex={server.path}", "--no-telemetry", "--listen", endpoint,
-                         "--namespace", NS), \
-                _session(endpoint) as session:
-            bench = Bench(server, session, endpoint)
-            deadline = time.monotonic() + 30
-            while True:
-                try:
-                    ControlClient(session, NS, timeout=1.0).status()
-                    break
-                except Exception:
-                    if time.monotonic() > deadline:
-                        raise
-            push = bench.triggered(triggered_path, triggered, "push", n)
-            poll = bench.triggered(triggered_path, triggered, "polling", n)
-            quiet = bench.steady(steady_path, steady, flood=False)
-            flooded = bench.steady(steady_path, steady, flood=True)
-            counters = bench.client.status()["counters"]
-    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
-    print(f"xgo-show serve, a simulated Mini on a pty, Zenoh on loopback, one CPU kept busy; "
-          f"load average {load}")
-    print(f"\n1. {n} sections released by triggers, ms")
-    print(f"{'':<58} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}")
-    print(row("push client: trigger put -> first frame at the robot", push[0]))
-    print(row(f"polling client ({POLL * 1000:.0f} ms): trigger query -> first frame", poll[0]))
-    print(row("push client: show began holding -> first frame", push[1]))
-    print(row("polling client: show began holding -> first frame", poll[1]))
-    print("\n2. send-time error of a running show (arrival at the robot - planned), ms")
-    print(f"{'':<58} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}")
-    print(row("no triggers", quiet))
-    print(row("1,000 triggers a second nobody waits for", flooded))
-    print(f"\nserver counters: {json.dumps(counters)}")
+                _process(sys.executable, __file__, "--serve-sim", str(record),
+                         stdin=True) as simproc:
+            assert simproc.stdout is not None
+            priority, sim_path = simproc.stdout.readline().split()
+            sim = Sim(record)
+            quiet: list[list[float]] = []
+            flooded: list[list[float]] = []
+            loads: list[str] = []
+            poll: Released | None = None
+            with serving(sim_path) as (endpoint, session):
+                bench = Bench(sim, session, endpoint)
+                push = bench.triggered(triggered_path, triggered, "push", n)
+                if not args.no_polling:
+                    poll = bench.triggered(triggered_path, triggered, "polling", n)
+                for _ in range(0 if args.no_steady else args.runs):
+                    quiet.append(bench.steady(steady_path, steady, flood=False))
+                    loads.append(load_average())
+                    flooded.append(bench.steady(steady_path, steady, flood=True))
+                    loads.append(load_average())
+                counters = bench.client.status()["counters"]
+            with serving(sim_path, log=log) as (endpoint, session):
+                bench = Bench(sim, session, endpoint)
+                logged = bench.triggered(triggered_path, triggered, "push", n)
+            steps = breakdown(logged, log)
+    print(f"xgo-show serve, a simulated Mini on a pty ({priority}), Zenoh on loopback, one CPU "
+          f"kept busy; load average {load_average()}")
+    head = f"{'':<58} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}"
+    print(f"\n1. {n} sections released by triggers, ms\n{head}")
+    print(row("push client: trigger put -> first frame at the robot", push.sent_to_frame()))
+    if poll is not None:
+        print(row(f"polling client ({POLL * 1000:.0f} ms): trigger query -> first frame",
+                  poll.sent_to_frame()))
+    print(row("push client: show began holding -> first frame", push.held_to_frame()))
+    if poll is not None:
+        print(row("polling client: show began holding -> first frame", poll.held_to_frame()))
+    print(f"\n   where the time goes (push client, serve --log), ms\n{head}")
+    for label, values in steps:
+        print(row("   " + label, values))
+    if quiet:
+        print("\n2. send-time error of a running show (arrival at the robot - planned), ms, "
+              f"alone and under 1,000 triggers a second nobody waits for, alternately\n{head}")
+        for k, (q, f) in enumerate(zip(quiet, flooded, strict=True)):
+            print(row(f"run {k + 1} alone (load {loads[2 * k]})", q))
+            print(row(f"run {k + 1} flood (load {loads[2 * k + 1]})", f))
+        print(row("all runs alone", [e for q in quiet for e in q]))
+        print(row("all runs under the flood", [e for f in flooded for e in f]))
+        print(f"\nserver counters: {json.dumps(counters)}")
 
 
 if __name__ == "__main__":

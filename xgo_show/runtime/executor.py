@@ -436,14 +436,22 @@ class PerformerExecutor:
         """Show time ``show_time`` happens at clock time ``at`` from now on."""
         self._timeline = _Timeline(at, show_time)
 
-    def _go_on(self, show_time: float, at: float | None, index: int) -> int:
-        """Catch up to ``show_time``, then play on from it (schedule ``index``) at clock time
-        ``at`` (None: once the catch-up frames are sent). Returns ``index``, or -1 if aborted
-        meanwhile."""
+    def _go_on(
+        self,
+        show_time: float,
+        at: float | None,
+        index: int,
+        catch_up: Sequence[tuple[bytes, str]] | None = None,
+    ) -> int:
+        """Catch up to ``show_time`` (with ``catch_up`` if made already, else the reach's
+        frames), then play on from it (schedule ``index``) at clock time ``at`` (None: once the
+        catch-up frames are sent). Returns ``index``, or -1 if aborted meanwhile."""
         self._sent_frames = index
         if self.reach is not None:
-            self._set_state(ExecutorState.REACHING)
-            self._send_now("reach", self.reach(show_time))
+            frames = self.reach(show_time) if catch_up is None else catch_up
+            if frames:
+                self._set_state(ExecutorState.REACHING)
+                self._send_now("reach", frames)
         now = self.clock.now()
         # As soon as possible means when the link is free after the catch-up frames: the
         # first frame then goes out on its planned time, not late by their wire time.
@@ -482,6 +490,12 @@ class PerformerExecutor:
         self._set_state(ExecutorState.PAUSED)
         if not self._send_now("rest", self._rest):
             return index
+        # A reach that knows what the rest frames changed (``after_rest``, the compiler's)
+        # makes the catch-up for going on from here now, while the robot holds: only those
+        # registers back, so a resume (a trigger's release) writes the next frame at once.
+        after_rest = getattr(self.reach, "after_rest", None)
+        catch_up: Sequence[tuple[bytes, str]] | None = (
+            None if after_rest is None else after_rest(show_time))
         while not flags.resume and not flags.abort.is_set():
             if self._extra:
                 self._send_extra()
@@ -496,7 +510,8 @@ class PerformerExecutor:
             show_time = flags.seek[0]
             flags.seek = None
             index = self._first_index(show_time)
-        index = self._go_on(show_time, resume_at, index)
+            catch_up = None  # elsewhere: the whole state at the new place
+        index = self._go_on(show_time, resume_at, index, catch_up)
         return len(self.schedule.frames) if index < 0 else index
 
     def _send_now(self, kind: str, frames: Iterable[tuple[bytes, str]]) -> bool:

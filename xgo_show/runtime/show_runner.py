@@ -84,14 +84,46 @@ class ShowResult:
 
 
 def default_reach(schedule: PerformerSchedule, profile: Profile) -> ReachFn:
-    """Catch-up frames from the compiler: the register state at ``t``, and frames to reach it."""
+    """Catch-up frames from the compiler: the register state at ``t``, and frames to reach it.
 
-    def reach(t: float) -> list[tuple[bytes, str]]:
+    The function has an ``after_rest(t)`` too, which the executor uses to resume from a hold
+    at ``t``: a robot held at rest kept its posture, so only the registers the rest frames
+    changed (speeds and periodic motions) are written back, and none the frames planned at
+    ``t`` itself write anyway (they go out next). Usually nothing, so a held show goes on with
+    its own first frame the moment it is released.
+    """
+    return _StateReach(schedule, profile)
+
+
+class _StateReach:
+    """:func:`default_reach`'s function (a class for its ``after_rest``)."""
+
+    def __init__(self, schedule: PerformerSchedule, profile: Profile) -> None:
+        self.schedule = schedule
+        self.profile = profile
+        self._rested: frozenset[str] | None = None  # registers the rest frames write
+
+    def __call__(self, t: float) -> list[tuple[bytes, str]]:
         from xgo_show.compiler import frames_to_reach, state_at
 
-        return [(f.data, f.label) for f in frames_to_reach(profile, state_at(schedule, t))]
+        return [(f.data, f.label) for f in frames_to_reach(self.profile,
+                                                           state_at(self.schedule, t))]
 
-    return reach
+    def after_rest(self, t: float) -> list[tuple[bytes, str]]:
+        from xgo_show.compiler import frames_to_reach, state_at
+        from xgo_show.compiler.schedule import ScheduledFrame
+        from xgo_show.families import get_family
+        from xgo_show.runtime.safety import rest_frames
+
+        family = get_family(self.profile)
+        if self._rested is None:
+            rest = [ScheduledFrame(0.0, f.data) for f in rest_frames(self.profile)]
+            self._rested = frozenset(family.state_at(self.profile, rest, 0.0))
+        at_t = [f for f in self.schedule.frames if abs(f.t - t) < 1e-9]
+        written = family.state_at(self.profile, at_t, t) if at_t else {}
+        wanted = {name: raw for name, raw in state_at(self.schedule, t).items()
+                  if name in self._rested and name not in written}
+        return [(f.data, f.label) for f in frames_to_reach(self.profile, wanted)]
 
 
 class ShowRunner:
