@@ -290,7 +290,12 @@ class Bench:
                 continue
             _, section, stamp = line.split()
             sent = float(stamp)
-            arrived = next(t for t, data in frames if t > sent and data == first[section])
+            arrived = next((t for t, data in frames if t > sent and data == first[section]),
+                           None)
+            if arrived is None:
+                near = [(round(t - sent, 4), d.hex()) for t, d in frames if abs(t - sent) < 0.3]
+                raise SystemExit(f"section {section}'s first frame {first[section].hex()} never "
+                                 f"arrived after its trigger; frames around: {near}")
             released.sent[section] = sent
             released.held[section] = waits[section] - self.wall_offset
             released.arrived[section] = arrived
@@ -409,7 +414,7 @@ def main() -> None:
     if args.serve_sim:
         return serve_sim(Path(args.serve_sim))
     n = args.triggers
-    with tempfile.TemporaryDirectory() as tmp:
+    with (contextlib.nullcontext(os.environ["KEEP"]) if os.environ.get("KEEP") else tempfile.TemporaryDirectory()) as tmp:
         triggered_path, steady_path = Path(tmp) / "triggered.yaml", Path(tmp) / "steady.yaml"
         triggered_path.write_text(triggered_routine(n), encoding="utf-8")
         steady_path.write_text(STEADY, encoding="utf-8")

@@ -488,14 +488,18 @@ class PerformerExecutor:
         self._paused_at = pause_at if pause_at is not None else self.clock.now()
         show_time = self._timeline.show_time(self._paused_at)
         self._set_state(ExecutorState.PAUSED)
-        if not self._send_now("rest", self._rest):
-            return index
-        # A reach that knows what the rest frames changed (``after_rest``, the compiler's)
-        # makes the catch-up for going on from here now, while the robot holds: only those
-        # registers back, so a resume (a trigger's release) writes the next frame at once.
+        # A reach that knows what the rest frames change (the compiler's: ``at_rest``,
+        # ``after_rest``) spares the rest frames when the show has the robot at rest there
+        # already (the link stays free for a release), and makes the catch-up for going on
+        # now, while the robot holds: only what the rest frames changed, so a resume (a
+        # trigger's release) writes the next frame at once.
+        at_rest = getattr(self.reach, "at_rest", None)
         after_rest = getattr(self.reach, "after_rest", None)
+        rested = at_rest is not None and at_rest(show_time)
+        if not rested and not self._send_now("rest", self._rest):
+            return index
         catch_up: Sequence[tuple[bytes, str]] | None = (
-            None if after_rest is None else after_rest(show_time))
+            None if after_rest is None else [] if rested else after_rest(show_time))
         while not flags.resume and not flags.abort.is_set():
             if self._extra:
                 self._send_extra()

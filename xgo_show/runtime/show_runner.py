@@ -109,21 +109,39 @@ class _StateReach:
         return [(f.data, f.label) for f in frames_to_reach(self.profile,
                                                            state_at(self.schedule, t))]
 
-    def after_rest(self, t: float) -> list[tuple[bytes, str]]:
-        from xgo_show.compiler import frames_to_reach, state_at
-        from xgo_show.compiler.schedule import ScheduledFrame
-        from xgo_show.families import get_family
-        from xgo_show.runtime.safety import rest_frames
-
-        family = get_family(self.profile)
+    def rested(self) -> frozenset[str]:
+        """The registers the rest frames write."""
         if self._rested is None:
+            from xgo_show.compiler.schedule import ScheduledFrame
+            from xgo_show.families import get_family
+            from xgo_show.runtime.safety import rest_frames
+
             rest = [ScheduledFrame(0.0, f.data) for f in rest_frames(self.profile)]
-            self._rested = frozenset(family.state_at(self.profile, rest, 0.0))
+            self._rested = frozenset(get_family(self.profile).state_at(self.profile, rest, 0.0))
+        return self._rested
+
+    def after_rest(self, t: float) -> list[tuple[bytes, str]]:
+        """Catch-up after a hold at ``t`` (see :func:`default_reach`)."""
+        from xgo_show.compiler import frames_to_reach, state_at
+        from xgo_show.families import get_family
+
+        rested = self.rested()
         at_t = [f for f in self.schedule.frames if abs(f.t - t) < 1e-9]
-        written = family.state_at(self.profile, at_t, t) if at_t else {}
+        written = get_family(self.profile).state_at(self.profile, at_t, t) if at_t else {}
         wanted = {name: raw for name, raw in state_at(self.schedule, t).items()
-                  if name in self._rested and name not in written}
+                  if name in rested and name not in written}
         return [(f.data, f.label) for f in frames_to_reach(self.profile, wanted)]
+
+    def at_rest(self, t: float) -> bool:
+        """Whether the robot holding at ``t`` (every frame before ``t`` sent) is at rest
+        already: each register the rest frames write at its initial value, which is what
+        they write (speeds and periodic motions neutral). Then a hold needs no rest frames."""
+        from xgo_show.compiler import frames_to_reach, state_at
+
+        rested = self.rested()
+        before = state_at(self.schedule, t - 1e-6)
+        return not frames_to_reach(self.profile, {name: raw for name, raw in before.items()
+                                                  if name in rested})
 
 
 class ShowRunner:
