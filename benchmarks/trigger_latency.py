@@ -143,7 +143,9 @@ def polling_client(endpoint: str, count: int) -> None:
 
 
 def flood_client(endpoint: str, rate: int, seconds: float) -> None:
-    """Put ``rate`` triggers a second nobody waits for, for ``seconds``."""
+    """Put ``rate`` triggers a second nobody waits for, for ``seconds``. At nice 19: it
+    stands for senders on other hosts, so its own CPU is not what is measured."""
+    os.nice(19)
     with _session(endpoint) as session:
         ControlClient(session, NS).status()
         print("ready", flush=True)
@@ -236,7 +238,8 @@ class Sim:
 
 
 @contextmanager
-def serving(sim_path: str, *, log: Path | None = None) -> Iterator[tuple[str, zenoh.Session]]:
+def serving(sim_path: str, *, log: Path | None = None
+            ) -> Iterator[tuple[str, zenoh.Session, int]]:
     """A serve process driving the simulator, and an operator's session on it."""
     endpoint = _free_endpoint()
     with _process(sys.executable, "-m", "xgo_show", "serve", "--map", f"rex={sim_path}",
@@ -252,14 +255,21 @@ def serving(sim_path: str, *, log: Path | None = None) -> Iterator[tuple[str, ze
                 if proc.poll() is not None or time.monotonic() > deadline:
                     proc.terminate()
                     raise SystemExit(f"serve did not answer: {proc.communicate()}") from None
-        yield endpoint, session
+        yield endpoint, session, proc.pid
+
+
+def cpu_seconds(pid: int) -> float:
+    """CPU time (user + system) process ``pid`` has used so far."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 class Bench:
     """One serve process, the simulator and an operator's session."""
 
-    def __init__(self, sim: Sim, session: zenoh.Session, endpoint: str) -> None:
+    def __init__(self, sim: Sim, session: zenoh.Session, endpoint: str, pid: int) -> None:
         self.sim = sim
+        self.pid = pid  # the serve process
         self.endpoint = endpoint
         self.client = ControlClient(session, NS, timeout=30.0)
         self.session = session
@@ -301,28 +311,54 @@ class Bench:
             released.arrived[section] = arrived
         return released
 
-    def steady(self, path: Path, schedule: Schedule, flood: bool) -> list[float]:
-        """Each frame's arrival minus its planned time, in seconds."""
+    def steady(self, path: Path, schedule: Schedule, flood: bool, log: Path) -> Timing:
+        """Each frame's send-time error (arrival - planned) and issue lateness (the server's
+        write - planned), in seconds, from the simulator's record and the server's run log
+        (its start time is on the monotonic clock: no wall-clock conversion)."""
+        starts = len([r for r in read_log(log) if r.get("event") == "start"])
         self.client.command("load", path=str(path))
         flooder = _client(self.endpoint, "flood", "--seconds", str(schedule.duration + 2)) \
             if flood else None
+        began, cpu = time.monotonic(), cpu_seconds(self.pid)
         try:
-            reply = self.client.command("start", **{"in": 0.5})
-            start = reply["start_time"] - self.wall_offset
+            self.client.command("start", **{"in": 0.5})
             self.wait_until_loaded()
+            cpu = (cpu_seconds(self.pid) - cpu) / (time.monotonic() - began)
         finally:
             if flooder is not None:
                 flooder.communicate(timeout=30)
+        time.sleep(0.2)  # the log's last records reach its file
+        records = read_log(log)
+        first = [i for i, r in enumerate(records) if r.get("event") == "start"][starts]
+        start = records[first]["start_at"]
+        timing = Timing(cpu=cpu)
+        written = []
+        for r in records[first:]:
+            if r["kind"] == "frame" and r["send"] == "frame":
+                timing.issue.append(r["actual"] - r["planned"])
+                written.append(start + r["actual"])
         planned = [start + f.t for f in schedule.performers[0].frames]
         datas = [f.data for f in schedule.performers[0].frames]
-        errors, i = [], 0
-        for t, data in self.sim.frames_since(start - 0.5):
+        i = 0
+        for t, data in self.sim.frames_since(began):
             if i < len(datas) and data == datas[i]:
-                errors.append(t - planned[i])
+                timing.error.append(t - planned[i])
+                if i < len(written):
+                    timing.delivery.append(t - written[i])
                 i += 1
         if i != len(datas):
             raise SystemExit(f"only {i} of {len(datas)} frames of the steady show arrived")
-        return errors
+        return timing
+
+
+@dataclass
+class Timing:
+    """A steady run's send-time errors and the server's issue lateness, seconds per frame."""
+
+    error: list[float] = field(default_factory=list)
+    issue: list[float] = field(default_factory=list)
+    delivery: list[float] = field(default_factory=list)  # arrival - the server's write
+    cpu: float = 0.0  # the serve process's CPU use meanwhile, share of one CPU
 
 
 @dataclass
@@ -414,7 +450,7 @@ def main() -> None:
     if args.serve_sim:
         return serve_sim(Path(args.serve_sim))
     n = args.triggers
-    with (contextlib.nullcontext(os.environ["KEEP"]) if os.environ.get("KEEP") else tempfile.TemporaryDirectory()) as tmp:
+    with tempfile.TemporaryDirectory() as tmp:
         triggered_path, steady_path = Path(tmp) / "triggered.yaml", Path(tmp) / "steady.yaml"
         triggered_path.write_text(triggered_routine(n), encoding="utf-8")
         steady_path.write_text(STEADY, encoding="utf-8")
@@ -426,25 +462,25 @@ def main() -> None:
             assert simproc.stdout is not None
             priority, sim_path = simproc.stdout.readline().split()
             sim = Sim(record)
-            quiet: list[list[float]] = []
-            flooded: list[list[float]] = []
+            quiet: list[Timing] = []
+            flooded: list[Timing] = []
             loads: list[str] = []
             poll: Released | None = None
-            with serving(sim_path) as (endpoint, session):
-                bench = Bench(sim, session, endpoint)
+            with serving(sim_path) as (endpoint, session, pid):
+                bench = Bench(sim, session, endpoint, pid)
                 push = bench.triggered(triggered_path, triggered, "push", n)
                 if not args.no_polling:
                     poll = bench.triggered(triggered_path, triggered, "polling", n)
-                for _ in range(0 if args.no_steady else args.runs):
-                    quiet.append(bench.steady(steady_path, steady, flood=False))
-                    loads.append(load_average())
-                    flooded.append(bench.steady(steady_path, steady, flood=True))
-                    loads.append(load_average())
-                counters = bench.client.status()["counters"]
-            with serving(sim_path, log=log) as (endpoint, session):
-                bench = Bench(sim, session, endpoint)
+            with serving(sim_path, log=log) as (endpoint, session, pid):
+                bench = Bench(sim, session, endpoint, pid)
                 logged = bench.triggered(triggered_path, triggered, "push", n)
-            steps = breakdown(logged, log)
+                steps = breakdown(logged, log)
+                for _ in range(0 if args.no_steady else args.runs):
+                    quiet.append(bench.steady(steady_path, steady, False, log))
+                    loads.append(f"{os.getloadavg()[0]:.1f}")
+                    flooded.append(bench.steady(steady_path, steady, True, log))
+                    loads.append(f"{os.getloadavg()[0]:.1f}")
+                counters = bench.client.status()["counters"]
     print(f"xgo-show serve, a simulated Mini on a pty ({priority}), Zenoh on loopback, one CPU "
           f"kept busy; load average {load_average()}")
     head = f"{'':<58} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}"
@@ -463,10 +499,18 @@ def main() -> None:
         print("\n2. send-time error of a running show (arrival at the robot - planned), ms, "
               f"alone and under 1,000 triggers a second nobody waits for, alternately\n{head}")
         for k, (q, f) in enumerate(zip(quiet, flooded, strict=True)):
-            print(row(f"run {k + 1} alone (load {loads[2 * k]})", q))
-            print(row(f"run {k + 1} flood (load {loads[2 * k + 1]})", f))
-        print(row("all runs alone", [e for q in quiet for e in q]))
-        print(row("all runs under the flood", [e for f in flooded for e in f]))
+            print(row(f"run {k + 1} alone (load {loads[2 * k]}, serve {q.cpu:.0%} CPU)",
+                      q.error))
+            print(row(f"run {k + 1} flood (load {loads[2 * k + 1]}, serve {f.cpu:.0%} CPU)",
+                      f.error))
+        print(row("all runs alone", [e for q in quiet for e in q.error]))
+        print(row("all runs under the flood", [e for f in flooded for e in f.error]))
+        print(f"\n   the server's issue lateness (its write - planned, run log), ms\n{head}")
+        print(row("   all runs alone", [e for q in quiet for e in q.issue]))
+        print(row("   all runs under the flood", [e for f in flooded for e in f.issue]))
+        print(f"\n   delivery (arrival at the robot - the server's write: the pty), ms\n{head}")
+        print(row("   all runs alone", [e for q in quiet for e in q.delivery]))
+        print(row("   all runs under the flood", [e for f in flooded for e in f.delivery]))
         print(f"\nserver counters: {json.dumps(counters)}")
 
 
