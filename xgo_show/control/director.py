@@ -543,8 +543,10 @@ class Director(WorkerClosing):
             ) > _SLACK:
                 tr.anchor = (event.t, event.show_time)
             tr.held = False
-            if self.virtual:
-                self._arm(event.performer, tr, event.t)
+            # A wait due within arm_margin is armed here, in the performer's writer thread,
+            # not when the director's thread next runs: on a busy machine that may be after
+            # the section's first frame went out (a short section after a release).
+            self._arm(event.performer, tr, event.t if self.virtual else self.clock.now())
             return
         tr.anchor = None
         if state is ExecutorState.PAUSED:
