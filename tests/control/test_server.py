@@ -359,13 +359,14 @@ tracks:
 
 
 def test_panic_cancels_the_commands_still_queued(
-    client: ControlClient, triggered_path: Path
+    client: ControlClient, session: zenoh.Session, triggered_path: Path
 ) -> None:
     replies: dict[str, dict[str, Any]] = {}
+    patient = CheckedClient(session, NS, timeout=60.0)  # the load's compile may take seconds
 
     def send(command: str, **fields: Any) -> None:
         try:
-            replies[command] = client.command(command, **fields)
+            replies[command] = patient.command(command, **fields)
         except ControlFailed as exc:
             replies[command] = exc.reply
 
@@ -377,8 +378,8 @@ def test_panic_cancels_the_commands_still_queued(
     time.sleep(0.3)  # queued behind the load, which has seconds left
     before = _counters(client)["cancelled"]
     assert client.command("panic")["ok"]
-    load.join(30.0)
-    start.join(30.0)
+    load.join(60.0)
+    start.join(60.0)
     assert replies["start"]["error"] == "cancelled", replies["start"]
     assert replies["start"]["message"] == "start cancelled by a panic"
     assert replies["load"]["ok"]  # what was under way ends (loading moves nothing)
