@@ -1,0 +1,35 @@
+"""The built-in profiles built again, within a test, by their modules' code.
+
+The registry's profiles are built once, when ``xgo_show.profiles`` is first imported. The table
+tests check profiles built within the test instead, so that they check the code that builds the
+tables and not only the one result of it kept since the import: mutation testing
+(docs/contributing.md) changes that code after the import, and a test of the import-time
+profile would never see the change. ``test_the_registry_serves_the_built_tables`` ties the two.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+from xgo_show.profiles import Profile
+
+# model -> (module under xgo_show.profiles, the profile's name in it)
+_BUILT_IN = {
+    "mini": ("xgo_dog", "MINI"),
+    "lite": ("xgo_dog", "LITE"),
+    "rider": ("xgo_rider", "RIDER"),
+    "xarm": ("xarm", "XARM"),
+}
+
+
+def build_profile(model: str) -> Profile:
+    """``model``'s built-in profile, built now by running its module again (in a fresh module
+    object that is not entered in ``sys.modules``: the registry keeps its own)."""
+    module_name, attribute = _BUILT_IN[model]
+    spec = importlib.util.find_spec(f"xgo_show.profiles.{module_name}")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    profile = getattr(module, attribute)
+    assert isinstance(profile, Profile)
+    return profile
