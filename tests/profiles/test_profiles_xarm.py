@@ -10,7 +10,12 @@ from hypothesis import strategies as st
 from xarm.util import Util
 
 from xgo_show.errors import ValueRangeError
-from xgo_show.profiles.xarm import degrees_to_position, position_to_degrees
+from xgo_show.profiles.xarm import (
+    battery_floor_mv,
+    battery_percent,
+    degrees_to_position,
+    position_to_degrees,
+)
 
 
 def test_fixed_points() -> None:
@@ -52,3 +57,33 @@ def test_out_of_range_degrees(degrees: float) -> None:
 def test_out_of_range_position(position: int) -> None:
     with pytest.raises(ValueRangeError, match="xArm"):
         position_to_degrees(position)
+
+
+def test_battery_floor_maps_percent_onto_the_servos_supply_range() -> None:
+    # 0 % is the LX-15D's 6.0 V, 100 % its 8.4 V (a 2S pack, empty to full), linearly.
+    assert battery_floor_mv(0) == 6000.0
+    assert battery_floor_mv(100) == 8400.0
+    assert battery_floor_mv(20) == pytest.approx(6480.0)  # the default floor
+    assert battery_floor_mv(50) == pytest.approx(7200.0)
+
+
+def test_battery_percent_is_the_inverse_and_not_clamped() -> None:
+    assert battery_percent(6000) == 0.0
+    assert battery_percent(8400) == 100.0
+    assert battery_percent(7200) == pytest.approx(50.0)
+    assert battery_percent(8640) == pytest.approx(110.0)  # above full: over 100
+    assert battery_percent(5760) == pytest.approx(-10.0)
+
+
+@given(st.floats(-50.0, 150.0))
+def test_battery_round_trip(percent: float) -> None:
+    assert battery_percent(battery_floor_mv(percent)) == pytest.approx(percent, abs=1e-9)
+
+
+def test_range_refusals_name_the_value_and_the_range() -> None:
+    with pytest.raises(ValueRangeError, match=r"^xArm servo angle 130 deg is out of range "
+                       r"\[-125, 125\]$"):
+        degrees_to_position(130.0)
+    with pytest.raises(ValueRangeError, match=r"^xArm servo position 1001 is out of range "
+                       r"\[0, 1000\]$"):
+        position_to_degrees(1001)
