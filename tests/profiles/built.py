@@ -4,7 +4,9 @@ The registry's profiles are built once, when ``xgo_show.profiles`` is first impo
 tests check profiles built within the test instead, so that they check the code that builds the
 tables and not only the one result of it kept since the import: mutation testing
 (docs/contributing.md) changes that code after the import, and a test of the import-time
-profile would never see the change. ``test_the_registry_serves_the_built_tables`` ties the two.
+profile would never see the change. Never compare a built profile with the registry's: under
+mutation that comparison fails for any change at all, whether or not a test states the property
+it breaks.
 """
 
 from __future__ import annotations

@@ -169,7 +169,7 @@ def test_fixed_layouts_of_the_wide_encodings() -> None:
         txt.encode_value("abcdefg")
     assert rgb.encode_value((0, 128, 255)) == b"\x00\x80\xff"  # both ends are colours
     for bad in ((1, 2, 256), (-1, 0, 0), (0, 0), (0, 0, 0, 0), (0.5, 0, 0)):
-        with pytest.raises(ValueRangeError, match="^c takes three bytes r, g, b in 0..255$"):
+        with pytest.raises(ValueRangeError, match=r"^c takes three bytes r, g, b in 0\.\.255$"):
             rgb.encode_value(bad)
 
 
