@@ -9,7 +9,7 @@ import pytest
 
 from tests.profiles.built import build_profile
 from xgo_show.errors import ProfileError
-from xgo_show.profiles import Encoding, Profile, get_profile, model_from_firmware
+from xgo_show.profiles import Access, Encoding, Profile, get_profile, model_from_firmware
 from xgo_show.profiles.xgo_dog import LITE_RANGES, MINI_RANGES
 
 MINI = get_profile("mini")
@@ -52,6 +52,26 @@ def memory_table(doc: Path) -> dict[int, int | None]:
             continue
         initial = _BYTE.fullmatch(cells[3])
         rows[int(match.group(1), 16)] = int(initial.group(1), 16) if initial else None
+    return rows
+
+
+# The access column's words, English and Chinese.
+_ACCESS = {"read": Access.READ, "write": Access.WRITE, "read and write": Access.READ_WRITE,
+           "读": Access.READ, "写": Access.WRITE, "读写": Access.READ_WRITE}  # fmt: skip
+
+
+def memory_access(doc: Path) -> dict[int, Access]:
+    """Address -> documented access (the memory table's read/write column)."""
+    rows: dict[int, Access] = {}
+    in_table = False
+    for line in doc.read_text(encoding="utf-8").splitlines():
+        if "memory table" in line.lower() or "内存表" in line:
+            in_table = True
+            continue
+        cells = _cells(line)
+        match = _ADDRESS.match(cells[0])
+        if in_table and match is not None and len(cells) >= 4:
+            rows[int(match.group(1), 16)] = _ACCESS[cells[2].lower()]
     return rows
 
 
@@ -146,12 +166,61 @@ def test_every_documented_address_with_its_initial_value(model: str, doc: Path) 
 
 
 @pytest.mark.parametrize(
+    ("model", "doc"),
+    [
+        ("mini", MINI_LITE_DOC),
+        ("lite", MINI_LITE_DOC),
+        ("rider", RIDER_DOC),
+        ("rider", RIDER_ZH_DOC),
+    ],
+    ids=lambda v: v if isinstance(v, str) else v.name,
+)
+def test_every_documented_address_with_its_access(model: str, doc: Path) -> None:
+    documented = memory_access(doc)
+    assert len(documented) == len(memory_table(doc))  # every row has a known access word
+    profile = build_profile(model)
+    for address, access in documented.items():
+        reg = profile.register_at(address)
+        assert reg is not None and reg.access is access, f"{model}: 0x{address:02X} access"
+
+
+@pytest.mark.parametrize(
     ("model", "canonical"),
     [("mini", _DOG_CANONICAL), ("lite", _DOG_CANONICAL), ("rider", _RIDER_CANONICAL)],
     ids=["mini", "lite", "rider"],
 )
 def test_canonical_names_and_nothing_else(model: str, canonical: dict[int, str]) -> None:
     assert {r.address: r.name for r in build_profile(model).registers} == canonical
+
+
+# The registers every XGO has at the same address with the same meaning (profiles/_common.py), as
+# the documents state them: encoding, bytes, unit, and each setting's codes ("0x00 normal
+# control mode, 0x01 loop action", "0x01 enter the calibration mode, 0x00 exit", "0x01 enters
+# the update mode", "0x00 off, 0x01 self-stabilising"); the firmware is "a 10-byte string", the
+# Bluetooth name up to 20, the IMU angles float32 (0x62..0x64) and int16 (0x66..0x68) degrees.
+_SHARED: dict[str, tuple[Encoding, int, str | None, dict[str, int]]] = {
+    "battery": (Encoding.U8, 1, "%", {}),
+    "show_mode": (Encoding.ENUM, 1, None, {"normal": 0, "loop": 1}),
+    "calibration": (Encoding.ENUM, 1, None, {"exit": 0, "enter": 1}),
+    "firmware_update": (Encoding.ENUM, 1, None, {"off": 0, "update": 1}),
+    "firmware": (Encoding.ASCII, 10, None, {}),
+    "bt_name": (Encoding.ASCII, 20, None, {}),
+    "imu_mode": (Encoding.ENUM, 1, None, {"off": 0, "stabilise": 1}),
+    **{f"imu_{axis}": (Encoding.FLOAT32, 4, "deg", {}) for axis in ("roll", "pitch", "yaw")},
+    "imu_block": (Encoding.BLOCK, 24, None, {}),
+    **{f"imu_{axis}_i16": (Encoding.INT16, 2, "deg", {}) for axis in ("roll", "pitch", "yaw")},
+}
+
+
+@pytest.mark.parametrize("model", XGO_MODELS)
+def test_the_registers_every_xgo_shares(model: str) -> None:
+    profile = build_profile(model)
+    for name, (encoding, size, unit, choices) in _SHARED.items():
+        reg = profile.register(name)
+        assert (reg.encoding, reg.size, reg.unit) == (encoding, size, unit), name
+        assert dict(reg.choices) == choices, name
+    # The IMU block decodes through the profile's IMU layout, 24 bytes either way.
+    assert profile.imu is not None and profile.imu.size == 24
 
 
 @pytest.mark.parametrize("model", XGO_MODELS)
