@@ -122,6 +122,8 @@ class ErrorHistogram:
         rank = q * (self.count - 1)
         if rank < self._below or q <= 0:
             return self.min / 1000
+        if q >= 1:  # the exact maximum, not the middle of its bin
+            return self.max / 1000
         seen = self._below
         base = 0
         for lo, hi, width in _RANGES:
