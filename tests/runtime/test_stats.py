@@ -8,7 +8,16 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from xgo_show.runtime.stats import ErrorHistogram, error_stats
+from xgo_show.runtime.events import Event, FrameSent
+from xgo_show.runtime.stats import (
+    P99_TARGET_MS,
+    P999_TARGET_MS,
+    ErrorHistogram,
+    ErrorStats,
+    SendStats,
+    error_stats,
+    percentile,
+)
 
 # Errors in seconds: mostly near zero (1 us bins), some far out (coarser bins).
 near = st.floats(-0.001, 0.005, allow_nan=False)
@@ -45,3 +54,94 @@ def test_far_errors_keep_exact_extremes_and_ordered_quantiles(errors: list[float
 
 def test_an_empty_histogram_says_no_frames_sent() -> None:
     assert ErrorHistogram().stats().format() == "no frames sent"
+
+
+def _sent(kind: str, t: float = 1.0, planned: float | None = None, data: bytes = b"\x00" * 9,
+          note: str = "") -> FrameSent:
+    return FrameSent(t, "rex", kind, None, planned, data, note, planned, t)
+
+
+def test_send_stats_count_frames_reads_and_bytes_by_kind() -> None:
+    stats = SendStats()
+    stats.on_event(_sent("frame", t=1.0005, planned=1.0, data=bytes(11)))
+    stats.on_event(_sent("frame", t=2.0, planned=None, data=bytes(9)))  # counted, not timed
+    stats.on_event(_sent("read", data=bytes(9)))
+    stats.on_event(_sent("reach", data=bytes(12)))
+    stats.on_event(_sent("stop", data=bytes(10)))
+    stats.on_event(Event(1.0))  # not a frame: ignored
+    assert (stats.frames, stats.reads, stats.bytes) == (2, 1, 51)
+    assert stats.errors.count == 1
+    assert stats.errors.max == pytest.approx(500.0)  # microseconds late
+
+
+def test_send_stats_count_rests_by_their_first_frame_and_keep_32_labels() -> None:
+    stats = SendStats()
+    for _ in range(3):  # three pauses, each the same two-frame rest sequence
+        stats.on_event(_sent("rest", note="vx=0"))
+        stats.on_event(_sent("rest", note="periodic off"))
+    assert stats.rests == 3 and stats.frames == 0
+    assert list(stats.rest_labels) == ["vx=0", "periodic off"]
+    for i in range(40):
+        stats.on_event(_sent("rest", note=f"other {i}"))
+    assert len(stats.rest_labels) == 32 and stats.rests == 3
+    assert list(stats.rest_labels)[:2] == ["vx=0", "periodic off"]
+
+
+def test_the_histogram_bins_each_range_to_its_width() -> None:
+    # 1 us bins from -1 ms to 5 ms, 10 us to 50 ms, 1 ms to 5 s: two errors in one bin answer
+    # the median with the bin's middle (within the exact min and max).
+    for lo_us, width in ((-1000, 1), (-1, 1), (4999, 1), (5000, 10), (49_990, 10),
+                         (50_000, 1000), (4_999_000, 1000)):  # fmt: skip
+        hist = ErrorHistogram()
+        hist.add((lo_us + 0.1 * width) / 1e6)
+        hist.add((lo_us + 0.9 * width) / 1e6)
+        assert hist.quantile_ms(0.5) == pytest.approx((lo_us + 0.5 * width) / 1000), lo_us
+    wide = ErrorHistogram()
+    for us in (100.2, 100.7, 7000.0, 7003.0, 7009.9, 700_100.0, 700_900.0):
+        wide.add(us / 1e6)
+    assert wide.quantile_ms(0.0) == pytest.approx(0.1002)  # the exact minimum
+    assert wide.quantile_ms(1 / 6) == pytest.approx(0.1005)  # 1 us bin 100..101 us
+    assert wide.quantile_ms(3 / 6) == pytest.approx(7.005)  # 10 us bin 7000..7010 us
+    assert wide.quantile_ms(5 / 6) == pytest.approx(700.5)  # 1 ms bin 700..701 ms
+    assert wide.quantile_ms(1.0) == pytest.approx(700.9)  # the exact maximum
+
+
+def test_errors_outside_the_bins_keep_their_rank() -> None:
+    hist = ErrorHistogram()
+    for seconds in (-0.5, -0.002, 0.0000005, 7.0, 9.0):  # two early, one binned, two late
+        hist.add(seconds)
+    assert hist.quantile_ms(0.0) == pytest.approx(-500.0)
+    assert hist.quantile_ms(0.25) == pytest.approx(-500.0)  # below the bins: the minimum
+    assert hist.quantile_ms(0.5) == pytest.approx(0.0005)  # the binned one (clamped to 0.5 us)
+    assert hist.quantile_ms(0.75) == pytest.approx(9000.0)  # above the bins: the maximum
+    assert hist.stats().max == pytest.approx(9000.0)
+    assert hist.count == 5
+
+
+def test_error_stats_format_and_targets() -> None:
+    ok = ErrorStats(10, 0.01, 0.2, 0.5, 3.0, 2.0)
+    assert ok.format() == ("p50 0.010 ms, p95 0.200 ms, p99 0.500 ms, p99.9 2.000 ms, "
+                           "max 3.000 ms")
+    assert ok.over_target() == ""  # at the targets is within them
+    assert ErrorStats(10, 0.0, 0.0, 0.5001, 1.0, 1.0).over_target() == (
+        "ABOVE TARGET: p99 0.500 ms > 0.5 ms")
+    assert ErrorStats(10, 0.0, 0.0, 0.7, 3.0, 2.5).over_target() == (
+        "ABOVE TARGET: p99 0.700 ms > 0.5 ms, p99.9 2.500 ms > 2 ms")
+    assert ErrorStats(10, 0.0, 0.0, 0.1, 3.0, 2.5).over_target() == (
+        "ABOVE TARGET: p99.9 2.500 ms > 2 ms")
+    assert (P99_TARGET_MS, P999_TARGET_MS) == (0.5, 2.0)  # issue 12's targets
+    empty = ErrorHistogram().stats()
+    assert empty.count == 0 and all(math.isnan(v) for v in (empty.p50, empty.max, empty.p999))
+
+
+def test_percentile_interpolates_between_neighbours() -> None:
+    assert math.isnan(percentile([], 0.5))
+    assert percentile([4.0], 0.99) == 4.0
+    assert percentile([1.0, 2.0, 3.0, 4.0, 5.0], 0.0) == 1.0
+    assert percentile([5.0, 1.0, 3.0, 2.0, 4.0], 1.0) == 5.0
+    assert percentile([1.0, 2.0, 3.0, 4.0, 5.0], 0.3) == pytest.approx(2.2)
+    stats = error_stats([0.001, 0.003])
+    assert (stats.count, stats.p50, stats.max) == (2, pytest.approx(2.0), pytest.approx(3.0))
+    assert stats.p95 == pytest.approx(2.9) and stats.p99 == pytest.approx(2.98)
+    assert stats.p999 == pytest.approx(2.998)
+    assert math.isnan(error_stats([]).max)
