@@ -98,10 +98,15 @@ def _equivalents() -> dict[tuple[str, str], str]:
 
 
 def signature(name: str, diff: str) -> tuple[str, str]:
-    """A survivor's key that outlives mutmut's numbering: its function and its changed lines."""
+    """A survivor's key that outlives mutmut's numbering: its function and its changed lines
+    (a deleted line, which has none, as ``deleted: LINE``)."""
     function = name.rsplit("__mutmut_", 1)[0]
-    changed = " / ".join(line[1:].strip() for line in diff.splitlines()
+    lines = diff.splitlines()
+    changed = " / ".join(line[1:].strip() for line in lines
                          if line.startswith("+") and not line.startswith("+++"))
+    if not changed:
+        changed = " / ".join(f"deleted: {line[1:].strip()}" for line in lines
+                             if line.startswith("-") and not line.startswith("---"))
     return function, changed
 
 
