@@ -10,7 +10,7 @@ import pytest
 from tests.profiles.built import build_profile
 from xgo_show.errors import ProfileError
 from xgo_show.profiles import Access, Encoding, Profile, get_profile, model_from_firmware
-from xgo_show.profiles.xgo_dog import LITE_RANGES, MINI_RANGES
+from xgo_show.profiles.xgo_dog import LITE_RANGES, MINI_RANGES, SERVO_IDS
 
 MINI = get_profile("mini")
 LITE = get_profile("lite")
@@ -322,6 +322,64 @@ def test_dog_ranges(name: str, mini: tuple[float, float], lite: tuple[float, flo
     for profile, expected in ((build_profile("mini"), mini), (build_profile("lite"), lite)):
         reg = profile.register(name)
         assert (reg.minimum, reg.maximum) == expected, f"{profile.model} {name}"
+
+
+# Units of the dogs' linear registers: vx/vy as the vendor's stride, vyaw deg/s (both
+# undocumented, see xgo_dog._SPEED_UNITS), body and feet in mm, angles in deg, periods in s,
+# mark time as a step height in mm, the arm's end point in mm.
+_DOG_UNITS = {
+    "vx": "mm/step", "vy": "mm/step", "vyaw": "deg/s", "body_x": "mm", "body_y": "mm",
+    "body_z": "mm", "roll": "deg", "pitch": "deg", "yaw": "deg", "mark_time": "mm",
+    **{f"periodic_{a}": "s" for a in ("roll", "pitch", "yaw", "x", "y", "z")},
+    **{f"leg{leg}_{a}": "mm" for leg in range(1, 5) for a in "xyz"},
+    **{f"servo_{leg}{j}": "deg" for leg in range(1, 5) for j in range(1, 4)},
+    "servo_52": "deg", "servo_53": "deg", "arm_x": "mm", "arm_z": "mm", "gripper": "%",
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("model", ["mini", "lite"])
+def test_dog_linear_registers_units_groups_and_bytes(model: str) -> None:
+    profile = build_profile(model)
+    linear = {r.name: r for r in profile.registers if r.linear}
+    assert {name: r.unit for name, r in linear.items()} == _DOG_UNITS
+    for reg in linear.values():
+        lo, hi = reg.minimum, reg.maximum
+        assert lo is not None and hi is not None
+        if reg.group == "periodic" or reg.name == "mark_time":
+            # 0x00 is off; 0x01..0xFF span the range (the vendor's period/step encoding).
+            assert reg.encoding is Encoding.U8_PERIODIC and reg.initial == b"\x00", reg.name
+            assert (reg.to_byte(0), reg.to_byte(lo), reg.to_byte(hi)) == (0, 1, 255), reg.name
+            continue
+        assert reg.encoding is Encoding.U8 and reg.initial == b"\x80", reg.name
+        assert (reg.to_byte(lo), reg.to_byte(hi)) == (0x00, 0xFF), reg.name
+        if lo == -hi:  # symmetric: 0 is the documented neutral 0x80, each half scales apart
+            assert (reg.to_byte(0), reg.to_byte(hi / 2), reg.to_byte(lo / 2)) == (
+                0x80, 0x80 + 64, 0x40), reg.name
+        else:  # servo joints, arm, gripper: plainly linear across the range
+            mid = (lo + hi) / 2
+            assert reg.to_byte(mid) == 128, reg.name
+            if lo < 0 < hi:
+                assert reg.to_byte(0) == round(-lo / (hi - lo) * 255), reg.name
+    groups = {r.group for r in linear.values()}
+    assert groups == {"speed", "posture", "periodic", "leg", "servo", "arm", "gripper"}
+    assert [r.name for r in linear.values() if r.group == "speed"] == [
+        "vx", "vy", "vyaw", "mark_time"]  # fmt: skip
+    assert {r.name for r in linear.values() if r.group == "posture"} == {
+        "body_x", "body_y", "body_z", "roll", "pitch", "yaw"}  # fmt: skip
+    assert {r.name for r in linear.values() if r.group == "arm"} == {"arm_x", "arm_z"}
+    assert {r.name for r in linear.values() if r.group == "servo"} == {
+        f"servo_{s}" for s in (*SERVO_IDS, 52, 53)}  # fmt: skip
+    assert {r.name for r in linear.values() if r.group == "leg"} == {
+        f"leg{leg}_{a}" for leg in range(1, 5) for a in "xyz"}  # fmt: skip
+
+
+@pytest.mark.parametrize("model", XGO_MODELS)
+def test_registers_in_address_order_and_the_family(model: str) -> None:
+    profile = build_profile(model)
+    addresses = [r.address for r in profile.registers]
+    assert addresses == sorted(addresses)
+    assert profile.family == "xgo" and profile.model == model
+    assert profile.firmware_default[0] == model[0].upper()
 
 
 def test_vendor_range_tables_agree_with_the_vendor_library() -> None:
