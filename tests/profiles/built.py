@@ -11,7 +11,10 @@ it breaks.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
+from importlib.machinery import ModuleSpec
+from types import CodeType
 
 from xgo_show.profiles import Profile
 
@@ -24,14 +27,24 @@ _BUILT_IN = {
 }
 
 
+@functools.cache
+def _module_code(name: str) -> tuple[ModuleSpec, CodeType]:
+    # Compiled once: loading it is what costs (seconds for mutmut's copy of a module, which
+    # holds every mutant); running it again is cheap.
+    spec = importlib.util.find_spec(name)
+    assert spec is not None and spec.loader is not None
+    code = spec.loader.get_code(name)  # type: ignore[attr-defined]
+    assert isinstance(code, CodeType)
+    return spec, code
+
+
 def build_profile(model: str) -> Profile:
     """``model``'s built-in profile, built now by running its module again (in a fresh module
     object that is not entered in ``sys.modules``: the registry keeps its own)."""
     module_name, attribute = _BUILT_IN[model]
-    spec = importlib.util.find_spec(f"xgo_show.profiles.{module_name}")
-    assert spec is not None and spec.loader is not None
+    spec, code = _module_code(f"xgo_show.profiles.{module_name}")
     module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    exec(code, module.__dict__)
     profile = getattr(module, attribute)
     assert isinstance(profile, Profile)
     return profile
