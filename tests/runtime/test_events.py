@@ -8,10 +8,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.runtime.events import (
     EventBus,
     EventChannel,
+    EventRecorder,
     FaultRaised,
+    FrameSent,
     ShowPaused,
     TelemetryRead,
 )
@@ -104,3 +107,78 @@ def test_events_are_frozen() -> None:
     event = _reading(1)
     with pytest.raises(AttributeError):
         event.value = 2.0  # type: ignore[misc]
+
+
+def test_a_frame_sent_says_when_how_late_and_what() -> None:
+    frame = ScheduledFrame(2.0, b"\x55\x00\x09", labels=lambda data: f"{len(data)} bytes")
+    late = FrameSent(2.0015, "rex", "frame", 4, 2.0, frame.data, "", 2.0, 2.0015, frame)
+    assert late.actual == 2.0015 and late.nbytes == 3
+    assert late.error == pytest.approx(0.0015)
+    assert late.label == "3 bytes"  # a scheduled frame's label comes from its bytes
+    early = FrameSent(1.999, "rex", "frame", 4, 2.0, frame.data, "", 2.0, 1.999, frame)
+    assert early.error == pytest.approx(-0.001)
+    rest = FrameSent(5.0, "rex", "rest", None, None, b"\x55\x00", "vx=0", None, 5.0)
+    assert rest.error is None and rest.label == "vx=0" and rest.nbytes == 2
+
+
+def test_closing_one_subscription_leaves_the_others() -> None:
+    bus = EventBus()
+    first: list[object] = []
+    second: list[object] = []
+    a = bus.subscribe(first.append)
+    bus.subscribe(second.append)
+    c = bus.subscribe(first.append)  # the same listener twice: two subscriptions
+    a.close()
+    bus.publish(_reading(1))
+    assert first == [_reading(1)] and second == [_reading(1)]
+    c.close()
+    c.close()  # closing again is harmless
+    bus.publish(_reading(2))
+    assert first == [_reading(1)] and second == [_reading(1), _reading(2)]
+
+
+def test_a_listener_error_is_the_latest_one() -> None:
+    bus = EventBus()
+    errors = iter([KeyError("first"), RuntimeError("second")])
+
+    def broken(event: object) -> None:
+        raise next(errors)
+
+    bus.subscribe(broken)
+    bus.publish(_reading(1))
+    bus.publish(_reading(2))
+    assert bus.listener_errors == 2 and isinstance(bus.last_listener_error, RuntimeError)
+
+
+def test_a_channel_hands_out_oldest_first_and_iterates_by_draining() -> None:
+    bus = EventBus()
+    ch = bus.channel(8)
+    assert ch.maxlen == 8 and ch.overflow == "drop_oldest" and ch.dropped == 0
+    for i in range(3):
+        bus.publish(_reading(i))
+    assert len(ch) == 3
+    assert ch.get(timeout=0) == _reading(0)  # waits for nothing when one is queued
+    assert ch.get() == _reading(1)
+    assert list(ch) == [_reading(2)] and len(ch) == 0
+    assert ch.drain() == []
+    ch.close()
+    ch.close()  # closing again is harmless
+    assert ch.subscription is None
+
+
+def test_a_recorder_keeps_every_event_in_order_and_filters_frames() -> None:
+    bus = EventBus()
+    everything = EventRecorder(bus)
+    faults = EventRecorder(bus, FaultRaised)
+    rex = FrameSent(1.0, "rex", "frame", 0, 1.0, b"\x01", "", 1.0, 1.0)
+    fido = FrameSent(1.1, "fido", "read", None, None, b"\x02", "battery", None, 1.1)
+    fault = FaultRaised(1.2, "rex", "port gone")
+    for event in (rex, _reading(1), fido, fault):
+        bus.publish(event)
+    assert everything.events == [rex, _reading(1), fido, fault]
+    assert everything.sent() == [rex, fido]
+    assert everything.sent("fido") == [fido] and everything.sent("spot") == []
+    assert faults.events == [fault] and faults.sent() == []
+    everything.close()
+    bus.publish(_reading(2))
+    assert len(everything.events) == 4
