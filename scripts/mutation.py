@@ -179,11 +179,12 @@ def _statuses(work: Path) -> list[tuple[str, str]]:
             (line.strip().rsplit(": ", 1) for line in results.splitlines() if ": " in line)]
 
 
-def _package_changed(work: Path) -> bool:
-    """Whether the package's source differs from the scratch copy's (unmutated) one."""
-    ours = {p.relative_to(ROOT): p.read_bytes() for p in (ROOT / "xgo_show").rglob("*.py")}
-    theirs = {p.relative_to(work): p.read_bytes() for p in (work / "xgo_show").rglob("*.py")}
-    return ours != theirs
+def _module_changed(work: Path, module: str) -> bool:
+    """Whether the mutated module differs from the scratch copy's (unmutated) one: its mutants
+    would no longer be the module's. Other modules may have moved on (a rebase): the survivors
+    run against the scratch copy's code, and mutmut first runs their tests on it unmutated,
+    stopping if a test needs newer code than the copy has."""
+    return (ROOT / module).read_bytes() != (work / module).read_bytes()
 
 
 def _refresh_tests(work: Path) -> None:
@@ -211,8 +212,8 @@ def run_module(module: str, work_root: Path, base: dict[str, object],
         elif not (work / "mutants").is_dir():
             raise RuntimeError(f"no earlier run in {work}")
         elif mode == "survivors":
-            if _package_changed(work):
-                raise RuntimeError("the package changed since the last full run: run it in full")
+            if _module_changed(work, module):
+                raise RuntimeError("the module changed since the last full run: run it in full")
             again = [name for name, status in _statuses(work) if status not in CAUGHT]
             if again:
                 _refresh_tests(work)
