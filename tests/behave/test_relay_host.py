@@ -107,6 +107,10 @@ def test_a_play_by_hash_reaches_the_robot_and_its_end_comes_back(
         assert first in [f.data for f in server.robot.received]
     stage.close("done")
     last = stop_frames(get_profile("rider"))[-1].data
-    with server.lock:
-        assert server.robot.received[-1].data == last
+
+    def stopped_last() -> bool:  # the simulator reads the pty in its own thread: wait for it
+        with server.lock:
+            return server.robot.received[-1].data == last
+
+    wait_until(stopped_last)
     assert stage.status() == {"open": False, "ended": []}
