@@ -10,13 +10,12 @@ import pytest
 from tests.profiles.built import build_profile
 from xgo_show.errors import ProfileError
 from xgo_show.profiles import Access, Encoding, Profile, get_profile, model_from_firmware
-from xgo_show.profiles.xgo_dog import LITE_RANGES, MINI_RANGES, SERVO_IDS
+from xgo_show.profiles.xgo_dog import LEG_NAMES, LITE_RANGES, MINI_RANGES, SERVO_IDS
 
 MINI = get_profile("mini")
 LITE = get_profile("lite")
 RIDER = get_profile("rider")
 XARM = get_profile("xarm")
-DOGS = (MINI, LITE)
 # The table tests check profiles built within the test (tests/profiles/built.py says why).
 XGO_MODELS = ("mini", "lite", "rider")
 
@@ -380,6 +379,21 @@ def test_registers_in_address_order_and_the_family(model: str) -> None:
     assert addresses == sorted(addresses)
     assert profile.family == "xgo" and profile.model == model
     assert profile.firmware_default[0] == model[0].upper()
+    # What `xgo-show info` titles it, and the firmware it is recognised by (the vendor's
+    # auto-detection: "MW..." and "W..." firmware is driven as a Mini).
+    titles = {"mini": "XGO-Mini", "lite": "XGO-Lite", "rider": "XGO-Rider"}
+    prefixes = {"mini": ("M", "MW", "W"), "lite": ("L",), "rider": ("R",)}
+    assert (profile.title, profile.firmware_prefixes) == (titles[model], prefixes[model])
+
+
+def test_each_servo_register_says_which_leg_and_joint() -> None:
+    # Servo ids are 10 * leg + joint (the document's numbering): the description names both.
+    mini = build_profile("mini")
+    joints = {1: "lower", 2: "middle", 3: "upper"}
+    for sid in SERVO_IDS:
+        text = mini.register(f"servo_{sid}").description
+        assert text.startswith(f"servo {sid} angle: {LEG_NAMES[sid // 10]} leg, "), text
+        assert joints[sid % 10] in text, text
 
 
 def test_vendor_range_tables_agree_with_the_vendor_library() -> None:
@@ -514,7 +528,7 @@ def test_firmware_register_reports_the_profiles_own_model(model: str) -> None:
 def test_dog_action_durations_match_the_document() -> None:
     documented = dog_actions()
     assert len(documented) == 27  # 1..24 without 5, 128..130, 255
-    for profile in DOGS:
+    for profile in (build_profile("mini"), build_profile("lite")):
         by_id = {a.id: a for a in profile.actions}
         assert set(by_id) == set(documented) | {5}
         for action_id, (_name, seconds) in documented.items():
