@@ -525,7 +525,7 @@ def test_firmware_register_reports_the_profiles_own_model(model: str) -> None:
 # --- actions --------------------------------------------------------------------------------
 
 
-def test_dog_action_durations_match_the_document() -> None:
+def test_the_dogs_actions_and_their_durations_match_the_document() -> None:
     documented = dog_actions()
     assert len(documented) == 27  # 1..24 without 5, 128..130, 255
     for profile in (build_profile("mini"), build_profile("lite")):
