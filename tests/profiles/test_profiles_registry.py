@@ -71,6 +71,8 @@ def test_unknown_model_lists_the_valid_ones(name: str) -> None:
         ("", None),
         ("m-1.0", None),  # the model letter is upper case
         ("X-1.0", None),
+        ("XM-2.0", None),  # another letter first: not a Mini, whatever follows
+        ("\0 M-1.4.1\r\n", "mini"),  # padding and line ends on either side are ignored
     ],
 )
 def test_model_from_firmware(firmware: str, model: str | None) -> None:
