@@ -7,7 +7,13 @@ import io
 import pytest
 
 from xgo_show.runtime.clock import FakeClock
-from xgo_show.runtime.preflight import countdown, open_ports, preflight
+from xgo_show.runtime.preflight import (
+    PreflightReport,
+    PreflightRow,
+    countdown,
+    open_ports,
+    preflight,
+)
 from xgo_show.wire.xgo import TYPE_READ
 
 
@@ -92,3 +98,93 @@ def test_countdown_counts_whole_seconds_from_one_start() -> None:
     assert clock.now() == start + 2.5
     countdown(0, out=out, clock=clock)
     assert clock.now() == start + 2.5
+
+
+def _rows() -> list[PreflightRow]:
+    return [
+        PreflightRow("rex", "mini", "/dev/ttyUSB0", opened=True, firmware="M-1.4.1",
+                     detected="mini", battery=87.4, low_latency=True),
+        PreflightRow("rita", "rider", "sim:rider", opened=True, firmware="L-1.3.2",
+                     detected="lite", problems=["not rider", "no battery"], notes=["forced"]),
+        PreflightRow("arm", "xarm", "sim:xarm", opened=True, voltage=7.6, battery=66.7),
+        PreflightRow("spot", "lite", "-", problems=["port not open"]),
+    ]  # fmt: skip
+
+
+def test_the_table_one_line_a_performer_then_the_floor_and_a_legend() -> None:
+    report = PreflightReport(_rows(), 25.0, realtime="SCHED_FIFO 80")
+    assert report.table().splitlines() == [
+        "performer  model  port          firmware        battery  latency  result",
+        "rex        mini   /dev/ttyUSB0  M-1.4.1         87%      low      ok",
+        "rita       rider  sim:rider     L-1.3.2 (lite)  -        default  FAIL: not rider; no "
+        "battery (forced)",
+        "arm        xarm   sim:xarm      -               7.60 V   default  ok",
+        "spot       lite   -             -               -        default  FAIL: port not open",
+        "battery floor 25% (xArm: 6.60 V = 25% of 6.00..8.40 V); real-time scheduling: "
+        "SCHED_FIFO 80",
+        "(firmware: as reported, with the model it implies if another; battery: charge, an "
+        "xArm's supply in V;",
+        " latency: the serial adapter's low-latency mode; result: ok, or every check that "
+        "failed)",
+    ]
+    dogs = PreflightReport(_rows()[:1], 20.0)
+    assert dogs.table().splitlines()[2] == (
+        "battery floor 20%; real-time scheduling: not requested")  # no xArm: no note
+
+
+def test_a_report_passes_when_every_port_opened_and_no_check_failed() -> None:
+    rows = _rows()
+    report = PreflightReport(rows, 25.0)
+    assert [r.ok for r in rows] == [True, False, True, False]
+    assert not report.ok and not report.ports_ok
+    assert PreflightReport([rows[0], rows[2]], 25.0).ok
+    opened = PreflightReport(rows[:3], 25.0)
+    assert opened.ports_ok and not opened.ok
+    assert not PreflightRow("x", "mini", "-").ok  # not opened, even with no problem listed
+    assert PreflightReport([], 20.0).ok
+
+
+def test_the_report_as_plain_data() -> None:
+    record = PreflightReport(_rows()[:3], 25.0, realtime="SCHED_FIFO 80").as_record()
+    assert record == {
+        "ok": False,
+        "realtime": "SCHED_FIFO 80",
+        "rows": [
+            {"performer": "rex", "port": "/dev/ttyUSB0", "firmware": "M-1.4.1",
+             "battery": 87.4, "voltage": None, "low_latency": True, "problems": []},
+            {"performer": "rita", "port": "sim:rider", "firmware": "L-1.3.2", "battery": None,
+             "voltage": None, "low_latency": False, "problems": ["not rider", "no battery"]},
+            {"performer": "arm", "port": "sim:xarm", "firmware": "", "battery": 66.7,
+             "voltage": 7.6, "low_latency": False, "problems": []},
+        ],
+    }  # fmt: skip
+
+
+def test_low_latency_is_asked_for_unless_turned_off(rig, perf, sched) -> None:
+    schedule = sched(perf("rex", "mini"))
+    rig.for_schedule(schedule)
+    asked = preflight(schedule, rig.transports)
+    # A pty has no low-latency mode: asked for, not granted; not asked for, not tried.
+    assert asked.rows[0].low_latency is False
+    calls: list[bool] = []
+    transport = rig.transports["rex"]
+    original = transport.set_low_latency
+    transport.set_low_latency = lambda: calls.append(True) or True  # type: ignore[method-assign]
+    try:
+        granted = preflight(schedule, rig.transports)
+        assert calls == [True] and granted.rows[0].low_latency
+        skipped = preflight(schedule, rig.transports, low_latency=False)
+        assert calls == [True] and not skipped.rows[0].low_latency
+    finally:
+        transport.set_low_latency = original  # type: ignore[method-assign]
+    assert asked.battery_floor == 20.0 and preflight(
+        schedule, rig.transports, battery_floor=5).battery_floor == 5
+    named = preflight(schedule, rig.transports, urls={"rex": "/dev/ttyACM0"})
+    assert named.rows[0].port == "/dev/ttyACM0"
+
+
+def test_a_performer_without_a_transport_is_not_opened_and_says_why(perf, sched) -> None:
+    schedule = sched(perf("rex", "mini"), perf("rita", "rider"))
+    report = preflight(schedule, {}, open_errors={"rex": "busy"})
+    assert [(r.opened, r.problems) for r in report.rows] == [
+        (False, ["busy"]), (False, ["port not open"])]  # fmt: skip
