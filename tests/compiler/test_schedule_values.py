@@ -63,6 +63,13 @@ def test_a_frame_is_a_value_of_time_bytes_origin_and_duration() -> None:
     )
 
 
+def test_distinct_frames_hash_apart() -> None:
+    # Frames go into sets and dicts by the hundred thousand: a hash shared by every frame
+    # would keep them correct but make each lookup walk all of them.
+    frames = [ScheduledFrame(i / 50, bytes((i % 256,))) for i in range(200)]
+    assert len({hash(f) for f in frames}) > 190
+
+
 def test_a_frame_defaults_and_label() -> None:
     plain = ScheduledFrame(0.25, b"\xaa")
     assert (plain.origin, plain.duration, plain.labels) == (None, 0.0, None)
