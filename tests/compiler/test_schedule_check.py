@@ -190,6 +190,8 @@ R = dataclasses.replace
     (lambda s: _perf(s, name="2rex"), False),
     (lambda s: _perf(s, name="-rex"), False),
     (lambda s: _perf(s, name="rex.1"), False),
+    (lambda s: _perf(s, name="Xena"), True),
+    (lambda s: _frame(s, 0, data=bytes(1)), True),
     (lambda s: _perf(s, port="sim:mini"), True),
     (lambda s: R(s, performers=tuple(R(s.performers[0], name=f"r{i}") for i in range(64))),
      True),
@@ -282,7 +284,8 @@ def test_a_performers_first_bad_frame_is_its_last_problem(schedule: Schedule) ->
 
 def test_sections_and_music_are_checked(schedule: Schedule) -> None:
     s = schedule
-    waits = (Section("intro", 0.0), Section("drop", 2.0, Wait("go", 3600.0, "intro")))
+    waits = (Section("intro", 0.0), Section("drop", 2.0, Wait("go", 3600.0, "intro")),
+             Section("outro", 3.0, Wait("go", 0.0)), Section("coda", 3.5, Wait("go", 0.5)))
     assert schedule_problems(R(s, sections=waits)) == []
     assert _one_problem(R(s, sections=(Section("intro", 3601.0),))) == (
         "show.sections[0].start_us: 3601.000000 s is outside 0..3600 s")
@@ -316,7 +319,20 @@ def test_warnings_and_origins_texts_are_checked(schedule: Schedule) -> None:
         "origins.cue: ")
 
 
+def test_the_show_texts_messages(schedule: Schedule) -> None:
+    s = schedule
+    assert _one_problem(R(s, name="a\x1bb")) == (
+        "show.name: holds the control character \\x1b (text must be printable)")
+    assert _one_problem(R(s, source="a\x07")) == (
+        "show.source: holds the control character \\x07 (text must be printable)")
+    assert _one_problem(R(s, performers=())) == "performers: the schedule has no performer"
+    assert _one_problem(_frame(s, 0, origin=Origin("a\x07.yaml", 1, 1))) == (
+        "origins.file: holds the control character \\x07 (text must be printable)")
+
+
 def test_check_schedule_says_how_many_more_problems(schedule: Schedule) -> None:
+    with pytest.raises(ScheduleError, match=r"^y: show\.control_rate: .* \(and 1 more\)$"):
+        check_schedule(R(schedule, control_rate=0.0, on_failure="a"), name="y")
     with pytest.raises(ScheduleError, match=r"^x: show.on_failure: unknown policy 'a'$"):
         check_schedule(R(schedule, on_failure="a"), name="x")
     with pytest.raises(ScheduleError, match=r"^<schedule>: show\.control_rate: .* \(and 2 more\)$"):

@@ -20,7 +20,7 @@ def _schedule(**kw: object) -> Schedule:
     rex = PerformerSchedule("rex", "mini", LINK, (), 12.3456789)
     rio = PerformerSchedule("rio", "rider", LINK, (), 8.0)
     sections = (Section("intro", 0.0), Section("drop", 4.0000004, Wait("go", 2.5, "end")),
-                Section("outro", 9.0, Wait("go")))  # fmt: skip
+                Section("outro", 9.2500004, Wait("go")))  # fmt: skip
     return Schedule("demo", "demo.yaml", (rex, rio), 50.0, sections=sections, **kw)  # type: ignore[arg-type]
 
 
@@ -52,7 +52,7 @@ def test_show_summary_lists_performers_sections_and_triggers() -> None:
             {"name": "intro", "start": 0.0, "wait": None},
             {"name": "drop", "start": 4.0, "wait": {"trigger": "go", "timeout": 2.5,
                                                      "else": "end"}},
-            {"name": "outro", "start": 9.0, "wait": {"trigger": "go", "timeout": None,
+            {"name": "outro", "start": 9.25, "wait": {"trigger": "go", "timeout": None,
                                                       "else": "continue"}},
         ],
         "triggers": ["go"],

@@ -36,6 +36,25 @@ def test_listeners_get_the_kinds_they_asked_for_in_subscription_order() -> None:
     assert seen == [("all", fault), ("faults", fault), ("all", pause)]
 
 
+def test_a_listener_of_other_kinds_does_not_stop_the_ones_after_it() -> None:
+    bus = EventBus()
+    seen: list[object] = []
+    bus.subscribe(seen.append, FaultRaised)
+    bus.subscribe(seen.append)
+    bus.publish(_reading(1))
+    assert seen == [_reading(1)]
+    assert bus.listener_errors == 0 and bus.last_listener_error is None
+
+
+def test_a_channel_of_its_own_drops_the_oldest_and_closes_without_a_bus() -> None:
+    ch = EventChannel(2)
+    assert ch.overflow == "drop_oldest" and ch.subscription is None
+    for i in range(3):
+        ch.put(_reading(i))
+    assert ch.drain() == [_reading(1), _reading(2)] and ch.dropped == 1
+    ch.close()  # never subscribed: nothing to close
+
+
 def test_a_closed_subscription_hears_nothing_more() -> None:
     bus = EventBus()
     seen: list[object] = []
@@ -97,7 +116,7 @@ def test_a_channel_wakes_its_consumer_and_times_out_when_empty() -> None:
 
 
 def test_a_channel_refuses_nonsense_sizes_and_policies() -> None:
-    with pytest.raises(ValueError, match="at least one"):
+    with pytest.raises(ValueError, match=r"^a channel holds at least one event$"):
         EventChannel(0)
     with pytest.raises(ValueError, match="unknown overflow policy"):
         EventChannel(3, overflow="block")  # type: ignore[arg-type]

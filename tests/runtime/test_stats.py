@@ -66,10 +66,11 @@ def test_send_stats_count_frames_reads_and_bytes_by_kind() -> None:
     stats.on_event(_sent("frame", t=1.0005, planned=1.0, data=bytes(11)))
     stats.on_event(_sent("frame", t=2.0, planned=None, data=bytes(9)))  # counted, not timed
     stats.on_event(_sent("read", data=bytes(9)))
+    stats.on_event(_sent("read", data=bytes(0)))
     stats.on_event(_sent("reach", data=bytes(12)))
     stats.on_event(_sent("stop", data=bytes(10)))
     stats.on_event(Event(1.0))  # not a frame: ignored
-    assert (stats.frames, stats.reads, stats.bytes) == (2, 1, 51)
+    assert (stats.frames, stats.reads, stats.bytes) == (2, 2, 51)
     assert stats.errors.count == 1
     assert stats.errors.max == pytest.approx(500.0)  # microseconds late
 
@@ -131,7 +132,8 @@ def test_error_stats_format_and_targets() -> None:
         "ABOVE TARGET: p99.9 2.500 ms > 2 ms")
     assert (P99_TARGET_MS, P999_TARGET_MS) == (0.5, 2.0)  # issue 12's targets
     empty = ErrorHistogram().stats()
-    assert empty.count == 0 and all(math.isnan(v) for v in (empty.p50, empty.max, empty.p999))
+    assert empty.count == 0 and all(
+        math.isnan(v) for v in (empty.p50, empty.p95, empty.p99, empty.max, empty.p999))
 
 
 def test_percentile_interpolates_between_neighbours() -> None:
@@ -145,3 +147,26 @@ def test_percentile_interpolates_between_neighbours() -> None:
     assert stats.p95 == pytest.approx(2.9) and stats.p99 == pytest.approx(2.98)
     assert stats.p999 == pytest.approx(2.998)
     assert math.isnan(error_stats([]).max)
+
+
+def test_the_edges_of_the_bins() -> None:
+    # Exactly -1 ms is the first bin's start, not below the bins.
+    hist = ErrorHistogram()
+    for seconds in (-0.001, -0.001, -0.0009991):
+        hist.add(seconds)
+    assert hist.quantile_ms(0.5) == pytest.approx(-0.9995)  # the middle of -1000..-999 us
+    # Exactly 5 s late is past the last bin: the maximum answers for it.
+    late = ErrorHistogram()
+    late.add(5.0)
+    late.add(0.0)
+    assert late.quantile_ms(1.0) == pytest.approx(5000.0)
+    assert late.stats().max == pytest.approx(5000.0)
+
+
+def test_p999_is_not_the_maximum_of_a_thousand() -> None:
+    hist = ErrorHistogram()
+    for _ in range(1000):
+        hist.add(0.001)
+    hist.add(0.1)  # one outlier
+    s = hist.stats()
+    assert s.p999 == pytest.approx(1.0005) and s.max == pytest.approx(100.0)

@@ -106,9 +106,13 @@ def test_replies_become_samples_and_other_frames_are_counted() -> None:
     samples = poller.feed(both[7:], 1.5)
     assert samples == [TelemetrySample("battery", 87.0, 1.5), TelemetrySample("status", 1.0, 1.5)]
     assert poller.last == {"battery": 87.0, "status": 1.0} and poller.samples == 2
-    # A reply at an address nobody asked for (the Rider's auto-feedback, say) is not a sample.
+    # A reply at an address nobody asked for (the Rider's auto-feedback, say) is not a sample,
+    # and the replies after it in the same bytes still are.
     assert poller.feed(_reply("show_mode", 1), 2.0) == []
     assert poller.unsolicited == 1 and poller.samples == 2 and poller.fault is None
+    samples = poller.feed(_reply("show_mode", 0) + _reply("battery", 86), 2.5)
+    assert samples == [TelemetrySample("battery", 86.0, 2.5)]
+    assert poller.unsolicited == 2 and poller.samples == 3
 
 
 def test_a_low_battery_is_a_fault_on_the_second_reading_in_a_row() -> None:
