@@ -178,3 +178,11 @@ def test_the_first_request_is_due_at_once_and_the_next_after_the_interval() -> N
         assert watched.due(0.0) is not None
         watched.sent(0.0)
     assert watched.due(0.0) is None and watched.next_due == pytest.approx(0.02)
+
+
+def test_by_default_one_item_is_read_every_quarter_second() -> None:
+    # docs/behaviours.md: the items not watched are read "in rotation every 0.25 s".
+    poller = TelemetryPoller(RIDER)
+    names = [name for _, name in _poll(poller, 1.0, 0.001)]
+    assert names == ["battery", "status", "attitude", "battery"]
+    assert poller.next_due == pytest.approx(1.0)
