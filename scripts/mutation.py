@@ -88,8 +88,10 @@ def _equivalents() -> dict[tuple[str, str], str]:
     for number, line in enumerate(EQUIVALENT_FILE.read_text(encoding="utf-8").splitlines(), 1):
         if not line.strip() or line.startswith("#"):
             continue
-        try:
-            function, changed, reason = (part.strip() for part in line.split(" | ", 2))
+        try:  # the changed line may hold " | " itself (a type union); the reason may not
+            function, rest = line.split(" | ", 1)
+            changed, reason = rest.rsplit(" | ", 1)
+            function, changed, reason = function.strip(), changed.strip(), reason.strip()
         except ValueError:
             sys.exit(f"{EQUIVALENT_FILE.name}:{number}: expected 'function | changed line | "
                      "reason'")
