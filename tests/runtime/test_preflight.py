@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import time
 
 import pytest
 
@@ -188,3 +189,82 @@ def test_a_performer_without_a_transport_is_not_opened_and_says_why(perf, sched)
     report = preflight(schedule, {}, open_errors={"rex": "busy"})
     assert [(r.opened, r.problems) for r in report.rows] == [
         (False, ["busy"]), (False, ["port not open"])]  # fmt: skip
+
+
+class _Port:
+    """A transport that only records being opened and closed."""
+
+    def __init__(self, log: list[str], url: str) -> None:
+        self.log, self.url = log, url
+
+    def open(self) -> None:
+        self.log.append(f"open {self.url}")
+
+    def close(self) -> None:
+        self.log.append(f"close {self.url}")
+
+
+def test_ports_open_at_their_links_baud_rate(perf, sched) -> None:
+    from xgo_show.compiler.schedule import PerformerSchedule
+    from xgo_show.profiles import get_profile
+
+    xarm = get_profile("xarm")
+    schedule = sched(perf("rex", "mini"), PerformerSchedule("arm", "xarm", xarm.link, (), 1.0))
+    asked: dict[str, object] = {}
+    log: list[str] = []
+
+    def opener(url: str, **kw: object) -> _Port:
+        asked[url] = kw
+        return _Port(log, url)
+
+    transports, errors = open_ports(schedule, {"rex": "a", "arm": "b"}, opener=opener)
+    assert errors == {} and sorted(transports) == ["arm", "rex"]
+    assert asked == {"a": {"baudrate": 115200}, "b": {"baudrate": 9600}}
+    assert sorted(log) == ["open a", "open b"]
+    _, errors = open_ports(schedule, {"rex": "a"}, opener=opener)
+    assert errors == {"arm": "no port given (map it with --map NAME=PORT or in the show file)"}
+
+
+def test_a_port_failing_unexpectedly_closes_the_ports_that_opened(perf, sched) -> None:
+    schedule = sched(perf("rex", "mini"), perf("rita", "rider"))
+    log: list[str] = []
+
+    def opener(url: str, **kw: object) -> _Port:
+        if url == "bad":
+            time.sleep(0.05)  # the other port is open by then
+            raise RuntimeError("driver bug")
+        return _Port(log, url)
+
+    with pytest.raises(RuntimeError, match="driver bug"):
+        open_ports(schedule, {"rex": "good", "rita": "bad"}, opener=opener)
+    assert log == ["open good", "close good"]
+
+
+def test_a_row_without_a_port_says_dash(perf, sched) -> None:
+    schedule = sched(perf("rex", "mini"))
+    (row,) = preflight(schedule, {}).rows
+    assert row.port == (schedule.performers[0].port or "-")
+    report = PreflightReport([PreflightRow("a", "xarm", "-", opened=True,
+                                           notes=["forced", "firmware unread"])], 20.0)
+    assert report.table().splitlines()[1].endswith("ok (forced; firmware unread)")
+
+
+class _Flushes(io.StringIO):
+    def __init__(self) -> None:
+        super().__init__()
+        self.flushes = 0
+
+    def flush(self) -> None:
+        self.flushes += 1
+        super().flush()
+
+
+def test_a_countdown_of_one_second_and_each_line_shown_at_once() -> None:
+    out = _Flushes()
+    clock = FakeClock()
+    start = clock.now()
+    countdown(1, out=out, clock=clock)
+    assert out.getvalue() == "starting in 1 s\n" and clock.now() == start + 1
+    assert out.flushes >= 1  # shown when printed, not when the show starts
+    countdown(-1, out=out, clock=clock)
+    assert out.getvalue() == "starting in 1 s\n"
