@@ -132,6 +132,7 @@ class _Visit:
     release_at: float = float("-inf")  # clock time the show goes on (at the earliest)
     target: float | None = None  # show time to jump to (a timeout's else), None: play on
     go_at: float | None = None  # real time: the clock time the robots held here go on
+    pause_at: float | None = None  # the clock time the last performer was asked to hold here
 
     @property
     def released(self) -> bool:
@@ -595,6 +596,11 @@ class Director(WorkerClosing):
             return None
         if not self.virtual and at - self.arm_margin > now:
             return at - self.arm_margin
+        if v.pause_at is not None and abs(at - v.pause_at) < 1e-6:
+            # The same instant, computed from another performer's timeline: the same float,
+            # so the robots of one relay get one pause (one command per operation and time).
+            at = v.pause_at
+        v.pause_at = at
         tr.armed = True
         self._performer(name).pause(at=at)
         return None
