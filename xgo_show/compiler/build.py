@@ -33,15 +33,17 @@ def compile_show(show: ResolvedShow) -> Schedule:
 
 
 def compile_diagnostics(show: ResolvedShow) -> tuple[Diagnostic, ...]:
-    """What :func:`compile_show` finds in ``show``, without keeping its frames (``validate``).
+    """What :func:`compile_show` finds in ``show``, without making its frames (``validate``).
 
-    Raises the same :class:`CompileError`; returns the same ``Schedule.warnings``.
+    Raises the same :class:`CompileError`; returns the same ``Schedule.warnings``. An XGO
+    performer whose frames provably fit its link (:mod:`~xgo_show.compiler.linkfit`: most
+    shows) is only walked, not sampled nor paced; the others are compiled in full.
     """
     with paused_gc():
-        return _compile(show, keep=False).warnings
+        return _compile(show, keep=False, quick=True).warnings
 
 
-def _compile(show: ResolvedShow, *, keep: bool) -> Schedule:
+def _compile(show: ResolvedShow, *, keep: bool, quick: bool = False) -> Schedule:
     if show.control_rate <= 0:
         raise CompileError(f"control_rate must be positive, not {show.control_rate:g} Hz")
     errors: list[Diagnostic] = []
@@ -54,6 +56,11 @@ def _compile(show: ResolvedShow, *, keep: bool) -> Schedule:
             errors.append(Diagnostic("error", str(exc), None,
                                      f"tracks.{track.performer}"))
             continue
+        if quick and profile.family == "xgo":
+            found = _quick_track(show, track, profile)
+            if found is not None:  # no frames: a schedule is never made of these
+                errors.extend(found)
+                continue
         performer, errs, warns = _compile_track(show, track, profile, keep)
         errors.extend(errs)
         warnings.extend(warns)
@@ -79,6 +86,20 @@ def _compile(show: ResolvedShow, *, keep: bool) -> Schedule:
         tempo_map=show.tempo_map,
         sections=show.sections,
         music=show.music,
+    )
+
+
+def _quick_track(
+    show: ResolvedShow, track: ResolvedTrack, profile: Profile
+) -> list[Diagnostic] | None:
+    """The errors of an XGO performer whose frames provably fit the link (None: not proven)."""
+    from xgo_show.compiler.linkfit import quick_track_diagnostics
+
+    gap = profile.link.gap if show.gap is None else show.gap
+    return quick_track_diagnostics(
+        track, profile, rate=show.control_rate,
+        link=Link(profile.link.baud, gap, profile.link.bits_per_byte), gap_us=to_us(gap),
+        period_us=to_us(1.0 / show.control_rate), decimate=show.decimate,
     )
 
 
