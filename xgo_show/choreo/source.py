@@ -373,6 +373,8 @@ def _parse(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         nodes = _compose(text)
     except RecursionError:
         return doc, [_too_deep(text, file)]
+    except _TooDeep as exc:  # the 65th level comes before the 1001st
+        return doc, [_too_deep(text[:exc.end], file)]
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
@@ -423,15 +425,41 @@ if _C_LOADER is not None:
     _FAST_LOADER = _CLoader
 
 
+class _TooDeep(Exception):
+    """Nesting deeper than libyaml allows (1000 levels) ends before ``end`` (a text offset)."""
+
+    def __init__(self, end: int) -> None:
+        super().__init__(end)
+        self.end = end
+
+
 def _compose(text: str) -> list[Node]:
     """The documents' nodes; a YAML error is raised by the pure-Python parser, whose messages
-    (and marks) the diagnostics are written for, even when libyaml found it first."""
+    (and marks) the diagnostics are written for, even when libyaml found it first.
+
+    Nesting past libyaml's own limit raises :class:`_TooDeep` instead: the pure-Python scanner
+    takes time quadratic in the nesting to say so (1.5 s for a line of a thousand ``[``)."""
     if _FAST_LOADER is not None:
         try:
             return list(yaml.compose_all(text, Loader=_FAST_LOADER))
+        except yaml.MarkedYAMLError as exc:
+            mark = exc.problem_mark
+            if mark is not None and "maximum nesting depth" in str(exc.problem):
+                raise _TooDeep(_offset(text, mark.line, mark.column)) from None
         except yaml.YAMLError:
             pass  # said again below, in the pure-Python parser's words
     return list(yaml.compose_all(text, Loader=_Loader))
+
+
+def _offset(text: str, line: int, column: int) -> int:
+    """The text offset of 0-based ``line`` and ``column`` (in characters, as marks count)."""
+    at = 0
+    for _ in range(line):
+        nxt = text.find("\n", at)
+        if nxt < 0:
+            return len(text)
+        at = nxt + 1
+    return min(at + column, len(text))
 
 
 def _line_col(text: str, position: int) -> tuple[int, int]:
@@ -531,8 +559,8 @@ def _too_deep(text: str, file: str) -> Diagnostic:
     :data:`MAX_DEPTH` (found from the parser's events, which do not recurse)."""
     depth = 0
     line = col = 1
-    try:
-        for event in yaml.parse(text, Loader=_Loader):
+    try:  # libyaml's events when it is there (the pure-Python scanner is quadratic here)
+        for event in yaml.parse(text, Loader=_FAST_LOADER or _Loader):
             if isinstance(event, yaml.CollectionStartEvent):
                 depth += 1
                 if depth > MAX_DEPTH:
