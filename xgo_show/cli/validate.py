@@ -15,12 +15,8 @@ from typing import Any, TextIO
 
 import xgo_show.choreo as choreo
 from xgo_show.cli.watch import add_watch_option
-from xgo_show.compiler.artifact import (  # its loader is imported on first use
-    SCHEDULE_HINT,
-    is_schedule_file,
-)
 from xgo_show.diagnostics import Diagnostic, Origin
-from xgo_show.files import file_problem
+from xgo_show.files import file_problem, read_head
 from xgo_show.text import printable
 
 __all__ = ["add_parser", "report", "run"]
@@ -59,6 +55,16 @@ def report(path: str, diags: list[Diagnostic], out: TextIO, *, quiet: bool = Fal
     return errors == 0
 
 
+def _schedule_file(path: Path) -> bool:
+    """Whether ``path`` is a compiled schedule. Only a file starting as JSON may be one: the
+    schedule file's reader (a sixth of validate's start-up) is imported for those alone."""
+    if not read_head(path, 4096).lstrip().startswith(b"{"):
+        return False
+    from xgo_show.compiler.artifact import is_schedule_file
+
+    return is_schedule_file(path)
+
+
 def run(args: argparse.Namespace) -> int:
     ok = True
     for name in args.files:
@@ -66,7 +72,9 @@ def run(args: argparse.Namespace) -> int:
         # A file that cannot be read is a diagnostic at its start like any other, so that
         # every line is file:line:col: severity: ... or a summary (editors and scripts parse it).
         reason = file_problem(path)
-        if reason is None and is_schedule_file(path):
+        if reason is None and _schedule_file(path):
+            from xgo_show.compiler.artifact import SCHEDULE_HINT
+
             reason = SCHEDULE_HINT
         diags = ([Diagnostic("error", reason, Origin(name, 1, 1))] if reason is not None
                  else choreo.validate_file(path))

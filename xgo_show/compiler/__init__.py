@@ -11,16 +11,18 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
-from xgo_show.compiler.artifact import load_schedule, save_schedule
-from xgo_show.compiler.build import compile_diagnostics, compile_show
-from xgo_show.compiler.schedule import (
-    SCHEDULE_VERSION,
-    PerformerSchedule,
-    Schedule,
-    ScheduledFrame,
-)
-from xgo_show.compiler.state import describe_frame, frames_to_reach, state_at
+if TYPE_CHECKING:
+    from xgo_show.compiler.artifact import load_schedule, save_schedule
+    from xgo_show.compiler.build import compile_diagnostics, compile_show
+    from xgo_show.compiler.schedule import (
+        SCHEDULE_VERSION,
+        PerformerSchedule,
+        Schedule,
+        ScheduledFrame,
+    )
+    from xgo_show.compiler.state import describe_frame, frames_to_reach, state_at
 
 __all__ = [
     "SCHEDULE_VERSION",
@@ -36,6 +38,24 @@ __all__ = [
     "save_schedule",
     "state_at",
 ]
+
+# Where each public name lives. They are imported on first use: ``validate`` needs the
+# compiler's walk, not the schedule file's reader and writer (a fifth of its start-up).
+_HOMES = {
+    "SCHEDULE_VERSION": "schedule", "PerformerSchedule": "schedule", "Schedule": "schedule",
+    "ScheduledFrame": "schedule", "compile_diagnostics": "build", "compile_show": "build",
+    "describe_frame": "state", "frames_to_reach": "state", "state_at": "state",
+    "load_schedule": "artifact", "save_schedule": "artifact",
+}
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    return getattr(importlib.import_module(f"xgo_show.compiler.{home}"), name)
 
 
 def plot_schedule(schedule: Schedule, path: str | Path) -> Path:
