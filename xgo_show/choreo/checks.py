@@ -12,12 +12,12 @@ import bisect
 import heapq
 from collections import defaultdict
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass
+from typing import NamedTuple
 
 from xgo_show.choreo.resolve import CueSource, Resolution
 from xgo_show.choreo.resolved import ActionCue, ArmCue, Cue, FadeCue, MotionCue, SetCue
 from xgo_show.choreo.validation import Suggestions
-from xgo_show.diagnostics import Diagnostic, Origin
+from xgo_show.diagnostics import Diagnostic, Origin, Severity
 from xgo_show.errors import ValueRangeError
 from xgo_show.families import get_family
 from xgo_show.profiles import Encoding, Profile, Register, get_profile
@@ -39,9 +39,8 @@ _NON_MOTION_GROUPS = frozenset({"led", "setting"})
 _EPS = 1e-9
 
 
-@dataclass(frozen=True)
-class _Write:
-    """One cue writing one register over [start, end)."""
+class _Write(NamedTuple):
+    """One cue writing one register over [start, end) (a tuple: one per value of the show)."""
 
     register: str
     start: float
@@ -64,14 +63,32 @@ class _Checker:
         self.res = res
         self.diags: list[Diagnostic] = []
         self.suggest = Suggestions()  # did-you-mean hints, bounded in number
+        # Per profile (by id: the checker lives as long as one check of one show).
+        self.by_name: dict[int, dict[str, Register]] = {}
+        self.accessories: dict[int, frozenset[str]] = {}
 
-    def error(self, message: str, origin: Origin, src: CueSource, sub: str = "") -> None:
-        path = src.paths.get(sub, src.path)
-        self.diags.append(Diagnostic("error", message, origin, path))
+    def error(self, message: str, origin: Origin | None, src: CueSource, sub: str = "") -> None:
+        """Report at ``origin``; None: at the value ``sub`` of the cue (found only now: most
+        values have nothing to report)."""
+        self.report("error", message, origin, src, sub)
 
-    def warning(self, message: str, origin: Origin, src: CueSource, sub: str = "") -> None:
+    def warning(self, message: str, origin: Origin | None, src: CueSource, sub: str = ""
+                ) -> None:
+        self.report("warning", message, origin, src, sub)
+
+    def report(self, severity: Severity, message: str, origin: Origin | None,
+               src: CueSource, sub: str) -> None:
+        if origin is None:
+            origin = src.values.get(sub, src.origin)
         path = src.paths.get(sub, src.path)
-        self.diags.append(Diagnostic("warning", message, origin, path))
+        self.diags.append(Diagnostic(severity, message, origin, path))
+
+    def registers(self, profile: Profile) -> dict[str, Register]:
+        """The profile's registers by name (looked up once per value of the show)."""
+        found = self.by_name.get(id(profile))
+        if found is None:
+            found = self.by_name[id(profile)] = {r.name: r for r in profile.registers}
+        return found
 
     def run(self) -> list[Diagnostic]:
         show = self.res.show
@@ -89,9 +106,9 @@ class _Checker:
     # -- one cue --------------------------------------------------------------------------
 
     def register(
-        self, name: str, profile: Profile, arm: bool, src: CueSource, origin: Origin
+        self, name: str, profile: Profile, arm: bool, src: CueSource, origin: Origin | None
     ) -> Register | None:
-        reg = next((r for r in profile.registers if r.name == name), None)
+        reg = self.registers(profile).get(name)
         if reg is None:
             valid = sorted(
                 r.name for r in profile.registers
@@ -110,13 +127,18 @@ class _Checker:
         if reg.name == "action":
             self.error("write preset actions with an action: cue", origin, src, name)
             return None
-        if not arm and name in get_family(profile).accessory_registers(profile):
+        accessories = self.accessories.get(id(profile))
+        if accessories is None:
+            accessories = self.accessories[id(profile)] = get_family(
+                profile).accessory_registers(profile)
+        if not arm and name in accessories:
             self.error(f"{name} needs the arm accessory: set 'arm: true' on performer "
                        f"{src.performer!r}", origin, src, name)
             return None
         return reg
 
-    def value(self, reg: Register, value: object, src: CueSource, origin: Origin) -> None:
+    def value(self, reg: Register, value: object, src: CueSource, origin: Origin | None
+              ) -> None:
         try:
             if reg.linear:
                 if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -146,15 +168,14 @@ class _Checker:
         src = self.res.source(cue)
         if isinstance(cue, ArmCue):
             for sid, pos in cue.positions.items():
-                origin = src.values.get(str(sid), src.origin)
                 if sid not in profile.xarm_servos:
                     ids = ", ".join(map(str, profile.xarm_servos))
-                    self.error(f"the xArm has no servo {sid}; servos: {ids}", origin, src, str(sid))
+                    self.error(f"the xArm has no servo {sid}; servos: {ids}", None, src, str(sid))
                     continue
                 try:
                     position_to_degrees(pos)
                 except ValueRangeError as exc:
-                    self.error(str(exc), origin, src, str(sid))
+                    self.error(str(exc), None, src, str(sid))
             return
         if isinstance(cue, ActionCue):
             return
@@ -165,8 +186,9 @@ class _Checker:
             values = cue.targets
         else:
             values = cue.values
+        # Each value's own place is found only if there is something to say (origin None).
+        origin: Origin | None = None
         for name, value in values.items():
-            origin = src.values.get(name, src.origin)
             reg = self.register(name, profile, arm, src, origin)
             if reg is None:
                 continue
@@ -306,7 +328,8 @@ class _Checker:
             names = list(cue.targets)
         else:
             return True
-        groups = {r.group for r in profile.registers if r.name in names}
+        regs = self.registers(profile)
+        groups = {regs[n].group for n in names if n in regs}
         return not groups <= _NON_MOTION_GROUPS
 
     def check_periodic(self, cues: tuple[Cue, ...], by_reg: Mapping[str, list[_Write]]) -> None:

@@ -9,10 +9,10 @@ are left to :mod:`xgo_show.choreo.checks`, which reads the :class:`CueSource` ke
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 from xgo_show.choreo.colors import parse_color
 from xgo_show.choreo.model import (
@@ -65,7 +65,7 @@ from xgo_show.errors import ProfileError, ValueRangeError
 from xgo_show.families import get_family
 from xgo_show.files import file_problem
 from xgo_show.limits import MAX_PERFORMERS, MAX_SHOW_SECONDS
-from xgo_show.profiles import Encoding, Limits, Profile, get_profile
+from xgo_show.profiles import Encoding, Limits, Profile, Register, get_profile
 from xgo_show.profiles.xarm import degrees_to_position
 
 if TYPE_CHECKING:
@@ -97,6 +97,29 @@ MAX_NESTING = 32
 #: costs the resolver some stack, so a generated chain of hundreds is refused at the cue that
 #: passes the limit (rather than at 1:1 when Python's recursion limit is hit).
 MAX_BLOCK_DEPTH = 64
+
+
+_V = TypeVar("_V")
+
+
+class _Located(Mapping[str, _V]):
+    """Per value of a cue, its place (origin or field path), worked out when asked for: the
+    checks ask only about the values they report on, a handful among 10^5."""
+
+    __slots__ = ("_locs", "_place")
+
+    def __init__(self, locs: Mapping[str, Loc], place: Callable[[Loc], _V]) -> None:
+        self._locs = locs
+        self._place = place
+
+    def __getitem__(self, key: str) -> _V:
+        return self._place(self._locs[key])
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._locs)
+
+    def __len__(self) -> int:
+        return len(self._locs)
 
 
 @dataclass(frozen=True)
@@ -192,6 +215,14 @@ class _Resolver:
         self.emitted = 0  # cues made for the compiler (a path's segments each count)
         self.expanded = 0  # values of the blocks played, parameters filled in, at each play
         self.played: set[tuple[str, str]] = set()  # (file, phrase) actually played
+        self.by_name: dict[int, dict[str, Register]] = {}  # id(profile) -> its registers
+
+    def registers(self, profile: Profile) -> dict[str, Register]:
+        """The profile's registers by name (looked up for every value of the show)."""
+        found = self.by_name.get(id(profile))
+        if found is None:
+            found = self.by_name[id(profile)] = {r.name: r for r in profile.registers}
+        return found
 
     # -- diagnostics ----------------------------------------------------------------------
 
@@ -835,9 +866,10 @@ class _Emitter:
         if not self.within_samples(cue, end) or not self.within_cues():
             return
         self.perf.cues.append(cue)
-        values = values or {}
-        origins = {name: self.doc.origin(loc, self.origin.cue) for name, loc in values.items()}
-        paths = {name: self.doc.path(loc) for name, loc in values.items()}
+        doc, label = self.doc, self.origin.cue
+        locs = values or {}
+        origins = _Located(locs, lambda loc: doc.origin(loc, label))
+        paths = _Located(locs, doc.path)
         self.res.sources[id(cue)] = CueSource(
             self.perf.name, self.kind, self.doc.path(self.loc), self.origin, origins, paths,
             running, end,
@@ -929,8 +961,9 @@ class _Emitter:
 
     def limits_for(self, names: Sequence[str], cue: MoveCueModel | None) -> dict[str, Limits]:
         out: dict[str, Limits] = {}
+        regs = self.res.registers(self.profile)
         for name in names:
-            reg = next((r for r in self.profile.registers if r.name == name), None)
+            reg = regs.get(name)
             base = reg.limits if reg is not None else None
             over = cue.limits.get(name) if cue is not None else None
             if over is None:
