@@ -373,8 +373,6 @@ def _parse(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         nodes = _compose(text)
     except RecursionError:
         return doc, [_too_deep(text, file)]
-    except _TooDeep as exc:  # the 65th level comes before the 1001st
-        return doc, [_too_deep(text[:exc.end], file)]
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (1, 1)
@@ -388,6 +386,8 @@ def _parse(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         return doc, [Diagnostic("error", msg, Origin(file, line, col))]
     except yaml.YAMLError as exc:
         return doc, [Diagnostic("error", f"YAML: {printable(str(exc))}", Origin(file, 1, 1))]
+    if isinstance(nodes, int):  # past libyaml's 1000 levels: the 65th comes before
+        return doc, [_too_deep(text[:nodes], file)]
     if not nodes:
         return doc, [Diagnostic("error", "the file is empty", Origin(file, 1, 1))]
     if len(nodes) > 1:
@@ -425,27 +425,20 @@ if _C_LOADER is not None:
     _FAST_LOADER = _CLoader
 
 
-class _TooDeep(Exception):
-    """Nesting deeper than libyaml allows (1000 levels) ends before ``end`` (a text offset)."""
-
-    def __init__(self, end: int) -> None:
-        super().__init__(end)
-        self.end = end
-
-
-def _compose(text: str) -> list[Node]:
+def _compose(text: str) -> list[Node] | int:
     """The documents' nodes; a YAML error is raised by the pure-Python parser, whose messages
     (and marks) the diagnostics are written for, even when libyaml found it first.
 
-    Nesting past libyaml's own limit raises :class:`_TooDeep` instead: the pure-Python scanner
-    takes time quadratic in the nesting to say so (1.5 s for a line of a thousand ``[``)."""
+    Nesting past libyaml's own limit gives instead the text offset before which it is (the
+    pure-Python scanner takes time quadratic in the nesting to say so: 1.5 s of CPU for a line
+    of a thousand ``[``)."""
     if _FAST_LOADER is not None:
         try:
             return list(yaml.compose_all(text, Loader=_FAST_LOADER))
         except yaml.MarkedYAMLError as exc:
             mark = exc.problem_mark
             if mark is not None and "maximum nesting depth" in str(exc.problem):
-                raise _TooDeep(_offset(text, mark.line, mark.column)) from None
+                return _offset(text, mark.line, mark.column)
         except yaml.YAMLError:
             pass  # said again below, in the pure-Python parser's words
     return list(yaml.compose_all(text, Loader=_Loader))
