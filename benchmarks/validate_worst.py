@@ -89,8 +89,8 @@ def _dense(folder: Path, *, rate: float, regs: tuple[str, ...], duration: float,
     return path
 
 
-def dense_2mib(folder: Path) -> Path:
-    """The largest file of moves: 8 registers a move, 10 Minis, 50 Hz, within 2 MiB."""
+def dense_max(folder: Path) -> Path:
+    """The largest file of moves: 8 registers a move, 10 Minis, 50 Hz, within the size limit."""
     return _dense(folder, rate=50, regs=_MINI_REGS[:8], duration=0.5, performers=10,
                   size=MAX_ROUTINE_BYTES, cues=20_000)
 
@@ -177,8 +177,9 @@ def aliases_past(folder: Path) -> Path:
     return path
 
 
-def errors_2mib(folder: Path) -> Path:
-    """2 MiB of cues naming registers that do not exist (each a did-you-mean search)."""
+def errors_max(folder: Path) -> Path:
+    """A file of the largest size of cues naming registers that do not exist (each a
+    did-you-mean search)."""
     head = _header([(f"p{i}", "mini") for i in range(10)], 50)
     lines, size, n = [head], len(head), 0
     for i in range(10):
@@ -199,6 +200,36 @@ def errors_2mib(folder: Path) -> Path:
     path = folder / "routine.yaml"
     path.write_text("".join(out))
     return path
+
+
+def _parts(folder: Path, count: int, size: int) -> Path:
+    """A routine of 8 Minis, each including parts of dense moves (``count`` of ``size``)."""
+    for k in range(count):
+        lines, used, n = [], 0, 0
+        while True:
+            line = _move(n, _MINI_REGS[:8], 0.5 * n, 0.5)[2:]  # a part's cues start at "- "
+            if used + len(line) > size:
+                break
+            lines.append(line)
+            used += len(line)
+            n += 1
+        (folder / f"part{k}.yaml").write_text("".join(lines))
+    text = _header([(f"p{i}", "mini") for i in range(count)], 50)
+    for k in range(count):
+        text += f"  p{k}:\n    - {{include: part{k}.yaml}}\n"
+    path = folder / "routine.yaml"
+    path.write_text(text)
+    return path
+
+
+def parts_max(folder: Path) -> Path:
+    """A routine including 8 parts of dense moves, all together just within the size limit."""
+    return _parts(folder, 8, (MAX_ROUTINE_BYTES - 2000) // 8)
+
+
+def parts_past(folder: Path) -> Path:
+    """The same with larger parts: the routine and its parts pass the size limit together."""
+    return _parts(folder, 8, MAX_ROUTINE_BYTES // 6)
 
 
 def path_points(folder: Path) -> Path:
@@ -231,23 +262,25 @@ def over_samples(folder: Path) -> Path:
 
 
 CASES: tuple[Case, ...] = (
-    Case("dense_2mib", "2 MiB of 8-register moves, 10 Minis, 50 Hz", dense_2mib, None),
+    Case("dense_max", "1 MiB of 8-register moves, 10 Minis, 50 Hz", dense_max, None),
+    Case("parts_max", "8 included parts of moves, 1 MiB with the routine", parts_max, None),
     Case("dense_full_planner", "12-register moves at 200 Hz, 480,000 samples",
          dense_full_planner, None),
     Case("fades_1000hz", "minute-long fades of 4 LEDs on 64 Riders at 1000 Hz", fades_1000hz,
          "the link does not fit"),
-    Case("moves_1000hz", "64 Minis moving at 1000 Hz, 490,000 samples", moves_1000hz,
-         "the link does not fit"),
+    Case("moves_1000hz", "64 Minis moving at 1000 Hz, 490,000 samples", moves_1000hz, None),
     Case("untimed_repeats", "repeats to 19,600 moves without durations", untimed_repeats,
          None),
     Case("aliases_1m", "aliases expanding to 990,000 values", aliases_1m, "unknown field"),
-    Case("errors_2mib", "2 MiB of cues with unknown registers", errors_2mib, "no register"),
+    Case("errors_max", "1 MiB of cues with unknown registers", errors_max, "no register"),
     Case("path_points", "paths of 1000 points on 12 Minis (12,000 moves)", path_points, None),
     Case("repeat_past_cues", "nested repeats of rests past 20,000 cues", repeat_past_cues,
          "more than 20,000 cues"),
     Case("aliases_past", "aliases expanding past 1,000,000 values", aliases_past,
          "expand to more than"),
-    Case("over_size", "one byte past 2 MiB", over_size, "the limit is 2,097,152"),
+    Case("over_size", "one byte past 1 MiB", over_size, "the limit is 1,048,576"),
+    Case("parts_past", "8 parts passing 1 MiB with the routine", parts_past,
+         "pass 1,048,576 bytes together"),
     Case("over_samples", "one move past 500,000 samples", over_samples,
          "more than 500,000 trajectory"),
 )

@@ -24,12 +24,13 @@ __all__ = [
     "read_text_file",
 ]
 
-#: A routine or an included part: the largest bundled routine is some 10 KB, and ten minutes
-#: of ten robots moving without a pause (benchmarks/compile_speed.py) 290 KB. Reading and
-#: checking costs about 2 s of CPU per MiB of dense YAML on a small machine (and 150 MB of
-#: memory), so 2 MiB keeps validating any file to a few seconds; the YAML loader also caps
-#: what a file expands to.
-MAX_ROUTINE_BYTES = 2 * 1024 * 1024
+#: A routine, and all the parts it includes together: the largest bundled routine is some
+#: 10 KB, and ten minutes of ten robots moving without a pause (benchmarks/compile_speed.py)
+#: 290 KB. Validating a MiB of the densest YAML (moves of eight registers) costs about 2 s
+#: of CPU on this 2-CPU machine, all checks and the compiler's included
+#: (benchmarks/validate_worst.py): 1 MiB for the routine and 1 MiB for its parts keep
+#: validating anything under 5 s with a margin for a loaded machine (2 MiB took 3.9 s alone).
+MAX_ROUTINE_BYTES = 1024 * 1024
 #: A compiled schedule: an hour of five robots at 50 Hz is about 100 MB of JSON.
 MAX_SCHEDULE_BYTES = 256 * 1024 * 1024
 

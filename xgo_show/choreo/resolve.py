@@ -63,7 +63,7 @@ from xgo_show.choreo.validation import Suggestions, validate
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.errors import ProfileError, ValueRangeError
 from xgo_show.families import get_family
-from xgo_show.files import file_problem
+from xgo_show.files import MAX_ROUTINE_BYTES, file_problem
 from xgo_show.limits import MAX_PERFORMERS, MAX_SHOW_SECONDS
 from xgo_show.profiles import Encoding, Limits, Profile, Register, get_profile
 from xgo_show.profiles.xarm import degrees_to_position
@@ -216,6 +216,7 @@ class _Resolver:
         self.expanded = 0  # values of the blocks played, parameters filled in, at each play
         self.played: set[tuple[str, str]] = set()  # (file, phrase) actually played
         self.by_name: dict[int, dict[str, Register]] = {}  # id(profile) -> its registers
+        self.read_bytes = _size(doc.file)  # of the routine and the parts read so far
 
     def registers(self, profile: Profile) -> dict[str, Register]:
         """The profile's registers by name (looked up for every value of the show)."""
@@ -753,6 +754,14 @@ class _Resolver:
         text = read_text(path)
         if isinstance(text, tuple):
             return None, None, text[0]
+        if isinstance(text, str):
+            # Each part is read once, but a routine may include many: the routine and its
+            # parts share the one budget of a routine's size.
+            self.read_bytes += len(text.encode())
+            if self.read_bytes > MAX_ROUTINE_BYTES:
+                return None, None, (f"the routine and the parts it includes pass "
+                                    f"{MAX_ROUTINE_BYTES:,} bytes together: include fewer or "
+                                    "smaller parts")
         if isinstance(text, Diagnostic):  # a byte that is not UTF-8: at its place
             assert text.origin is not None
             self.diags.append(replace(text, origin=replace(text.origin, file=shown)))
@@ -773,6 +782,14 @@ class _Resolver:
         if errors:
             return None, None, f"it has {len(errors)} error(s)"
         return pdoc, model, ""
+
+
+def _size(file: str) -> int:
+    """Bytes of the file a document was read from (0: one built in memory)."""
+    try:
+        return os.stat(file).st_size
+    except (OSError, ValueError):
+        return 0
 
 
 def _values(data: object) -> int:
