@@ -55,8 +55,7 @@ def test_a_relay_that_comes_back_is_not_restarted_mid_show(
 ) -> None:
     from xgo_show.relay.client import list_relays
 
-    left = relays.start("left", {"rex": "mini"})
-    right = relays.start("right", {"lola": "lite"})
+    left, right = relays.start_many({"left": {"rex": "mini"}, "right": {"lola": "lite"}})
     watch = conductor_session(left)  # only looks: lists the relays
     first = {r["relay"]: r for r in list_relays(watch, timeout=2.0)}["left"]["instance"]
     show = dataclasses.replace(walk(4.0, rex="mini", lola="lite"), on_failure="continue")

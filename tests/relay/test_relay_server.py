@@ -20,8 +20,8 @@ LEAD = 0.3  # seconds between the start command and the start
 def test_a_two_relay_show_arrives_complete_at_every_simulator(
     relays, conductor_session, walk, as_upload, until
 ) -> None:
-    left = relays.start("left", {"rex": "mini"})
-    right = relays.start("right", {"lola": "lite", "rita": "rider"})
+    left, right = relays.start_many({"left": {"rex": "mini"},
+                                     "right": {"lola": "lite", "rita": "rider"}})
     session = conductor_session(left, right)
     show = walk(0.6, rex="mini", lola="lite", rita="rider")
     clients = []

@@ -56,8 +56,7 @@ def relayed() -> Iterator[None]:
 def test_pause_resume_and_seek_act_at_the_same_show_time_on_every_host(
     relays, until, relayed: None
 ) -> None:
-    left = relays.start("left", {"rex": "mini"})
-    right = relays.start("right", {"lola": "lite"})
+    left, right = relays.start_many({"left": {"rex": "mini"}, "right": {"lola": "lite"}})
     hosts = ((left, "rex"), (right, "lola"))
     show = numbered(rex="mini", lola="lite")
     index = {

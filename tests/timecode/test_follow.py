@@ -22,7 +22,7 @@ performers: {rex: {model: mini}}
 tracks:
   rex:
     - {move: {body_z: 90}, at: '1.1', beats: 2}
-    - {move: {body_z: 100}, at: '2.1', beats: 2}
+    - {move: {body_z: 100}, at: '1.3', beats: 2}
 """
 
 
@@ -69,8 +69,8 @@ def test_the_desk_starts_pauses_and_resumes_the_show(tmp_path: Path) -> None:
     finally:
         proc.kill()
         proc.wait()
-    # 3 s of show + the 1 s pause (+ start-up and the final report's margin)
-    assert 3.8 < elapsed < 7.0
+    # 2 s of show + the 1 s pause (+ start-up and the final report's margin)
+    assert 2.8 < elapsed < 6.0
 
 
 def test_follow_options_are_checked(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
