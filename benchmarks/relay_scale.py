@@ -27,6 +27,7 @@ came too late, or any other error). Prints figures only. Usage::
 from __future__ import annotations
 
 import argparse
+import importlib
 import math
 import os
 import select
@@ -115,7 +116,10 @@ def naive_conductor(argv: list[str]) -> int:
     from xgo_show.cli.main import main
     from xgo_show.errors import NetworkError
     from xgo_show.relay import performer as rp
-    from xgo_show.runtime import launch, preflight
+    from xgo_show.runtime import launch
+
+    # The module, not the package's attribute of that name (the preflight function).
+    preflight = importlib.import_module("xgo_show.runtime.preflight")
 
     def one_by_one(fn: Any, items: Any, **_: Any) -> list[Any]:
         return [fn(item) for item in items]
