@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -11,7 +13,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+import zenoh
 
+from tests.children import exited, first_answer
+from tests.loopback import client_config, free_port
 from xgo_show.choreo import load_show
 from xgo_show.compiler import compile_show
 from xgo_show.compiler.schedule import Schedule
@@ -57,6 +62,38 @@ def status_or_none(client: ControlClient) -> dict[str, Any] | None:
         return client.status()
     except ControlFailed:
         return None
+
+
+@contextmanager
+def serve_process(show: Path, ns: str) -> Iterator[tuple[subprocess.Popen[str], str, list[str]]]:
+    """An ``xgo-show serve --sim`` process with ``show`` loaded, on an endpoint of its own in
+    namespace ``ns``: the process, its endpoint, and (once it has stopped) its output in a
+    one-item list. It must stop cleanly when terminated."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "xgo_show", "serve", "--sim", "--load", str(show),
+         "--listen", endpoint, "--namespace", ns],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )
+    output: list[str] = []
+    try:
+        yield proc, endpoint, output
+    finally:
+        proc.terminate()
+        output.append(exited(proc, 10))
+        assert proc.returncode == 0, output[0]
+
+
+@contextmanager
+def control_session(proc: subprocess.Popen[str], endpoint: str, ns: str) -> Iterator[zenoh.Session]:
+    """A client session to the serve process at ``endpoint``, open once the server answers a
+    status query (the handshake: a query answered means the server is up)."""
+    s = zenoh.open(client_config(endpoint))
+    try:
+        first_answer(lambda: status_or_none(ControlClient(s, ns, timeout=1.0)), proc)
+        yield s
+    finally:
+        s.close()
 
 
 @pytest.fixture(scope="session")

@@ -23,9 +23,8 @@ import jsonschema
 import pytest
 import zenoh
 
-from tests.children import exited, first_answer
-from tests.control.conftest import status_or_none
-from tests.loopback import client_config, free_port
+from tests.control.conftest import control_session
+from tests.control.conftest import serve_process as serve_process_of
 from xgo_show.control.client import ControlClient, ControlFailed
 from xgo_show.control.keys import control_key, event_key, trigger_key
 from xgo_show.control.schemas import definition
@@ -38,20 +37,9 @@ NS = f"test-serve-{os.getpid()}"
 def serve_process(triggered_path: Path) -> Iterator[tuple[subprocess.Popen[str], str]]:
     """A serve process with simulated robots and the short triggered show loaded, and its
     endpoint."""
-    show = triggered_path
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "xgo_show", "serve", "--sim", "--load",
-         str(show), "--listen", endpoint, "--namespace", NS],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )
-    try:
+    with serve_process_of(triggered_path, NS) as (proc, endpoint, output):
         yield proc, endpoint
-    finally:
-        proc.terminate()
-        out = exited(proc, 10)
-        assert proc.returncode == 0, out
-        assert "serve stopped" in out
+    assert "serve stopped" in output[0]
 
 
 @pytest.fixture(scope="module")
@@ -62,14 +50,8 @@ def server(serve_process: tuple[subprocess.Popen[str], str]) -> str:
 
 @pytest.fixture(scope="module")
 def session(serve_process: tuple[subprocess.Popen[str], str]) -> Iterator[zenoh.Session]:
-    proc, endpoint = serve_process
-    s = zenoh.open(client_config(endpoint))
-    try:
-        # the handshake: a query answered means the server is up
-        first_answer(lambda: status_or_none(ControlClient(s, NS, timeout=1.0)), proc)
+    with control_session(*serve_process, NS) as s:
         yield s
-    finally:
-        s.close()
 
 
 @functools.cache

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 import subprocess
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -24,9 +23,7 @@ import zenoh
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from tests.children import exited, first_answer
-from tests.control.conftest import status_or_none
-from tests.loopback import client_config, free_port
+from tests.control.conftest import control_session, serve_process
 from xgo_show.control.client import ControlClient
 from xgo_show.control.keys import event_key, trigger_key
 from xgo_show.control.server import _Tally, _trigger_request
@@ -39,29 +36,14 @@ DIRECTOR = "the show waits for 'go' (section 'b')"  # the director's refusal whi
 
 @pytest.fixture(scope="module")
 def serve(triggered_path: Path) -> Iterator[tuple[subprocess.Popen[str], str]]:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "xgo_show", "serve", "--sim", "--load", str(triggered_path),
-         "--listen", endpoint, "--namespace", NS],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-    )
-    try:
+    with serve_process(triggered_path, NS) as (proc, endpoint, _):
         yield proc, endpoint
-    finally:
-        proc.terminate()
-        out = exited(proc, 10)
-        assert proc.returncode == 0, out
 
 
 @pytest.fixture(scope="module")
 def session(serve: tuple[subprocess.Popen[str], str]) -> Iterator[zenoh.Session]:
-    proc, endpoint = serve
-    s = zenoh.open(client_config(endpoint))
-    try:
-        first_answer(lambda: status_or_none(ControlClient(s, NS, timeout=1.0)), proc)
+    with control_session(*serve, NS) as s:
         yield s
-    finally:
-        s.close()
 
 
 @pytest.fixture(scope="module")
