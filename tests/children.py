@@ -8,6 +8,7 @@ sets PYTHONFAULTHANDLER) prints every thread's stack before it dies.
 
 from __future__ import annotations
 
+import re
 import signal
 import subprocess
 import time
@@ -35,6 +36,24 @@ def first_answer(
             raise AssertionError(f"{_name(proc)} never answered in {timeout:g} s")
         time.sleep(ASK_PAUSE)
     return answer
+
+
+def read_until(proc: subprocess.Popen[str], pattern: str, seen: list[str] | None = None,
+               timeout: float = 20.0) -> str:
+    """The first line of ``proc``'s output matching ``pattern`` (a regex); the lines read go
+    to ``seen`` too. Fails with all of them if the output ends or ``timeout`` passes first
+    (checked between lines)."""
+    assert proc.stdout is not None
+    lines = seen if seen is not None else []
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        line = proc.stdout.readline()
+        if not line:
+            break
+        lines.append(line)
+        if re.search(pattern, line):
+            return line
+    raise AssertionError(f"no line matching {pattern!r} in:\n{''.join(lines)}")
 
 
 def exited(proc: subprocess.Popen[str], timeout: float = 20.0) -> str:

@@ -13,22 +13,9 @@ from pathlib import Path
 import pytest
 from pythonosc.udp_client import SimpleUDPClient
 
+from tests.children import read_until
 from tests.control.conftest import ROUTINE
 from xgo_show.cli.main import main
-
-
-def _read_until(proc: subprocess.Popen[str], pattern: str, seen: list[str],
-                timeout: float = 20.0) -> str:
-    assert proc.stdout is not None
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        seen.append(line)
-        if re.search(pattern, line):
-            return line
-    raise AssertionError(f"no line matching {pattern!r} in:\n{''.join(seen)}")
 
 
 def test_the_desk_steers_a_triggered_show_and_its_waits_are_released_by_triggers(
@@ -47,11 +34,11 @@ def test_the_desk_steers_a_triggered_show_and_its_waits_are_released_by_triggers
     )
     seen: list[str] = []
     try:
-        line = _read_until(proc, r"listening for OSC cues on 127\.0\.0\.1:\d+", seen)
+        line = read_until(proc, r"listening for OSC cues on 127\.0\.0\.1:\d+", seen)
         port = int(re.search(r":(\d+) ", line).group(1))  # type: ignore[union-attr]
         desk = SimpleUDPClient("127.0.0.1", port)
         desk.send_message("/go", [])
-        _read_until(proc, r"running 'Triggered test'", seen)
+        read_until(proc, r"running 'Triggered test'", seen)
         started = time.monotonic()  # the show starts 0.1 s after /go: about now
         time.sleep(0.2)
         desk.send_message("/pause", [])  # in section a, far from b's wait
@@ -62,13 +49,13 @@ def test_the_desk_steers_a_triggered_show_and_its_waits_are_released_by_triggers
         # desk in the middle of it must not release the wait.
         time.sleep(max(0.0, started + 1.7 - time.monotonic()))
         desk.send_message("/resume", [])
-        refused = _read_until(proc, r"^osc: /resume refused", seen)
+        refused = read_until(proc, r"^osc: /resume refused", seen)
         assert "the show waits for trigger 'go' (section 'b'): fire it, or seek" in refused
-        go = _read_until(proc, r"^trigger 'go' at", seen)
+        go = read_until(proc, r"^trigger 'go' at", seen)
         assert "released section 'b'" in go  # the show was still holding when 'go' came
-        encore = _read_until(proc, r"^trigger 'encore' at", seen)
+        encore = read_until(proc, r"^trigger 'encore' at", seen)
         assert "released section 'c'" in encore
-        _read_until(proc, r"^show completed", seen)
+        read_until(proc, r"^show completed", seen)
         elapsed = time.monotonic() - started
         assert proc.wait(10) == 0
     finally:

@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 from pythonosc.udp_client import SimpleUDPClient
 
+from tests.children import read_until
 from xgo_show.cli.main import main
 from xgo_show.timecode.follow import parse_timecode
 
@@ -26,20 +27,6 @@ tracks:
 """
 
 
-def _read_until(proc: subprocess.Popen[str], pattern: str, timeout: float = 20.0) -> str:
-    assert proc.stdout is not None
-    deadline = time.monotonic() + timeout
-    seen = []
-    while time.monotonic() < deadline:
-        line = proc.stdout.readline()
-        if not line:
-            break
-        seen.append(line)
-        if re.search(pattern, line):
-            return line
-    raise AssertionError(f"no line matching {pattern!r} in:\n{''.join(seen)}")
-
-
 def test_the_desk_starts_pauses_and_resumes_the_show(tmp_path: Path) -> None:
     show = tmp_path / "cued.yaml"
     show.write_text(ROUTINE, encoding="utf-8")
@@ -49,21 +36,21 @@ def test_the_desk_starts_pauses_and_resumes_the_show(tmp_path: Path) -> None:
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )
     try:
-        line = _read_until(proc, r"listening for OSC cues on 127\.0\.0\.1:\d+")
+        line = read_until(proc, r"listening for OSC cues on 127\.0\.0\.1:\d+")
         port = int(re.search(r":(\d+) ", line).group(1))  # type: ignore[union-attr]
         desk = SimpleUDPClient("127.0.0.1", port)
         desk.send_message("/seek", 1.0)  # before /go: said and ignored
-        _read_until(proc, r"osc: /seek before /go: ignored")
+        read_until(proc, r"osc: /seek before /go: ignored")
         started = time.monotonic()
         desk.send_message("/go", [])
-        _read_until(proc, r"running 'cued'")
+        read_until(proc, r"running 'cued'")
         time.sleep(0.5)
         desk.send_message("/pause", [])
         time.sleep(1.0)
         desk.send_message("/jump", [])
-        _read_until(proc, r"osc: unknown OSC address '/jump'")
+        read_until(proc, r"osc: unknown OSC address '/jump'")
         desk.send_message("/resume", [])
-        _read_until(proc, r"^show completed")
+        read_until(proc, r"^show completed")
         elapsed = time.monotonic() - started
         assert proc.wait(10) == 0
     finally:
