@@ -117,6 +117,20 @@ def test_a_full_backlog_drops_the_oldest_frames_never_a_state_change_or_a_fault(
     assert rows[-1][0] == "f" and rows[-1][5] == 2e6
 
 
+def test_a_full_backlog_drops_telemetry_too_the_oldest_first() -> None:
+    bus = EventBus()
+    collector = EventCollector(bus)
+    bus.publish(StateChanged(0.0, "rex", ExecutorState.RUNNING, 0.0))
+    bus.publish(TelemetryRead(0.5, "rex", "battery", 80.0))
+    for i in range(BACKLOG - 2):
+        bus.publish(frame(1.0 + i))
+    bus.publish(frame(1e6))
+    assert collector.dropped == 1
+    first = collector.drain()
+    assert [row[0] for row in first[:2]] == ["s", "f"]  # the telemetry row went, not a frame
+    assert first[1][5] == 1.0
+
+
 def test_a_backlog_of_state_changes_only_keeps_growing() -> None:
     # Nothing droppable: state changes and faults are all kept (a few per show in practice).
     bus = EventBus()
@@ -149,6 +163,9 @@ GOOD: list[object] = ["t", "rex", "battery", 50.0, 1.0]
         ["x", "rex", "fault", "soon"],  # not a time
         ["t", "rex", "battery", "full", 1.0],  # not a value
         ["q", "rex", "battery", 50.0, 1.0],  # no such kind
+        ["q", "rex", "paused", 1.0, 1.0],  # no such kind, a state change's fields
+        ["q", "rex", "frame", 1, 1.0, 1.0, "55", "", 1.0, 1.0],  # no such kind, a frame's
+        ["t", "rex", "frame", 1, 1.0, 1.0, "55", "", 1.0, 1.0],  # a frame's fields
         ["t", "nobody", "battery", 50.0, 1.0],  # not a robot of this show
         ["t"],  # no performer
     ],
