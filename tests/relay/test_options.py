@@ -66,6 +66,26 @@ def test_the_command_line_sets_the_policy_the_watchdog_and_the_session() -> None
         namespace="stage/a")
 
 
+def test_stop_can_be_asked_for_explicitly() -> None:
+    assert parse("--link-loss", "stop", "--link-loss", "continue").link_loss == "continue"
+    assert parse("--link-loss", "continue", "--link-loss", "stop").link_loss == "stop"
+
+
+def test_the_help_has_a_relay_section_that_says_what_each_option_does(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("COLUMNS", "300")  # no line breaks inside a hyphenated word
+    parser = argparse.ArgumentParser(prog="xgo-show run")
+    add_conductor_arguments(parser)
+    text = " ".join(parser.format_help().split())
+    assert "relays (performers mapped to zenoh:RELAY/ROBOT): --link-loss {stop,continue} " in text
+    assert ("{stop,continue} what a relay does when it loses this conductor: safe-stop its "
+            "robots (default) or finish the uploaded show on its own --watchdog-ms MS "
+            "silence after which a relay and this conductor give each other up (default 500)"
+            ) in text
+    assert "--connect ENDPOINT" in text  # and the Zenoh session's options
+
+
 def test_an_unknown_link_loss_policy_is_refused_by_the_parser(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
