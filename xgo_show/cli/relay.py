@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import re
 import select
 import signal
 import socket
@@ -18,6 +17,7 @@ import time
 from types import FrameType
 from typing import Any
 
+from xgo_show.net.keys import relay_name_chunk
 from xgo_show.net.session import add_session_arguments, open_session, session_options
 from xgo_show.net.testhooks import clock_from_env, delay_from_env, trace_from_env
 from xgo_show.relay.robots import close_robots, open_robots, parse_pairs
@@ -34,7 +34,7 @@ PARENT_DONE = "conductor done"
 def default_name() -> str:
     """This host's short name, made a valid relay name."""
     host = socket.gethostname().split(".")[0]
-    return re.sub(r"[^A-Za-z0-9_.-]", "-", host)[:64] or "relay"
+    return relay_name_chunk(host)[:64] or "relay"
 
 
 def add_parser(sub: Any) -> None:

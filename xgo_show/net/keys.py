@@ -26,6 +26,7 @@ __all__ = [
     "is_relay_url",
     "parse_relay_url",
     "relay_key",
+    "relay_name_chunk",
     "relay_wildcard",
 ]
 
@@ -33,6 +34,12 @@ __all__ = [
 SCHEME = "zenoh"
 
 _NAME_RE = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
+
+
+def relay_name_chunk(text: str) -> str:
+    """``text`` with each character a relay name cannot hold (anything but ASCII letters,
+    digits, ``_``, ``-`` and ``.``) made a ``-``: a host name made part of a relay name."""
+    return re.sub(r"[^A-Za-z0-9_.-]", "-", text)
 
 
 def check_relay_name(name: str) -> str:

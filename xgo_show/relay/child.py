@@ -31,6 +31,7 @@ from collections.abc import Mapping
 
 from xgo_show.closing import Closing
 from xgo_show.errors import SetupError
+from xgo_show.net.keys import relay_name_chunk
 
 __all__ = ["READY_TIMEOUT", "RelayChild"]
 
@@ -64,8 +65,8 @@ class RelayChild(Closing):
         realtime: str | None = None,
         log: str | None = None,
     ) -> None:
-        self.name = f"local-{socket.gethostname().split('.')[0][:40]}-{os.getpid()}"
-        self.name = "".join(c if c.isalnum() or c in "_.-" else "-" for c in self.name)
+        host = relay_name_chunk(socket.gethostname().split(".")[0][:40])
+        self.name = f"local-{host}-{os.getpid()}"
         self.endpoint = f"tcp/127.0.0.1:{_free_loopback_port()}"
         cmd = [sys.executable, "-m", "xgo_show", "relay", "--name", self.name]
         for name, url in ports.items():
