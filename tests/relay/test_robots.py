@@ -8,6 +8,7 @@ import ctypes
 import os
 import signal
 import sys
+import time
 from collections.abc import Iterator
 
 import pytest
@@ -162,10 +163,63 @@ def test_close_robots_closes_every_port(owned: dict[str, OwnedRobot]) -> None:
 # --- a robot's clients, refresh, stop and description --------------------------------------
 
 def test_the_client_matches_the_family_and_the_timeout(owned: dict[str, OwnedRobot]) -> None:
-    arm, rex = owned["arm"].client(), owned["rex"].client(timeout=0.25)
+    arm, rex = owned["arm"].client(timeout=0.25), owned["rex"].client(timeout=0.125)
     assert isinstance(arm, XarmClient) and arm.transport is owned["arm"].transport
     assert isinstance(rex, XgoClient) and rex.transport is owned["rex"].transport
-    assert rex.timeout == 0.25 and arm.timeout == 0.5
+    assert (arm.profile, rex.profile) == (get_profile("xarm"), get_profile("mini"))
+    assert (arm.timeout, rex.timeout) == (0.25, 0.125)
+    assert owned["arm"].client().timeout == owned["rita"].client().timeout == 0.5
+
+
+class Silent(Recording):
+    """A robot that never answers: each read waits its whole timeout, which is kept."""
+
+    def __init__(self, inner: Transport) -> None:
+        super().__init__(inner)
+        self.waits: list[float] = []
+
+    def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+        if timeout > 0:
+            self.waits.append(timeout)
+            time.sleep(timeout)
+        return b""
+
+
+@pytest.mark.parametrize("name", ["rex", "arm"])
+def test_a_refresh_waits_for_a_silent_robot_no_longer_than_its_timeout(
+    owned: dict[str, OwnedRobot], name: str,
+) -> None:
+    robot = owned[name]
+    silent = Silent(robot.transport)
+    robot.transport = silent
+    robot.refresh(timeout=0.05)
+    assert silent.waits and max(silent.waits) <= 0.05
+    assert len(robot.problems) == 1
+    silent.waits.clear()
+    robot.refresh()  # by default 0.3 s: the relay's description stays quick
+    assert 0.25 < max(silent.waits) <= 0.3
+
+
+def test_open_robots_gives_each_robot_the_timeout_to_answer(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import xgo_show.relay.robots as robots_module
+
+    asked: list[tuple[str, float]] = []
+    real = robots_module.open_client
+
+    def spying(url: str, model: str | None = None, *, timeout: float) -> object:
+        asked.append(("open", timeout))
+        return real(url, model, timeout=timeout)
+
+    def refresh(self: OwnedRobot, timeout: float = 99.0) -> None:
+        asked.append(("refresh", timeout))
+
+    monkeypatch.setattr(robots_module, "open_client", spying)
+    monkeypatch.setattr(OwnedRobot, "refresh", refresh)
+    close_robots(open_robots({"rex": "sim:mini"}, {}))
+    close_robots(open_robots({"rex": "sim:mini"}, {}, timeout=0.125))
+    assert asked == [("open", 0.5), ("refresh", 0.5), ("open", 0.125), ("refresh", 0.125)]
 
 
 def test_a_refresh_reads_the_battery_again_and_forgets_old_problems(
@@ -247,6 +301,30 @@ def test_watching_the_parent_asks_the_kernel_for_sigterm(no_death_signal: None) 
     assert _death_signal() == 0
     assert watch_parent(os.getppid()) is True
     assert _death_signal() == signal.SIGTERM
+
+
+def test_elsewhere_no_signal_is_promised(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Not Linux: the relay polls getppid() and its watchdog notices the silent conductor.
+    from types import SimpleNamespace
+
+    import xgo_show.relay.parent as parent_module
+
+    monkeypatch.setattr(parent_module, "sys", SimpleNamespace(platform="darwin"))
+    assert watch_parent(os.getppid()) is False
+    assert _death_signal() == 0
+
+
+@pytest.mark.parametrize("error", [OSError("no libc"), AttributeError("no prctl")])
+def test_without_prctl_no_signal_is_promised(
+    monkeypatch: pytest.MonkeyPatch, error: Exception
+) -> None:
+    import xgo_show.relay.parent as parent_module
+
+    def no_libc(*args: object, **kwargs: object) -> object:
+        raise error
+
+    monkeypatch.setattr(parent_module.ctypes, "CDLL", no_libc)
+    assert watch_parent(os.getppid()) is False
 
 
 def test_a_parent_that_is_gone_already_is_a_setup_error(no_death_signal: None) -> None:
