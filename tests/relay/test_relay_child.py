@@ -53,6 +53,7 @@ def test_the_child_is_a_relay_for_the_ports_listening_on_a_free_loopback_port() 
 def test_the_endpoints_port_is_free() -> None:
     child = RelayChild({}, {}, namespace="xgo-show")
     port = int(child.endpoint.rpartition(":")[2])
+    assert port >= 1024  # one the system hands out, never a privileged one
     with socket.socket() as sock:
         sock.bind(("127.0.0.1", port))  # nothing holds it
 
@@ -127,6 +128,35 @@ def test_a_child_that_fails_to_start_is_reported_by_its_last_error_line() -> Non
         started(code)
     assert str(info.value) == (
         "the process that owns the local ports did not start: rex (/dev/ttyUSB0): no such port")
+
+
+def test_a_one_line_error_is_reported_whole_and_the_child_is_forgotten() -> None:
+    child = RelayChild({"rex": "sim:mini"}, {"rex": "mini"}, namespace="xgo-show")
+    child.cmd = script("import sys; sys.stderr.write('xgo-show: error: port busy'); "
+                       "sys.exit(2)")
+    with pytest.raises(SetupError) as info:
+        child.start()
+    assert str(info.value) == "the process that owns the local ports did not start: port busy"
+    assert child.proc is None
+    child.close()  # nothing to close
+
+
+def test_the_last_of_several_error_lines_is_the_reason() -> None:
+    code = ("import sys; [print(line, file=sys.stderr) for line in "
+            "('a warning', 'another', 'xgo-show: error: the last')]; sys.exit(2)")
+    with pytest.raises(SetupError, match="did not start: the last$"):
+        started(code)
+
+
+def test_bytes_that_are_not_utf8_do_not_hide_the_answer() -> None:
+    child = started("import sys; sys.stdout.buffer.write(b'relay \\xff ready\\n'); "
+                    "sys.stdout.flush(); sys.stdin.readline()")
+    child.close()
+    code = ("import sys; sys.stderr.buffer.write(b'xgo-show: error: port \\xff busy\\n'); "
+            "sys.exit(2)")
+    with pytest.raises(SetupError) as info:
+        started(code)
+    assert str(info.value).endswith("did not start: port \ufffd busy")
 
 
 def test_a_child_that_says_something_else_first_is_not_started() -> None:
