@@ -15,11 +15,12 @@ from collections.abc import Container, Mapping, Sequence
 from operator import ne
 from typing import NamedTuple
 
-from xgo_show.compiler.frames import PlannedFrame, Write
+from xgo_show.compiler.frames import BYTES, PlannedFrame, Write
 from xgo_show.compiler.layout import Layout
-from xgo_show.compiler.merge import Merger, by_address, by_order, wire_bytes
+from xgo_show.compiler.merge import Merger, by_address, by_order
 from xgo_show.compiler.sources import Entry, Samples, Source, changes, entry_writes
 from xgo_show.profiles.model import Link, Register
+from xgo_show.wire.xgo import TAIL
 
 __all__ = ["Piece", "SampleFrame", "TickFrames", "frames_from_ticks", "sample_plan"]
 
@@ -126,7 +127,8 @@ class TickFrames:
         self.frames: list[PlannedFrame] = []
         self.samples = 0  # frames holding only samples
         self.live: list[Source] = []
-        self.shapes: dict[tuple[Source, ...], object] = {}  # see sources_tick
+        self.shapes: dict[tuple[Source, ...], int] = {}  # see sources_tick
+        self.shape_numbers: dict[object, int] = {}
         # Frame plans of ticks only sources write, by (registers, changed registers): see build
         self.sample_plans: dict[object, tuple[SampleFrame, ...]] = {}
 
@@ -176,28 +178,42 @@ class TickFrames:
     def sources_tick(self, t_us: int, chunks: Samples) -> None:
         """A tick several sources write, none the same register."""
         sources = [src for src, _ in chunks]
-        if self.live != sources and self.live:
-            self.flush(sources)
-        masks = []
-        fresh = False
-        for src, sample in chunks:
-            prev = src.prev
-            if prev is None:
-                masks.append(self._fresh(src, sample))
-                fresh = True
-            else:
-                masks.append(changes(src, sample, prev))
+        live = self.live
+        masks: list[tuple[bool, ...]] = []
+        if live == sources:
+            # The same sources as the tick before (a move and its fades, tick after tick):
+            # all live, each compared with its own previous sample.
+            for src, sample in chunks:
+                prev = src.prev
+                assert prev is not None
+                masks.append(tuple(map(ne, sample, prev)) if src.unit
+                             else (sample != prev,) if src.one else changes(src, sample, prev))
                 src.prev = sample
-        if fresh:
-            self._known_changed()
-        # The plan depends on the sources' registers and the order of their cues only.
+        else:
+            if live:
+                self.flush(sources)
+            fresh = False
+            for src, sample in chunks:
+                prev = src.prev
+                if prev is None:
+                    masks.append(self._fresh(src, sample))
+                    fresh = True
+                else:
+                    masks.append(changes(src, sample, prev))
+                    src.prev = sample
+            if fresh:
+                self._known_changed()
+        # The plan depends on the sources' registers and the order of their cues only: one
+        # small number per such shape (cheaper to hash, tick after tick, than the shape).
         group = tuple(sources)
         shape = self.shapes.get(group)
         if shape is None:
-            shape = self.shapes[group] = (
+            value = (
                 tuple([src.addresses for src in sources]),
                 tuple(sorted(range(len(sources)), key=lambda i: sources[i].order)),
             )
+            shape = self.shapes[group] = self.shape_numbers.setdefault(
+                value, len(self.shape_numbers))
         self.build(t_us, (shape, tuple(masks)), chunks, masks, sources)
 
     def build(
@@ -213,12 +229,11 @@ class TickFrames:
         plan = plans.get(key)
         if plan is None:
             plan = plans[key] = sample_plan(self.merger, chunks, masks, self.known)
-        append = self.frames.append
+        append, new = self.frames.append, tuple.__new__
         for f in plan:
             one = f.one
             if one is not None:
-                assert one.chunk is not None
-                data = chunks[one.chunk][1][one.begin:one.end]
+                data = chunks[one.chunk][1][one.begin:one.end]  # type: ignore[index]
             else:
                 known = self.known
                 data = b"".join([
@@ -228,10 +243,11 @@ class TickFrames:
                 for address in f.refills:  # re-sent: now it counts as sent too
                     self.sent[address] = known[address]
             lead = sources[f.lead]
-            append(PlannedFrame(
-                t_us, wire_bytes(f.prefix, f.check_base, data),
+            # PlannedFrame(...) and merge.wire_bytes inlined: once per frame of a long show
+            append(new(PlannedFrame, (
+                t_us, b"".join((f.prefix, data, BYTES[~(f.check_base + sum(data)) & 0xFF], TAIL)),
                 (), (), lead.origin, lead.order, True, False, 0.0,
-            ))
+            )))
         self.samples += len(plan)
 
     def writes_tick(self, t_us: int, bucket: list[Write], mixed: bool) -> None:
@@ -291,6 +307,7 @@ def frames_from_ticks(
     build = out.build
     # Held across the loop: TickFrames updates these in place.
     live, plans, append = out.live, out.sample_plans, out.frames.append
+    new = tuple.__new__  # PlannedFrame(...) without its Python-level __new__
     for t_us in sorted(ticks):
         entry = ticks[t_us]
         if details:
@@ -313,10 +330,12 @@ def frames_from_ticks(
             if plan is not None and len(plan) == 1 and (one := plan[0].one) is not None:
                 # build() for its commonest plan, inlined: one frame, one slice of the sample.
                 f = plan[0]
-                append(PlannedFrame(
-                    t_us, wire_bytes(f.prefix, f.check_base, sample[one.begin:one.end]),
+                data = sample[one.begin:one.end]
+                append(new(PlannedFrame, (
+                    t_us, b"".join((f.prefix, data, BYTES[~(f.check_base + sum(data)) & 0xFF],
+                                    TAIL)),
                     (), (), src.origin, src.order, True, False, 0.0,
-                ))
+                )))
                 out.samples += 1
             else:
                 build(t_us, key, ((src, sample),), (mask,), (src,))

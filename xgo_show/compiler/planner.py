@@ -122,6 +122,18 @@ def _limits_text(reg: Register, lim: Limits) -> str:
     )
 
 
+def _fade_colours(k: int, end: int, rate: float, t0: float, duration: float,
+                  start: tuple[int, int, int], delta: tuple[int, int, int]) -> list[bytes]:
+    """The colour of a fade at each tick from ``k`` to ``end`` (excluded), as bytes: the
+    arithmetic of :meth:`_Fade.colour_at`, one list comprehension a step."""
+    fracs = [(j / rate - t0) / duration for j in range(k, end)]
+    fracs = [f if 0.0 <= f <= 1.0 else min(max(f, 0.0), 1.0) for f in fracs]
+    (r0, g0, b0), (dr, dg, db) = start, delta
+    return list(map(bytes, zip([round(r0 + dr * f) for f in fracs],
+                               [round(g0 + dg * f) for f in fracs],
+                               [round(b0 + db * f) for f in fracs], strict=True)))
+
+
 class XgoPlanner:
     """Walks one XGO performer's cues in order, keeping the commanded state as it goes."""
 
@@ -325,28 +337,42 @@ class XgoPlanner:
             step //= 2
             if round((end - step) * 1_000_000 / rate) >= stop_us and end - step >= k:
                 end -= step
-        sample = colour(k) if k < end else b""
-        while k < end:
-            t_us = round(k * 1_000_000 / rate)
-            if t_us in ticks:
-                emit(t_us, src, sample)
-            else:
-                ticks[t_us] = (src, sample)  # emit's common case, inlined
-            # colour(lo) == sample; hi is the stop or a tick of another colour, nxt its colour
-            lo, hi, step, nxt = k, k + 1, 1, b""
-            while hi < end and (nxt := colour(hi)) == sample:
-                lo, step = hi, step * 2
-                hi = lo + step
-            if hi >= end:
-                hi, nxt = end, b""
-            while hi - lo > 1:
-                mid = (lo + hi) // 2
-                there = colour(mid)
-                if there == sample:
-                    lo = mid
+        if (abs(dr) + abs(dg) + abs(db)) * 2 >= end - k:
+            # The colour changes about every tick (a short fade, or a wide one): every tick's
+            # colour at once, list by list, is cheaper than galloping over runs of one.
+            last = b""
+            colours = _fade_colours(k, end, rate, t0, duration, fade.start, (dr, dg, db))
+            for j, sample in zip(range(k, end), colours, strict=True):
+                if sample != last:
+                    last = sample
+                    t_us = round(j * 1_000_000 / rate)
+                    if t_us in ticks:
+                        emit(t_us, src, sample)
+                    else:
+                        ticks[t_us] = (src, sample)  # emit's common case, inlined
+        else:
+            sample = colour(k) if k < end else b""
+            while k < end:
+                t_us = round(k * 1_000_000 / rate)
+                if t_us in ticks:
+                    emit(t_us, src, sample)
                 else:
-                    hi, nxt = mid, there
-            k, sample = hi, nxt
+                    ticks[t_us] = (src, sample)  # emit's common case, inlined
+                # colour(lo) == sample; hi: the stop or a tick of another colour, nxt its colour
+                lo, hi, step, nxt = k, k + 1, 1, b""
+                while hi < end and (nxt := colour(hi)) == sample:
+                    lo, step = hi, step * 2
+                    hi = lo + step
+                if hi >= end:
+                    hi, nxt = end, b""
+                while hi - lo > 1:
+                    mid = (lo + hi) // 2
+                    there = colour(mid)
+                    if there == sample:
+                        lo = mid
+                    else:
+                        hi, nxt = mid, there
+                k, sample = hi, nxt
         if fade.cut is None:
             emit(stop_us, src, bytes(cue.to))
 
