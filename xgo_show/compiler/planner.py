@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_right
+from collections.abc import Callable
 from dataclasses import dataclass
+from itertools import repeat
 
 from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
 from xgo_show.compiler.fastpath import frames_from_ticks
@@ -120,6 +122,22 @@ def _limits_text(reg: Register, lim: Limits) -> str:
         f"velocity {lim.velocity:g} {u}/s, acceleration {lim.acceleration:g} {u}/s², "
         f"jerk {lim.jerk:g} {u}/s³"
     )
+
+
+def _tick_samples(at_time: Callable[[float], tuple[list[float], ...]], tables: list[list[float]],
+                  times: list[float]) -> list[bytes]:
+    """A trajectory's sample at each of ``times``: every DoF's byte, ``bisect_right`` of its
+    position over its table (see :class:`~xgo_show.compiler.bytetable.ByteTable`).
+
+    One ``at_time`` a tick in a comprehension, then per DoF one C-level map over its column of
+    positions: the compiler's hottest code (nearly every tick of a long show is a sample).
+    """
+    if not times:
+        return []
+    positions = [at_time(t)[0] for t in times]
+    columns = [map(bisect_right, repeat(table), column)
+               for table, column in zip(tables, zip(*positions, strict=True), strict=True)]
+    return list(map(bytes, zip(*columns, strict=True)))
 
 
 def _fade_colours(k: int, end: int, rate: float, t0: float, duration: float,
@@ -468,14 +486,20 @@ class XgoPlanner:
         src = Source(run.regs, origin, order)
         ticks = self.ticks
         emit, emit_sample = self._emit, self._emit_sample
-        # The hot loop of the compiler: the ticks before the end with every DoF sampled.
-        for k in range(k0, min(full, k_end - 1) + 1):
-            t_us = round(k * 1_000_000 / rate)  # tick_us(k, rate), inlined
-            sample = bytes(map(bisect_right, padded, at_time(max(k / rate - start, 0.0))[0]))
-            if t_us in ticks:
-                emit_sample(t_us, src, sample)
-            else:
-                ticks[t_us] = (src, sample)  # emit_sample's common case, inlined
+        # The hot loop of the compiler: the ticks before the end with every DoF sampled, all
+        # at once (a comprehension, then C-level maps: cheaper than a loop with statements).
+        ks = range(k0, min(full, k_end - 1) + 1)
+        times = [k / rate - start for k in ks]
+        for i, t in enumerate(times):  # max(t, 0.0): the first tick may sit a hair before
+            if t >= 0.0:
+                break
+            times[i] = 0.0
+        samples = _tick_samples(at_time, padded, times)
+        entries = dict(zip([round(k * 1_000_000 / rate) for k in ks],  # tick_us(k, rate)
+                           zip(repeat(src), samples, strict=False), strict=True))
+        for t_us in entries.keys() & ticks.keys():  # another cue's tick there already
+            emit_sample(t_us, src, entries.pop(t_us)[1])
+        ticks.update(entries)  # emit_sample's common case
         for k in range(max(k0, min(full, k_end - 1) + 1), last + 1):
             if k >= k_end:
                 pos, t_us = targets, end_us
