@@ -13,11 +13,11 @@ import pytest
 
 from xgo_show.choreo.sections import Section, Wait
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
-from xgo_show.diagnostics import Origin
 from xgo_show.control.director import TriggerRefused, WaitReleased, WaitStarted
 from xgo_show.control.protocol import PROTOCOL_VERSION
 from xgo_show.control.publisher import EventPublisher
 from xgo_show.control.status import robots_status
+from xgo_show.diagnostics import Origin
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.events import (
@@ -106,7 +106,8 @@ def sent_after(pub: EventPublisher, sink: Sink, n: int) -> list[dict[str, Any]]:
 def cue_frame(t: float, performer: str, cue: str | None, *, show_t: float = 1.0) -> FrameSent:
     origin = None if cue is None else Origin("show.yaml", 3, 5, cue)
     frame = ScheduledFrame(show_t, b"\x01", origin)
-    return FrameSent(t, performer, "frame", 0, t, b"\x01", "", show_t, show_t + 1e-7, frame)
+    actual = show_t + 0.25 + 2.4e-7  # published to the microsecond
+    return FrameSent(t, performer, "frame", 0, t, b"\x01", "", show_t, actual, frame)
 
 
 def test_each_state_event_is_published_with_its_fields(pub: EventPublisher, sink: Sink) -> None:
@@ -117,10 +118,10 @@ def test_each_state_event_is_published_with_its_fields(pub: EventPublisher, sink
         StateChanged(1.0, "rex", ExecutorState.RUNNING, 0.1234567),
         FaultRaised(1.1, "rex", "battery low"),
         SafeStopped(1.2, "rex", stopped),
-        ShowPaused(1.3, 2.0000004),
+        ShowPaused(1.3, 2.2500004),
         ShowResumed(1.4, 2.5000004),
         ShowSought(1.5, 5.0, 5.0),
-        WaitStarted(1.6, "drop", "go", 4.0000004, 2.5),
+        WaitStarted(1.6, "drop", "go", 4.12345678, 2.5),
         WaitReleased(1.7, "drop", "go", "trigger", "continue"),
         ShowEnded(1.8, False, "fault: rex", {"rex": "battery low"}),
     ]
@@ -132,12 +133,12 @@ def test_each_state_event_is_published_with_its_fields(pub: EventPublisher, sink
         {"event": "fault", "robot": "rex", "reason": "battery low"},
         {"event": "state", "robot": "rex", "state": "safe_stopped", "ok": False,
          "reason": "SIGINT", "error": "port gone"},
-        {"event": "state", "state": "paused", "show_time": 2.0},
+        {"event": "state", "state": "paused", "show_time": 2.25},
         {"event": "state", "state": "playing", "show_time": 2.5},
         {"event": "state", "state": "seek", "show_time": 5.0, "bar": 3, "beat": 3.0,
          "section": "drop"},
         {"event": "wait", "state": "waiting", "section": "drop", "trigger": "go",
-         "show_time": 4.0, "timeout": 2.5},
+         "show_time": 4.123457, "timeout": 2.5},
         {"event": "wait", "state": "released", "section": "drop", "trigger": "go",
          "how": "trigger", "goto": "continue"},
         {"event": "state", "state": "ended", "completed": False, "reason": "fault: rex",
@@ -180,10 +181,10 @@ def test_a_cue_is_published_when_it_changes_for_each_robot(
         on(event)
     on(FrameSent(1.5, "rex", "rest", None, None, b"\x02", "rest", None, 4.5))  # not scheduled
     assert sent_after(pub, sink, 4) == [
-        {"event": "cue", "robot": "rex", "cue": "wave", "show_time": 1.0},
-        {"event": "cue", "robot": "ivy", "cue": "wave", "show_time": 2.0},
-        {"event": "cue", "robot": "rex", "cue": "bow", "show_time": 3.0},
-        {"event": "cue", "robot": "rex", "cue": "wave", "show_time": 4.0},
+        {"event": "cue", "robot": "rex", "cue": "wave", "show_time": 1.25},
+        {"event": "cue", "robot": "ivy", "cue": "wave", "show_time": 2.25},
+        {"event": "cue", "robot": "rex", "cue": "bow", "show_time": 3.25},
+        {"event": "cue", "robot": "rex", "cue": "wave", "show_time": 4.25},
     ]
 
 
@@ -201,7 +202,7 @@ def test_a_new_show_starts_with_no_cues_and_no_readings(pub: EventPublisher, sin
 
 def progress_tick(t: float, show_time: float = 5.0) -> ProgressTick:
     rex = Progress("rex", ExecutorState.RUNNING, show_time, 10, 20, "wave", "pitch 6")
-    return ProgressTick(t, ShowProgress(show_time, 8.0, (rex,), {}))
+    return ProgressTick(t, ShowProgress(show_time, 8.12345678, (rex,), {}))
 
 
 def test_progress_and_readings_go_out_at_most_once_an_interval(
@@ -214,7 +215,7 @@ def test_progress_and_readings_go_out_at_most_once_an_interval(
     tick = progress_tick(1.0)
     on(tick)
     first = sent_after(pub, sink, 3)
-    assert first[0] == {"event": "progress", "duration": 8.0, "show_time": 5.0, "bar": 3,
+    assert first[0] == {"event": "progress", "duration": 8.123457, "show_time": 5.0, "bar": 3,
                         "beat": 3.0, "section": "drop",
                         "robots": robots_status(tick.progress, {})}
     assert first[0]["robots"]["rex"]["cue"] == "wave"
@@ -259,10 +260,14 @@ def test_refused_triggers_are_noisy_a_few_a_window_then_one_warning(
                          "message": "3 refused or malformed trigger(s) not published in the "
                          "last 1 s"}
     assert pub.suppressed == 3
-    # A new window: three more go out, no warning repeated.
+    # A new window: three more go out; its one left out is said when it ends, alone.
     assert [pub.publish_noisy("trigger", trigger=f"n{i}") for i in range(4)] == [
         True, True, True, False]
     assert pub.suppressed == 4
+    clock.advance(1.0)
+    events = sent_after(pub, sink, 8)
+    assert [e["event"] for e in events[4:]] == ["trigger"] * 3 + ["warning"]
+    assert events[7]["suppressed"] == 1
 
 
 def test_a_window_without_suppressed_events_ends_without_a_warning(
@@ -313,11 +318,12 @@ def test_a_full_queue_drops_the_oldest(clock: FakeClock) -> None:
 def test_a_put_that_fails_is_counted_and_the_next_goes_out(
     pub: EventPublisher, sink: Sink
 ) -> None:
-    sink.fail = 1
+    sink.fail = 2
     pub.publish("first")
     pub.publish("second")
-    assert [e["event"] for e in sent_after(pub, sink, 1)] == ["second"]
-    assert pub.dropped == 1
+    pub.publish("third")
+    assert [e["event"] for e in sent_after(pub, sink, 1)] == ["third"]
+    assert pub.dropped == 2
 
 
 def test_close_sends_what_is_queued_then_ends_the_thread(clock: FakeClock) -> None:
@@ -335,3 +341,55 @@ def test_close_sends_what_is_queued_then_ends_the_thread(clock: FakeClock) -> No
     pub.close()
     assert sent == ["a", "b", "c"]
     assert not pub._thread.is_alive()
+
+
+def test_the_defaults(clock: FakeClock) -> None:
+    """A queue of 1024 events, progress once a second, ten noisy events a second."""
+    gate = threading.Event()
+    sent: list[dict[str, Any]] = []
+
+    def slow(key: str, payload: dict[str, Any]) -> None:
+        gate.wait(5.0)
+        sent.append(payload)
+
+    pub = EventPublisher("stage", slow, clock=clock)
+    try:
+        pub.publish("hold")
+        until(lambda: not pub._queue)  # the thread holds it, blocked in put
+        for n in range(1024):
+            pub.publish("state", n=n)
+        assert pub.dropped == 0
+        pub.publish("state", n=1024)
+        assert pub.dropped == 1
+        assert [pub.publish_noisy("trigger") for _ in range(11)] == [True] * 10 + [False]
+        on = pub.listen(SCHEDULE)
+        on(progress_tick(1.0))
+        clock.advance(0.999)
+        on(progress_tick(1.0))
+        assert [p for _, p in pub._queue if p["event"] == "progress"].__len__() == 1
+        clock.advance(0.001)
+        on(progress_tick(1.0))
+        assert [p for _, p in pub._queue if p["event"] == "progress"].__len__() == 2
+        assert [pub.publish_noisy("trigger") for _ in range(10)] == [True] * 10
+    finally:
+        gate.set()
+        pub.close()
+
+
+def test_the_publisher_thread_is_a_named_daemon(pub: EventPublisher) -> None:
+    # Named for the thread-leak check; a daemon, so a publisher left open never keeps the
+    # process alive at exit.
+    threads = [t for t in threading.enumerate() if t is pub._thread]
+    assert [(t.name, t.daemon) for t in threads] == [("xgo-show events", True)]
+
+
+def test_close_waits_two_seconds_at_most_for_a_subscriber_that_hangs(clock: FakeClock
+                                                                     ) -> None:
+    hang = threading.Event()
+    pub = EventPublisher("stage", lambda key, payload: hang.wait(30), clock=clock)
+    pub.publish("stuck")
+    until(lambda: not pub._queue)
+    start = time.monotonic()
+    pub.close()
+    assert 1.9 < time.monotonic() - start < 2.9
+    hang.set()

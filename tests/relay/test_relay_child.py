@@ -144,7 +144,7 @@ def test_a_one_line_error_is_reported_whole_and_the_child_is_forgotten() -> None
 def test_the_last_of_several_error_lines_is_the_reason() -> None:
     code = ("import sys; [print(line, file=sys.stderr) for line in "
             "('a warning', 'another', 'xgo-show: error: the last')]; sys.exit(2)")
-    with pytest.raises(SetupError, match="did not start: the last$"):
+    with pytest.raises(SetupError, match=r"did not start: the last$"):
         started(code)
 
 
@@ -181,7 +181,7 @@ def test_a_child_that_never_answers_is_killed_after_the_ready_timeout(
 
     monkeypatch.setattr(subprocess, "Popen", spying)
     start = time.monotonic()
-    with pytest.raises(SetupError, match="did not start: no answer in time$"):
+    with pytest.raises(SetupError, match=r"did not start: no answer in time$"):
         started("import time; time.sleep(30)")
     assert time.monotonic() - start < 10
     assert spawned[0].returncode == -signal.SIGKILL
