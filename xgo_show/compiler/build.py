@@ -150,11 +150,11 @@ def _compile_track(
     labels = frame_labels(profile)
     frames = [
         ScheduledFrame(start_us / 1_000_000, f.data, f.origin, f.duration, labels)
-        for start_us, f in paced.frames
+        for start_us, f in zip(paced.starts, paced.sent, strict=True)
     ] if keep else []
     end = plan.end if show.end is None else show.end
-    if paced.frames:
-        end = max(end, paced.frames[-1].start_us / 1_000_000)
+    if paced.starts:
+        end = max(end, paced.starts[-1] / 1_000_000)
     performer = PerformerSchedule(
         name=track.performer, model=profile.model, link=link, frames=tuple(frames), end=end,
         port=track.port,

@@ -52,13 +52,24 @@ class Paced(NamedTuple):
 
 @dataclass
 class PaceResult:
-    """Paced frames, frames later than a period (errors), and decimation counts."""
+    """Paced frames, frames later than a period (errors), and decimation counts.
 
-    frames: list[Paced]
+    The frames sent and their starts are two parallel lists, not a :class:`Paced` each: a show
+    paces hundreds of thousands of frames, and the compiler reads them once (``frames`` pairs
+    them up for other readers).
+    """
+
+    starts: list[int]  # the microsecond each frame of ``sent`` starts on the wire
+    sent: Sequence[PlannedFrame]  # in order; without decimation, the planned frames themselves
     late: list[Paced] = field(default_factory=list)
     dropped: int = 0  # planned sample frames dropped
     first_drop_us: int | None = None
     first_drop_origin: Origin | None = None  # the cue of the first dropped frame
+
+    @property
+    def frames(self) -> list[Paced]:
+        """Every frame sent with its start, in order."""
+        return [Paced(start, f) for start, f in zip(self.starts, self.sent, strict=True)]
 
 
 def pace(
@@ -76,8 +87,9 @@ def pace(
     sample values when decimating (the compiler passes its frame merger); without it dropped
     values are simply superseded by later samples.
     """
-    result = PaceResult([])
-    out = result.frames
+    starts: list[int] = []
+    sent: list[PlannedFrame] = []
+    result = PaceResult(starts, sent)
     # Re-sends of pending values, as (planned us, sequence): they go after the planned frames
     # of the same microsecond, so a fresher sample supersedes them first.
     flushes: list[tuple[int, int]] = []
@@ -102,10 +114,10 @@ def pace(
                 heapq.heappush(flushes, (t_us + period_us, seq))
                 seq += 1
             return
-        paced = Paced(start, f)
-        out.append(paced)
+        starts.append(start)
+        sent.append(f)
         if late_by > period_us:
-            result.late.append(paced)
+            result.late.append(Paced(start, f))
         free_us = start + wire_us(link, len(f.data)) + gap_us
         if pending:
             if f.action:
@@ -125,17 +137,17 @@ def pace(
                 send(f, t_us, False)
 
     if not decimate:
-        # send() without decimation (so nothing pending, nothing to flush), inlined with
-        # wire_us: this loop runs once per frame of the show.
-        late, new = result.late, tuple.__new__
+        # send() without decimation (so nothing pending, nothing to flush, and every planned
+        # frame sent), inlined with wire_us: this loop runs once per frame of the show.
+        result.sent = frames
+        late, append = result.late, starts.append
         bits, baud = link.bits_per_byte * 1_000_000, link.baud
         for frame in frames:
             t_us = frame.t_us
             start = t_us if t_us > free_us else free_us
-            paced = new(Paced, (start, frame))
-            out.append(paced)
+            append(start)
             if start - t_us > period_us:
-                late.append(paced)
+                late.append(Paced(start, frame))
             free_us = start + -(-len(frame.data) * bits // baud) + gap_us
         return result
     for frame in frames:
