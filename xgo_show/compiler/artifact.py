@@ -47,6 +47,7 @@ import sys
 import zlib
 from array import array
 from collections.abc import Mapping, Sequence
+from operator import sub
 from pathlib import Path
 from typing import Any
 
@@ -117,11 +118,11 @@ def _column(code: str, values: list[int]) -> bytes:
 
 def _performer_columns(p: PerformerSchedule, ref: OriginRef) -> bytes:
     frames = p.frames
-    # to_us (round(seconds * 1e6)) inlined, and the last origin's index reused: these run once
-    # per frame, and a cue's frames mostly follow one another.
+    # to_us (round(seconds * 1e6)) inlined, C-level maps where they do, and the last origin's
+    # index reused: these run once per frame, and a cue's frames mostly follow one another.
     times = [round(f.t * 1_000_000) for f in frames]
-    deltas = [b - a for a, b in itertools.pairwise([0, *times])]
-    if any(d < 0 for d in deltas):
+    deltas = list(map(sub, times, itertools.chain((0,), times)))
+    if min(deltas, default=0) < 0:
         raise ScheduleError(f"performer {p.name}: frames are not in time order")
     origins: list[int] = []
     last: object = None
@@ -132,12 +133,13 @@ def _performer_columns(p: PerformerSchedule, ref: OriginRef) -> bytes:
             found = ref(f.origin)
             index = 0 if found is None else found + 1
         origins.append(index)
+    data = [f.data for f in frames]
     return b"".join((
         _column(_U64, deltas),
-        _column(_U16, [len(f.data) for f in frames]),
+        _column(_U16, list(map(len, data))),
         _column(_U32, origins),
         _column(_U64, [round(f.duration * 1_000_000) if f.duration else 0 for f in frames]),
-        *[f.data for f in frames],
+        *data,
     ))
 
 

@@ -131,12 +131,16 @@ class TickFrames:
         self.shape_numbers: dict[object, int] = {}
         # Frame plans of ticks only sources write, by (registers, changed registers): see build
         self.sample_plans: dict[object, tuple[SampleFrame, ...]] = {}
+        # Of those for one source, the plans that are one frame of one slice of the sample, as
+        # (prefix, check_base, begin, end); None: another plan. frames_from_ticks's own road.
+        self.slices: dict[object, tuple[bytes, int, int, int] | None] = {}
 
     def _known_changed(self) -> None:
         if len(self.known) != self.n_known:  # fillers depend on which registers are known
             self.n_known = len(self.known)
             self.merger.forget_plans()
-            self.sample_plans.clear()  # in place: frames_from_ticks holds it
+            self.sample_plans.clear()  # in place: frames_from_ticks holds these
+            self.slices.clear()
 
     def flush(self, keep: Container[Source] = ()) -> None:
         """Tell sent/known the live sources' samples (but those in ``keep``, which stay live)."""
@@ -229,6 +233,10 @@ class TickFrames:
         plan = plans.get(key)
         if plan is None:
             plan = plans[key] = sample_plan(self.merger, chunks, masks, self.known)
+            if len(chunks) == 1:
+                one = plan[0].one if len(plan) == 1 else None
+                self.slices[key] = (None if one is None else
+                                    (plan[0].prefix, plan[0].check_base, one.begin, one.end))
         append, new = self.frames.append, tuple.__new__
         for f in plan:
             one = f.one
@@ -306,8 +314,9 @@ def frames_from_ticks(
     source_tick, sources_tick, writes_tick = out.source_tick, out.sources_tick, out.writes_tick
     build = out.build
     # Held across the loop: TickFrames updates these in place.
-    live, plans, append = out.live, out.sample_plans, out.frames.append
+    live, slices, append = out.live, out.slices, out.frames.append
     new = tuple.__new__  # PlannedFrame(...) without its Python-level __new__
+    quick = 0  # frames made on the one-slice road below
     for t_us in sorted(ticks):
         entry = ticks[t_us]
         if details:
@@ -326,21 +335,21 @@ def frames_from_ticks(
             src.prev = sample
             mask = tuple(map(ne, sample, prev)) if src.unit else changes(src, sample, prev)
             key = (src.addresses, mask)
-            plan = plans.get(key)
-            if plan is not None and len(plan) == 1 and (one := plan[0].one) is not None:
+            cut = slices.get(key)
+            if cut is not None:
                 # build() for its commonest plan, inlined: one frame, one slice of the sample.
-                f = plan[0]
-                data = sample[one.begin:one.end]
+                prefix, check_base, begin, end = cut
+                data = sample[begin:end]
                 append(new(PlannedFrame, (
-                    t_us, b"".join((f.prefix, data, BYTES[~(f.check_base + sum(data)) & 0xFF],
-                                    TAIL)),
+                    t_us, b"".join((prefix, data, BYTES[~(check_base + sum(data)) & 0xFF], TAIL)),
                     (), (), src.origin, src.order, True, False, 0.0,
                 )))
-                out.samples += 1
+                quick += 1
             else:
                 build(t_us, key, ((src, sample),), (mask,), (src,))
         elif isinstance(entry, Samples):
             sources_tick(t_us, entry)
         else:
             writes_tick(t_us, entry, t_us in mixed)
+    out.samples += quick
     return out.frames, out.samples
