@@ -145,7 +145,16 @@ def _fade_colours(k: int, end: int, rate: float, t0: float, duration: float,
     """The colour of a fade at each tick from ``k`` to ``end`` (excluded), as bytes: the
     arithmetic of :meth:`_Fade.colour_at`, one list comprehension a step."""
     fracs = [(j / rate - t0) / duration for j in range(k, end)]
-    fracs = [f if 0.0 <= f <= 1.0 else min(max(f, 0.0), 1.0) for f in fracs]
+    # Clamped to 0..1 as colour_at does: the fractions grow with j, so only a few at either
+    # end may lie outside (float noise at the start and the stop).
+    for i in range(len(fracs)):
+        if fracs[i] >= 0.0:
+            break
+        fracs[i] = 0.0
+    for i in range(len(fracs) - 1, -1, -1):
+        if fracs[i] <= 1.0:
+            break
+        fracs[i] = 1.0
     (r0, g0, b0), (dr, dg, db) = start, delta
     return list(map(bytes, zip([round(r0 + dr * f) for f in fracs],
                                [round(g0 + dg * f) for f in fracs],
