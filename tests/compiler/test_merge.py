@@ -220,6 +220,19 @@ def test_a_tick_whose_sizes_differ_from_the_cached_plan_is_planned_afresh() -> N
     assert merger.planned == 2
 
 
+def test_a_tick_planned_afresh_fills_its_gaps_from_the_known_bytes() -> None:
+    # leg1_x and leg1_z with leg1_y known: one filled frame; then two bytes at leg1_z (and
+    # leg2_x): planned afresh, the gap is filled again, from the bytes known now.
+    merger = CountingMerger(MINI_LAYOUT)
+    merger.merge(0, [w(0x40), w(0x42)], {0x41: b"\x11"}, uniform=False)
+    writes = [w(0x40, b"\x01"), w(0x42, b"\x03\x04")]
+    known = {0x41: b"\x22"}
+    (frame,) = merger.merge(20_000, writes, known, uniform=False)
+    assert fields_of(frame.data) == (0x40, b"\x01\x22\x03\x04")
+    assert frame == merge_writes(MINI_LAYOUT, FAST, 0.0012, 20_000, writes, known)[0]
+    assert merger.planned == 2
+
+
 # Mini registers a show writes, by address: speed to pace, and the legs (no action).
 WRITABLE = [*range(0x30, 0x3E), *range(0x40, 0x4C)]
 
