@@ -5,6 +5,7 @@ trigger-script unit tests)."""
 from __future__ import annotations
 
 import threading
+import time
 from dataclasses import dataclass, field
 
 from xgo_show.choreo.sections import Section, Wait
@@ -30,8 +31,10 @@ class Recorder:
 
     name: str
     calls: list[tuple[object, ...]] = field(default_factory=list)
+    pauses: list[float | None] = field(default_factory=list)  # as given, not rounded
 
     def pause(self, *, at: float | None = None) -> None:
+        self.pauses.append(at)
         self.calls.append(("pause", us(at)))
 
     def resume(self, *, at: float | None = None) -> None:
@@ -75,6 +78,17 @@ class SetClock:
         return True
 
 
+class RunningClock(SetClock):
+    """A real-time clock that runs: T0 when made, then as the monotonic clock goes."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._origin = time.monotonic()
+
+    def now(self) -> float:
+        return T0 + (time.monotonic() - self._origin)
+
+
 # Sections: a at 0; b at 1 waits for 'go'; c at 2 waits for 'encore' at most 0.5 s, else e;
 # d at 3 waits for 'bow' at most 0.25 s, else end; e at 4 waits for 'go' (again) at most 1 s
 # (then on); the show lasts 6 s.
@@ -98,14 +112,21 @@ class Show:
 
     def __init__(self, *, virtual: bool = True, lead: float = 0.0,
                  sections: tuple[Section, ...] = SECTIONS, names: tuple[str, ...] = ("rex",),
-                 arm_margin: float = 0.1) -> None:
-        self.clock: FakeClock | SetClock = FakeClock(T0) if virtual else SetClock(T0)
+                 arm_margin: float = 0.1, clock: SetClock | None = None) -> None:
+        self.clock: FakeClock | SetClock = (
+            clock if clock is not None else FakeClock(T0) if virtual else SetClock(T0))
         self.runner = Runner(schedule(sections), *names, lead=lead)
         self.director = Director(self.runner, clock=self.clock,  # type: ignore[arg-type]
                                  arm_margin=arm_margin)
         self.seen: list[Event] = []
         self.runner.events.subscribe(self.seen.append, WaitStarted, WaitReleased,
                                      TriggerRefused)
+
+    def close(self) -> None:
+        """Close the director; none of its listeners may have raised (the bus hides it)."""
+        self.director.close()
+        bus = self.runner.events
+        assert bus.listener_errors == 0, repr(bus.last_listener_error)
 
     def p(self, name: str = "rex") -> Recorder:
         return self.runner.performers[name]

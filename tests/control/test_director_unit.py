@@ -11,18 +11,24 @@ from collections.abc import Iterator
 import pytest
 
 from xgo_show.choreo.sections import Section, Wait
-from xgo_show.control.director import ControlError, TriggerOutcome, TriggerRefused
+from xgo_show.control.director import (
+    ControlError,
+    TriggerOutcome,
+    TriggerRefused,
+    WaitReleased,
+    WaitStarted,
+)
 from xgo_show.runtime.events import ShowEnded, ShowPaused, ShowResumed, StateChanged
 from xgo_show.runtime.executor import ExecutorState
 
-from .directing import PAUSED, RUNNING, SECTIONS, T0, Show, us
+from .directing import PAUSED, RUNNING, SECTIONS, T0, RunningClock, Show, us
 
 
 @pytest.fixture
 def show() -> Iterator[Show]:
     s = Show()
     yield s
-    s.director.close()
+    s.close()
 
 
 def hold_at_b(s: Show) -> None:
@@ -84,7 +90,7 @@ def test_a_show_without_waits_asks_nothing(show: Show) -> None:
         with pytest.raises(ControlError, match="the show waits for no trigger from here on"):
             s.director.trigger("go")
     finally:
-        s.director.close()
+        s.close()
 
 
 # --- holding and triggers --------------------------------------------------------------------
@@ -109,7 +115,7 @@ def test_a_held_wait_is_released_by_its_trigger_for_every_performer() -> None:
         assert d.phase == "playing" and d.wait_ahead == SECTIONS[2]
         assert d.hold_ahead() == T0 + 2.0
     finally:
-        s.director.close()
+        s.close()
 
 
 def test_a_trigger_fired_later_releases_the_show_later(show: Show) -> None:
@@ -218,6 +224,7 @@ def to_c(s: Show) -> None:
     assert s.p().calls[-1] == ("pause", T0 + 2.0)
     s.state(PAUSED, T0 + 2.0, 2.0)
     assert s.director.waiting_for == SECTIONS[2]
+    assert s.waits()[-1] == ("started", "c", "encore", T0 + 2.0, 2.0, 0.5)
 
 
 def test_a_timeout_to_a_section_jumps_there_when_it_runs_out(show: Show) -> None:
@@ -292,7 +299,7 @@ def test_an_operators_pause_and_resume(show: Show) -> None:
         s.state(RUNNING, T0, 0.0)  # 5 s from the wait: not armed
         assert s.p().calls == [("pause", T0 + 5.0)]  # virtual time: armed at once
     finally:
-        s.director.close()
+        s.close()
     r = Show(virtual=False, sections=(Section("a", 0.0), Section("b", 5.0, Wait("go"))))
     try:
         r.start()
@@ -341,7 +348,7 @@ def test_a_seek_jumps_every_performer_and_starts_the_waits_again_from_there() ->
         assert s.director.wait_ahead == SECTIONS[3]
         assert s.director.hold_ahead() == T0 + 2.0
     finally:
-        s.director.close()
+        s.close()
 
 
 def test_a_seek_outside_the_show_is_refused(show: Show) -> None:
@@ -366,7 +373,7 @@ def test_seek_section_goes_to_its_start_or_names_the_sections(show: Show) -> Non
         with pytest.raises(ControlError, match=r"^no section named 'a'; sections: none$"):
             s.director.seek_section("a")
     finally:
-        s.director.close()
+        s.close()
 
 
 def test_a_seek_while_a_wait_is_armed_jumps_once_the_performer_holds(show: Show) -> None:
@@ -389,6 +396,8 @@ def test_a_seek_while_a_performer_is_moving_waits_until_it_runs(show: Show) -> N
     assert show.p().calls[-1] == ("resume", T0 + 1.0)
     show.state(RUNNING, T0 + 1.0, 1.0)
     assert show.p().calls[-1] == ("seek", 0.5, T0)
+    show.director.pause()  # the seek is on its way: no pause on top of it
+    assert show.runner.calls == []
     show.state(RUNNING, T0 + 1.0, 0.5)
     assert show.p().calls[-1] == ("pause", T0 + 1.5)  # b's wait again, from 0.5 s
 
@@ -413,7 +422,7 @@ def test_the_command_lead_delays_every_command() -> None:
         assert s.p().calls[-1] == ("resume", T0 + 1.7)
         assert s.director.hold_ahead() == pytest.approx(T0 + 2.7)
     finally:
-        s.director.close()
+        s.close()
 
 
 def test_performers_that_are_done_are_left_alone(show: Show) -> None:
@@ -428,7 +437,7 @@ def test_performers_that_are_done_are_left_alone(show: Show) -> None:
         assert s.p("ivy").calls == []
         s.publish(StateChanged(T0, "nobody", RUNNING, 0.0))  # not a performer of this show
     finally:
-        s.director.close()
+        s.close()
 
 
 # --- real time: the director's own thread -----------------------------------------------------
@@ -457,7 +466,7 @@ def test_real_time_arms_a_wait_its_margin_before_it() -> None:
             s.director._cond.notify_all()
         until(lambda: s.p().calls == [("pause", T0 + 1.0)])
     finally:
-        s.director.close()
+        s.close()
 
 
 def test_real_time_takes_a_timeout_when_it_runs_out() -> None:
@@ -481,7 +490,7 @@ def test_real_time_takes_a_timeout_when_it_runs_out() -> None:
         assert s.p().calls[-1] == ("resume", T0 + 1.5)
         assert s.waits()[-1] == ("released", "b", "go", "timeout", "b", T0 + 1.5)
     finally:
-        s.director.close()
+        s.close()
 
 
 def test_real_time_trigger_and_timeout_at_now_and_close_ends_the_thread() -> None:
@@ -496,5 +505,300 @@ def test_real_time_trigger_and_timeout_at_now_and_close_ends_the_thread() -> Non
     assert s.p().calls[-1] == ("resume", T0 + 1.3)  # now (plus no lead)
     thread = s.director._thread
     assert thread is not None and thread.is_alive()
-    s.director.close()
+    s.close()
     assert not thread.is_alive()
+
+
+# --- the timeline each decision is taken on --------------------------------------------------
+
+def test_the_hold_is_when_the_performer_held_not_when_it_was_due(show: Show) -> None:
+    show.start()
+    show.state(RUNNING, T0, 0.0)
+    show.state(PAUSED, T0 + 1.2, 1.0)  # 0.2 s later than due (a busy writer)
+    assert show.director.hold_ahead() == T0 + 1.2
+    show.director.trigger("go", at=T0 + 1.1)  # fired before it held: kept, released then
+    assert show.p().calls[-1] == ("resume", T0 + 1.2)
+    # The next wait is as far after the hold as c is after b.
+    assert show.director.hold_ahead() == pytest.approx(T0 + 2.2)
+
+
+def test_a_trigger_given_early_twice_is_refused_the_second_time(show: Show) -> None:
+    show.start()
+    show.director.trigger("go")  # virtual time, before the hold, no time given: kept
+    assert show.waits() == [("released", "b", "go", "early", "b", T0)]
+    with pytest.raises(ControlError) as info:
+        show.director.trigger("go")
+    assert str(info.value) == "trigger 'go' refused: 'go' was already given for section 'b'"
+
+
+def test_a_show_with_no_wait_left_refuses_triggers_saying_so(show: Show) -> None:
+    show.start(offset=4.5)  # after e, the last wait
+    with pytest.raises(ControlError) as info:
+        show.director.trigger("go")
+    assert str(info.value) == "trigger 'go' refused: the show waits for no trigger from here on"
+
+
+def test_the_director_says_a_wait_started_before_it_is_released() -> None:
+    # A listener that fires the trigger as the wait starts (a rehearsal): every listener
+    # still sees the wait start first.
+    s = Show()
+    try:
+        order: list[str] = []
+
+        def fire(event: object) -> None:
+            if isinstance(event, WaitStarted):
+                s.director.trigger("go")
+
+        s.runner.events.subscribe(fire, WaitStarted)
+        s.runner.events.subscribe(lambda e: order.append(type(e).__name__), WaitStarted,
+                                  WaitReleased)
+        hold_at_b(s)
+        assert order == ["WaitStarted", "WaitReleased"]
+    finally:
+        s.close()
+
+
+def test_a_timeline_reported_a_little_late_is_kept_and_one_far_off_is_taken() -> None:
+    s = Show(names=("rex", "ivy"))
+    try:
+        s.start(offset=0.5)  # b (1 s) is due at T0 + 0.5
+        s.state(RUNNING, T0 + 0.33, 0.8, "rex")  # stamped 30 ms late (a relay's heartbeat)
+        s.state(RUNNING, T0 + 0.5, 0.8, "ivy")  # really 0.2 s behind
+        assert s.p("rex").calls == [("pause", T0 + 0.5)]
+        assert s.p("ivy").calls == [("pause", T0 + 0.7)]
+    finally:
+        s.close()
+
+
+def test_a_seek_at_a_time_to_come_is_sent_for_that_time(show: Show) -> None:
+    show.start()
+    show.director.seek(2.5, at=T0 + 0.4)
+    assert show.p().calls == [("seek", 2.5, T0 + 0.4)]
+
+
+def test_after_a_seek_the_next_command_waits_until_the_performer_runs(show: Show) -> None:
+    show.start()
+    show.director.seek(2.5)  # playing: a seek alone
+    show.director.pause()  # one command at a time: not on top of the seek
+    assert show.runner.calls == []
+    show.state(RUNNING, T0, 2.5)  # it runs from 2.5 s: d's wait (3 s) is armed
+    assert show.p().calls == [("seek", 2.5, T0), ("pause", T0 + 0.5)]
+
+
+def test_a_seek_from_a_held_wait_plays_on_to_the_next_wait(show: Show) -> None:
+    hold_at_b(show)
+    show.director.seek(2.5)
+    assert show.p().calls[-2:] == [("seek", 2.5, T0), ("resume", T0)]
+    show.director.pause()  # moving: refused until it runs
+    assert show.runner.calls == []
+    show.state(RUNNING, T0, 2.5)
+    assert show.p().calls[-1] == ("pause", T0 + 0.5)  # held no more, armed again for d
+
+
+def test_a_paused_show_takes_seek_after_seek_at_once() -> None:
+    s = Show(virtual=False, sections=(Section("a", 0.0), Section("b", 5.0, Wait("go"))))
+    try:
+        s.start()
+        s.state(RUNNING, T0, 0.0)
+        s.publish(ShowPaused(T0, 0.0))
+        s.director.seek(1.0)
+        s.director.seek(2.0)  # paused: nothing is on its way, nothing to wait for
+        assert s.p().calls == [("seek", 1.0, T0), ("seek", 2.0, T0)]
+    finally:
+        s.close()
+
+
+def test_a_seek_applied_at_a_hold_goes_when_a_command_can_take_effect_then(show: Show
+                                                                           ) -> None:
+    show.start()
+    show.state(RUNNING, T0, 0.0)  # asked to hold at b
+    show.clock.advance(0.5)  # type: ignore[union-attr]
+    show.director.seek(3.5)  # for T0 + 0.5, but rex holds only at T0 + 1.0
+    show.clock.advance(0.5)  # type: ignore[union-attr]
+    show.state(PAUSED, T0 + 1.0, 1.0)
+    assert show.p().calls[1:] == [("seek", 3.5, T0 + 1.0), ("resume", T0 + 1.0)]
+
+
+def test_a_performer_that_failed_first_does_not_keep_the_others_from_a_seek() -> None:
+    s = Show(names=("rex", "ivy"))
+    try:
+        s.start()
+        s.state(ExecutorState.FAILED, T0, 0.0, "rex")
+        s.director.seek(2.5)
+        assert s.p("rex").calls == [] and s.p("ivy").calls == [("seek", 2.5, T0)]
+    finally:
+        s.close()
+
+
+def test_real_time_late_holders_and_the_command_lead() -> None:
+    s = Show(virtual=False, names=("rex", "ivy"), lead=0.05)
+    try:
+        s.start()
+        s.clock.t = T0 + 0.95  # type: ignore[union-attr]
+        s.state(RUNNING, T0, 0.0, "rex")
+        s.state(RUNNING, T0, 0.0, "ivy")
+        s.clock.t = T0 + 1.0  # type: ignore[union-attr]
+        s.state(PAUSED, T0 + 1.0, 1.0, "rex")
+        s.clock.t = T0 + 1.3  # type: ignore[union-attr]
+        assert s.director.trigger("go").held
+        assert s.p("rex").calls[-1] == ("resume", T0 + 1.35)  # now plus the lead
+        assert s.waits()[-1] == ("released", "b", "go", "trigger", "b", T0 + 1.3)
+        s.clock.t = T0 + 1.5  # type: ignore[union-attr]
+        s.state(PAUSED, T0 + 1.5, 1.0, "ivy")  # ivy holds after the release: goes at once
+        assert s.p("ivy").calls[-1] == ("resume", T0 + 1.55)
+    finally:
+        s.close()
+
+
+def test_real_time_expire_takes_the_timeout_now() -> None:
+    s = Show(virtual=False, sections=(Section("a", 0.0), Section("b", 1.0, Wait("go", 5.0))))
+    try:
+        s.start()
+        s.clock.t = T0 + 0.95  # type: ignore[union-attr]
+        s.state(RUNNING, T0, 0.0)
+        s.clock.t = T0 + 1.0  # type: ignore[union-attr]
+        s.state(PAUSED, T0 + 1.0, 1.0)
+        s.clock.t = T0 + 1.25  # type: ignore[union-attr]
+        s.director.expire()
+        assert s.p().calls[-1] == ("resume", T0 + 1.25)
+        assert s.waits()[-1] == ("released", "b", "go", "timeout", "b", T0 + 1.25)
+    finally:
+        s.close()
+
+def test_an_early_trigger_for_the_instant_the_show_gets_there_plays_through(show: Show
+                                                                           ) -> None:
+    show.start()
+    show.director.trigger("go", at=T0 + 1.0)  # fired for the instant b starts
+    show.state(RUNNING, T0, 0.0)
+    assert show.p().calls == [("pause", T0 + 2.0)]  # no hold at b: on to c
+
+
+def test_waits_released_early_one_after_another_are_all_played_through(show: Show) -> None:
+    show.start()
+    show.director.trigger("go", at=T0 + 0.1)
+    show.director.trigger("encore", at=T0 + 0.2)
+    show.state(RUNNING, T0, 0.0)
+    assert show.p().calls == [("pause", T0 + 3.0)]  # b and c played through, d held
+
+
+def test_the_last_wait_released_early_leaves_nothing_to_hold_at() -> None:
+    s = Show(sections=(Section("a", 0.0), Section("b", 1.0, Wait("go"))))
+    try:
+        s.start()
+        s.director.trigger("go", at=T0 + 0.5)
+        s.state(RUNNING, T0, 0.0)
+        assert s.p().calls == []
+    finally:
+        s.close()
+
+
+def test_a_performer_still_running_while_another_holds_is_asked_to_hold_too() -> None:
+    s = Show(names=("rex", "ivy"))
+    try:
+        s.start()
+        s.state(RUNNING, T0, 0.0, "rex")
+        s.state(PAUSED, T0 + 1.0, 1.0, "rex")
+        assert s.director.phase == "waiting"
+        s.state(RUNNING, T0 + 0.5, 0.4, "ivy")  # ivy says it runs only now, 0.1 s behind
+        assert s.p("ivy").calls == [("pause", T0 + 1.1)]
+    finally:
+        s.close()
+
+
+def test_the_same_instant_from_two_timelines_is_one_pause_time() -> None:
+    s = Show(names=("rex", "ivy"))
+    try:
+        s.start()
+        s.director.seek(0.1)  # both timelines start again from each one's RUNNING
+        s.state(RUNNING, T0 + 0.1, 0.2, "rex")
+        s.state(RUNNING, T0 + 0.3, 0.4, "ivy")  # the same timeline, other floats
+        rex, ivy = s.p("rex").pauses[-1], s.p("ivy").pauses[-1]
+        assert rex is not None and abs(rex - (T0 + 0.9)) < 1e-9
+        assert ivy == rex  # bit for bit: a relay sends one pause for both
+    finally:
+        s.close()
+
+
+def test_an_armed_performer_the_show_ended_for_reports_its_hold_harmlessly(show: Show
+                                                                         ) -> None:
+    show.start()
+    show.state(RUNNING, T0, 0.0)  # armed for b
+    show.publish(ShowEnded(T0 + 0.5, False, "stopped"))
+    show.state(PAUSED, T0 + 1.0, 1.0)  # its pause still took effect
+    assert show.director.phase == "ended" and show.waits() == []
+
+
+def test_real_time_a_writers_report_arms_the_wait_not_the_directors_thread() -> None:
+    s = Show(virtual=False)
+    try:
+        s.start()
+        s.clock.t = T0 + 0.95  # type: ignore[union-attr]
+        with s.director._cond:  # the director's thread cannot run meanwhile
+            s.state(RUNNING, T0, 0.0)  # reported late: b is due within the margin now
+            assert s.p().calls == [("pause", T0 + 1.0)]
+    finally:
+        s.close()
+
+
+def test_real_time_an_armed_performer_is_asked_once() -> None:
+    s = Show(virtual=False)
+    try:
+        s.start()
+        s.clock.t = T0 + 0.95  # type: ignore[union-attr]
+        s.state(RUNNING, T0, 0.0)
+        for _ in range(3):
+            with s.director._cond:
+                s.director._cond.notify_all()
+            time.sleep(0.01)
+        assert s.p().calls == [("pause", T0 + 1.0)]
+    finally:
+        s.close()
+
+
+def test_real_time_an_operators_pause_leaves_the_directors_thread_running() -> None:
+    s = Show(virtual=False, sections=(Section("a", 0.0), Section("b", 5.0, Wait("go"))))
+    try:
+        s.start()
+        s.state(RUNNING, T0, 0.0)
+        s.director.pause(at=T0 + 1.0)
+        s.publish(ShowPaused(T0 + 1.0, 1.0))
+        s.state(PAUSED, T0 + 1.0, 1.0)  # not a hold at a wait: the operator's
+        with s.director._cond:
+            s.director._cond.notify_all()
+        time.sleep(0.05)
+        thread = s.director._thread
+        assert thread is not None and thread.is_alive()
+        assert s.director.phase == "paused"
+    finally:
+        s.close()
+
+
+def test_real_time_the_director_wakes_by_itself_to_arm_and_to_time_out() -> None:
+    # A clock that runs: nothing pokes the director's thread, it wakes when something is due.
+    s = Show(virtual=False, clock=RunningClock(), arm_margin=0.4,
+             sections=(Section("a", 0.0), Section("b", 0.6, Wait("go", 0.3)),
+                       Section("c", 1.2, Wait("encore"))))
+    try:
+        s.start()
+        s.state(RUNNING, T0, 0.0)
+        assert s.p().calls == []  # b is due in 0.6 s: armed 0.4 s before it
+        deadline = time.monotonic() + 5
+        while not s.p().calls:
+            assert time.monotonic() < deadline, "never armed"
+            time.sleep(0.002)
+        assert T0 + 0.2 <= s.clock.now() < T0 + 0.6  # armed before b, not long before
+        assert s.p().calls == [("pause", T0 + 0.6)]
+        s.state(PAUSED, T0 + 0.6, 0.6)
+        while s.director.phase == "waiting":
+            assert time.monotonic() < deadline, "the timeout was never taken"
+            time.sleep(0.002)
+        released = s.clock.now()
+        assert released >= T0 + 0.9  # after its 0.3 s
+        s.state(RUNNING, released, 0.6)
+        # The thread goes on after a timeout: c is armed in its turn, 0.4 s before it.
+        while len(s.p().calls) < 3:
+            assert time.monotonic() < deadline, "the next wait was never armed"
+            time.sleep(0.002)
+        assert s.p().calls[-1][0] == "pause"
+    finally:
+        s.close()
