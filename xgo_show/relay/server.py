@@ -245,7 +245,9 @@ class Relay:
     # ------------------------------------------------------------------ Zenoh callbacks
 
     def _on_info(self, query: zenoh.Query) -> None:
-        query.reply(query.key_expr, msg.encode(self.describe()))
+        # On its own key, not the query's: a listing asks NS/relay/*/info, and Zenoh keeps
+        # one reply per key, so relays answering on the wildcard hid each other.
+        query.reply(relay_key(self.namespace, self.name, "info"), msg.encode(self.describe()))
 
     def _on_command(self, query: zenoh.Query) -> None:
         # Heartbeats are answered here, at once; everything else by the worker, in order.
