@@ -710,10 +710,11 @@ def test_the_same_instant_from_two_timelines_is_one_pause_time() -> None:
     try:
         s.start()
         s.director.seek(0.1)  # both timelines start again from each one's RUNNING
-        s.state(RUNNING, T0 + 0.1, 0.2, "rex")
-        s.state(RUNNING, T0 + 0.3, 0.4, "ivy")  # the same timeline, other floats
+        s.state(RUNNING, T0 + 0.01, 0.11, "rex")
+        s.state(RUNNING, T0 + 0.02, 0.12, "ivy")  # the same timeline, other floats
         rex, ivy = s.p("rex").pauses[-1], s.p("ivy").pauses[-1]
         assert rex is not None and abs(rex - (T0 + 0.9)) < 1e-9
+        assert rex != (T0 + 0.02) + (1.0 - 0.12)  # computed alone, ivy's would differ
         assert ivy == rex  # bit for bit: a relay sends one pause for both
     finally:
         s.close()
@@ -800,5 +801,24 @@ def test_real_time_the_director_wakes_by_itself_to_arm_and_to_time_out() -> None
             assert time.monotonic() < deadline, "the next wait was never armed"
             time.sleep(0.002)
         assert s.p().calls[-1][0] == "pause"
+    finally:
+        s.close()
+
+
+def test_a_release_before_a_seeking_performer_runs_sends_it_nothing_more(show: Show) -> None:
+    hold_at_b(show)
+    show.director.seek(2.5)  # from the hold: seek and resume, its RUNNING still to come
+    calls = list(show.p().calls)
+    show.director.trigger("bow", at=T0 + 0.1)  # d's wait released early meanwhile
+    assert show.p().calls == calls  # one command at a time: nothing on top of the seek
+
+
+def test_the_directors_thread_is_a_named_daemon() -> None:
+    # Named for the thread-leak check; a daemon, so a director left open never keeps the
+    # process alive at exit.
+    s = Show(virtual=False)
+    try:
+        thread = s.director._thread
+        assert thread is not None and (thread.name, thread.daemon) == ("xgo-show director", True)
     finally:
         s.close()

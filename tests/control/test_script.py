@@ -48,7 +48,17 @@ def test_a_bad_script_is_reported_at_its_place(
         load_script(path)
     lines = str(info.value).splitlines()
     assert lines[0] == f"{path}: not a trigger script:"
-    assert any(where in line and message in line for line in lines[1:]), lines
+    assert any(line.startswith(f"{path}{where}") and message in line for line in lines[1:]), lines
+    assert len(lines) == 1 + len(info.value.diagnostics) > 1
+
+
+def test_every_problem_of_a_script_is_reported_on_its_own_line(tmp_path: Path) -> None:
+    path = write(tmp_path, "triggers:\n  - {trigger: go}\n  - {trigger: '9', at: -1}\n")
+    with pytest.raises(ChoreographyError) as info:
+        load_script(path)
+    lines = str(info.value).splitlines()[1:]
+    assert len(lines) == len(info.value.diagnostics) >= 3
+    assert all(line.startswith(f"{path}:") for line in lines), lines
 
 
 def test_the_committed_schema_is_current() -> None:

@@ -14,7 +14,7 @@ from xgo_show.choreo.sections import Section, Wait
 from xgo_show.control.script import Fired, ScriptCue, ScriptPlayer, TriggerScript
 from xgo_show.runtime.events import ShowEnded
 
-from .directing import PAUSED, RUNNING, T0, SetClock, Show
+from .directing import PAUSED, RUNNING, T0, RunningClock, SetClock, Show
 
 
 def cues(*items: tuple[str, str, float]) -> TriggerScript:
@@ -34,7 +34,7 @@ class Played:
 
     def close(self) -> None:
         self.player.close()
-        self.show.director.close()
+        self.show.close()
 
     def fired(self) -> list[tuple[str, float, str]]:
         return [(f.trigger, round(f.t, 6), f.result) for f in self.player.fired]
@@ -285,3 +285,68 @@ def test_real_time_stops_when_the_show_ends_or_the_player_closes(play: list[Play
     play.append(q)
     q.player.close()
     assert q.player._thread is not None and not q.player._thread.is_alive()
+
+
+# --- more of the same, with a clock that runs and a show that starts later ------------------
+
+def test_entries_count_from_the_shows_start_not_from_when_it_was_announced(
+    play: list[Played],
+) -> None:
+    # The show is announced at T0 to start 0.5 s later (the lead): 'at' counts from its start.
+    p = Played(cues(("go", "at", 0.25)))
+    play.append(p)
+    p.show.start(at=T0 + 0.5)
+    assert p.fired() == [("go", 0.25, "kept for section 'b'")]
+    assert p.player.fired[0].t == pytest.approx(0.25)
+    assert p.show.waits()[-1][-1] == T0 + 0.75  # fired at 0.25 s of the show
+
+
+def test_real_time_the_player_wakes_by_itself_when_an_entry_is_due(play: list[Played]) -> None:
+    clock = RunningClock()
+    show = Show(virtual=False, clock=clock)
+    said: list[str] = []
+    player = ScriptPlayer(cues(("go", "at", 0.2)), show.director, say=said.append)
+    try:
+        show.start()
+        deadline = time.monotonic() + 5
+        while not player.fired:
+            assert time.monotonic() < deadline, "the entry never fired"
+            time.sleep(0.002)
+        assert player.fired[0].t >= 0.2
+        assert player.fired[0].result == "kept for section 'b'"
+    finally:
+        player.close()
+        show.close()
+
+
+def test_real_time_entries_after_a_firing_count_from_it(play: list[Played]) -> None:
+    sections = (Section("a", 0.0), Section("b", 1.0, Wait("go")),
+                Section("c", 2.0, Wait("bow")), Section("d", 3.0, Wait("go")))
+    p = Played(cues(("go", "after", 0.25), ("bow", "after", 0.25)), virtual=False,
+               sections=sections)
+    play.append(p)
+    p.show.start()
+    set_time(p, 0.95)
+    p.show.state(RUNNING, T0, 0.0)  # armed for b
+    set_time(p, 1.0)
+    hold(p, 1.0, 1.0)
+    set_time(p, 1.25)
+    until(lambda: len(p.fired()) == 1)
+    p.show.state(RUNNING, T0 + 1.25, 1.0)
+    set_time(p, 2.2)
+    with p.show.director._cond:
+        p.show.director._cond.notify_all()
+    until(lambda: p.show.p().calls[-1] == ("pause", T0 + 2.25))
+    set_time(p, 2.25)
+    hold(p, 2.25, 2.0)  # holds at c for bow: 0.25 s after that
+    set_time(p, 2.5)
+    until(lambda: len(p.fired()) == 2)
+    assert p.fired() == [("go", 1.25, "released section 'b'"), ("bow", 2.5, "released section 'c'")]
+
+
+def test_the_player_thread_is_a_named_daemon(play: list[Played]) -> None:
+    p = Played(cues(("go", "at", 5.0)), virtual=False)
+    play.append(p)
+    thread = p.player._thread
+    assert thread is not None and (thread.name, thread.daemon) == ("xgo-show triggers", True)
+    assert Played(cues(("go", "at", 5.0))).player._thread is None  # virtual time: none

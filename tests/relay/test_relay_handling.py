@@ -19,6 +19,7 @@ from xgo_show.net import messages as msg
 from xgo_show.relay.robots import OwnedRobot, close_robots, open_robots
 from xgo_show.relay.server import DEFAULT_WATCHDOG_MS, Relay, RelayState
 from xgo_show.runtime.runlog import RunLog
+from xgo_show.runtime.show_runner import ShowRunner
 
 from .conftest import upload_text, walk_schedule
 
@@ -375,3 +376,125 @@ def test_a_loaded_show_is_forgotten_when_its_conductor_lets_go(relay: Relay) -> 
     upload(relay)
     relay.handle(request("release"))
     assert relay.describe()["state"] == RelayState.IDLE
+
+
+# --- what the relay's run log says -----------------------------------------------------------
+
+def events(log: RunLog, *names: str) -> list[dict[str, Any]]:
+    """The relay's own log events (not the runtime's frames), without their clock time."""
+    return [{k: v for k, v in r.items() if k not in ("kind", "mono")}
+            for r in log.records if r["kind"] == "event" and (not names or r["event"] in names)]
+
+
+@pytest.fixture
+def logged(robots: dict[str, OwnedRobot]) -> Iterator[tuple[Relay, RunLog]]:
+    log = RunLog(None, keep=True)
+    r = Relay(None, "hall", robots, log=log)  # type: ignore[arg-type]
+    yield r, log
+    r.close()
+
+
+def test_the_log_says_who_held_the_relay_what_was_loaded_and_why_it_was_let_go(
+    logged: tuple[Relay, RunLog],
+) -> None:
+    relay, log = logged
+    relay.handle(request("hello"))
+    got = upload(relay)
+    relay.handle(request("release"))
+    relay.handle(request("hello", BOB))
+    relay.handle(request("stop", BOB, reason="done"))
+    assert events(log, "hello", "upload", "release", "safe_stop") == [
+        {"event": "hello", "conductor": "alice"},
+        {"event": "upload", "show": "relay test", "sha256": got["sha256"],
+         "performers": ["rex"], "preflight_ok": True, "unsafe_allowed": []},
+        {"event": "release", "conductor": "alice", "reason": "released by the conductor"},
+        {"event": "hello", "conductor": "bob"},
+        {"event": "safe_stop", "relay": "hall", "reason": "done", "ok": {"rex": True,
+                                                                        "lola": True}},
+    ]
+
+
+def test_the_log_of_a_show_that_plays_to_its_end(logged: tuple[Relay, RunLog]) -> None:
+    relay, log = logged
+    relay.handle(request("hello"))
+    sha = upload(relay, seconds=0.3)["sha256"]
+    got = start(relay, sha, offset=0.0, start_in=0.2)
+    beat_until(relay, lambda show: show["state"] == RelayState.ENDED)
+    (armed,) = events(log, "armed")
+    assert armed == {"event": "armed", "sha256": sha, "start_at": got["start_at"],
+                     "margin_ms": round(got["margin"] * 1e3, 3)}
+    (realtime,) = events(log, "realtime")
+    assert isinstance(realtime["granted"], str) and realtime["granted"]
+    last = relay.describe()["last"]
+    assert last == {"sha256": sha, "completed": True, "reason": "completed", "faults": {},
+                    "link_lost": False, "late_start_ms": last["late_start_ms"],
+                    "stops": {}, "stop_latency_ms": None}
+    assert 0 <= last["late_start_ms"] < 1000
+    late = events(log, "late_start")
+    assert late == [] or late[0]["late_ms"] == last["late_start_ms"] > 0
+
+
+def test_the_log_of_a_lost_link(logged: tuple[Relay, RunLog]) -> None:
+    relay, log = logged
+    relay.handle(request("hello"))
+    sha = upload(relay, seconds=2.0, watchdog_ms=100)["sha256"]
+    start(relay, sha, offset=0.0, start_in=0.2)
+    show = relay._show
+    assert show is not None and show.thread is not None
+    show.thread.join(5.0)
+    (lost,) = events(log, "link_lost")
+    assert lost["conductor"] == "alice" and lost["policy"] == "stop"
+    assert 100 <= lost["silent_ms"] < 2000
+    (release,) = events(log, "release")
+    assert release == {"event": "release", "conductor": "alice",
+                       "reason": "link lost during the show; policy stop"}
+    last = relay.describe()["last"]
+    assert last["completed"] is False and last["stops"] == {"rex": True}
+    assert last["reason"].startswith("link lost: conductor alice silent for ")
+    assert last["stop_latency_ms"] is not None and last["stop_latency_ms"] >= 0
+
+
+def test_a_silent_holder_between_shows_is_let_go_with_the_reason_logged(
+    logged: tuple[Relay, RunLog],
+) -> None:
+    relay, log = logged
+    relay.handle(request("hello"))
+    deadline = time.monotonic() + 3.0
+    while relay.describe()["holder"] is not None:
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    (lost,) = events(log, "link_lost")
+    assert lost["policy"] is None and lost["conductor"] == "alice"
+    (release,) = events(log, "release")
+    assert re.fullmatch(r"conductor silent for \d+ ms", release["reason"])
+    assert events(log, "safe_stop") == []  # nothing was playing: nothing stopped
+
+
+def test_a_silence_from_a_conductor_that_no_longer_holds_changes_nothing(
+    logged: tuple[Relay, RunLog],
+) -> None:
+    relay, log = logged
+    relay.handle(request("hello"))
+    relay._on_silence(BOB, 1.0)  # not the holder
+    assert relay.describe()["holder"]["name"] == "alice"
+    assert events(log, "link_lost") == []
+
+
+def test_a_failing_show_ends_with_the_exception_said(
+    logged: tuple[Relay, RunLog], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    relay, log = logged
+
+    def broken(self: ShowRunner, **kwargs: Any) -> None:
+        raise RuntimeError("boom")  # the runner safe-stops its robots before it raises
+
+    monkeypatch.setattr(ShowRunner, "run", broken)
+    relay.handle(request("hello"))
+    sha = upload(relay, seconds=0.3)["sha256"]
+    start(relay, sha, offset=0.0, start_in=0.2)
+    show = beat_until(relay, lambda s: s["state"] == RelayState.ENDED)
+    assert show["last"] == {"sha256": sha, "completed": False,
+                            "reason": "exception: RuntimeError('boom')", "faults": {},
+                            "link_lost": False, "late_start_ms": 0.0, "stops": {},
+                            "stop_latency_ms": None}
+    assert events(log, "late_start") == []
