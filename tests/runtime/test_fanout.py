@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import pytest
 
@@ -61,3 +62,84 @@ def test_the_first_failure_in_the_items_order_is_raised() -> None:
 
     with pytest.raises(ValueError, match="item 0"):
         each(call, [0, 1, 2])
+
+
+def test_a_single_item_runs_in_the_callers_thread() -> None:
+    where: list[tuple[int, str]] = []
+
+    def call(i: int) -> int:
+        where.append((i, threading.current_thread().name))
+        return i * 10
+
+    assert each(call, [4]) == [40]
+    assert where == [(4, threading.current_thread().name)]
+    assert each(call, []) == []
+
+
+def test_two_items_already_run_at_once_on_named_threads() -> None:
+    together = threading.Barrier(2, timeout=5)
+    names: list[str] = []
+
+    def call(i: int) -> int:
+        together.wait()
+        names.append(threading.current_thread().name)
+        return i
+
+    assert each(call, [1, 2]) == [1, 2]
+    # Named, so that a thread dump shows what a stuck thread was doing.
+    assert len(names) == 2 and all(n.startswith("xgo-show fan-out") for n in names)
+    assert each(call, [1, 2], name="open ports") == [1, 2]
+    assert all(n.startswith("open ports") for n in names[2:])
+
+
+@pytest.mark.parametrize("limit", [1, 2])
+def test_never_one_more_than_the_limit_at_once(limit: int) -> None:
+    # limit + 1 parties never meet: every call finds the barrier broken (the first after its
+    # timeout, the others at once).
+    crowd = threading.Barrier(limit + 1, timeout=0.5)
+
+    def call(i: int) -> bool:
+        try:
+            crowd.wait()
+        except threading.BrokenBarrierError:
+            return False
+        return True
+
+    assert each(call, list(range(limit + 3)), limit=limit) == [False] * (limit + 3)
+
+
+def test_no_thread_is_left_running_after_it_returns_or_raises() -> None:
+    def call(i: int) -> int:
+        if i == 2:
+            raise ValueError("no")
+        return i
+
+    def ours() -> list[threading.Thread]:
+        return [t for t in threading.enumerate() if t.name.startswith("left behind")]
+
+    assert each(call, [0, 1], name="left behind") == [0, 1]
+    assert ours() == []
+    with pytest.raises(ValueError):
+        each(call, [0, 1, 2, 3], name="left behind")
+    assert ours() == []
+
+
+def test_an_interrupt_drops_the_calls_not_begun_and_undoes_the_running_one() -> None:
+    import signal
+
+    main = threading.main_thread().ident
+    assert main == threading.get_ident()  # the interrupt goes to this (the main) thread
+    begun: list[int] = []
+    undone: list[int] = []
+
+    def call(i: int) -> int:
+        begun.append(i)
+        if i == 0:
+            time.sleep(0.1)  # the caller is waiting by now
+            signal.pthread_kill(main, signal.SIGINT)  # Ctrl-C
+            time.sleep(0.2)  # still running when the interrupt arrives
+        return i
+
+    with pytest.raises(KeyboardInterrupt):
+        each(call, [0, 1, 2, 3, 4], undo=undone.append, limit=1)
+    assert begun == [0] and undone == [0]
