@@ -65,9 +65,9 @@ def test_a_frame_the_schedule_does_not_hold_has_no_planned_time() -> None:
 def test_telemetry_and_state_changes_are_logged_with_their_clock_time() -> None:
     assert _one(TelemetryRead(5.5, "rex", "battery", 81.0)) == {
         "kind": "telemetry", "performer": "rex", "name": "battery", "value": 81.0, "t": 5.5}
-    changed = StateChanged(105.12345678, "rex", ExecutorState.PAUSED, 3.00000049)
+    changed = StateChanged(105.12345678, "rex", ExecutorState.PAUSED, 3.25000049)
     assert _one(changed) == {"kind": "state", "performer": "rex", "state": "paused",
-                             "show_time": 3.0, "t": 105.123457}
+                             "show_time": 3.25, "t": 105.123457}
 
 
 def test_a_fault_and_the_safe_stop_it_caused_are_events() -> None:
@@ -92,8 +92,8 @@ def test_the_show_events_are_logged_with_their_times() -> None:
                                                  "show_time": 1.234568}
     assert _one(ShowResumed(4.0, 1.23456789)) == {"kind": "event", "event": "resume",
                                                   "show_time": 1.234568}
-    assert _one(ShowSought(5.0, 9.87654321, 110.00000049)) == {
-        "kind": "event", "event": "seek", "show_time": 9.876543, "at": 110.0}
+    assert _one(ShowSought(5.0, 9.87654321, 110.50000049)) == {
+        "kind": "event", "event": "seek", "show_time": 9.876543, "at": 110.5}
     assert _one(RunnerFailed(6.0, "boom", "RuntimeError")) == {
         "kind": "event", "event": "exception", "error": "boom", "type": "RuntimeError"}
 
