@@ -227,9 +227,9 @@ def test_a_report_counts_from_the_send_stats_or_else_from_the_progress() -> None
 
 
 def test_the_report_heads_with_how_the_show_ended_and_the_stop_latency() -> None:
-    stopped = ShowResult(False, "SIGINT", {"rex": _performer()}, stop_latency=0.04216)
+    stopped = ShowResult(False, "SIGINT", {"rex": _performer()}, stop_latency=0.08888)
     lines = format_report(stopped).splitlines()
-    assert lines[0] == ("show stopped: SIGINT; safe stop finished 42.2 ms after the request "
+    assert lines[0] == ("show stopped: SIGINT; safe stop finished 88.9 ms after the request "
                         "(target 100 ms)")
     assert lines[1].startswith("rex (mini): stopped; 4/10 frames")
     assert format_report(ShowResult(True, "completed")) == "show completed"
