@@ -66,6 +66,7 @@ from xgo_show.runtime.events import (
     StateChanged,
 )
 from xgo_show.runtime.executor import ExecutorState
+from xgo_show.runtime.realtime import HELPER_PRIORITY, enter_show_thread, leave_show_thread
 from xgo_show.runtime.show_runner import ShowRunner
 
 __all__ = [
@@ -606,6 +607,16 @@ class Director(WorkerClosing):
         return None
 
     def _loop(self) -> None:
+        # A trigger's handler (on a raised Zenoh thread) takes the lock this thread holds while
+        # it arms a wait: above normal threads, so it is never preempted holding it.
+        raised = enter_show_thread(HELPER_PRIORITY)
+        try:
+            self._direct()
+        finally:
+            if raised:
+                leave_show_thread()
+
+    def _direct(self) -> None:
         with self._cond:
             while not self._closed:
                 now = self.clock.now()

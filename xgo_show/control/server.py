@@ -14,14 +14,21 @@ answered there at once (each takes a lock for microseconds, or sends stop frames
 commands queue for one control thread (bounded: a full queue is answered "busy"), so a long
 compile never delays a panic or a trigger. A show runs in a thread of its own.
 
-Triggers. A trigger's name is looked up first, in the set of triggers the loaded show's
-sections wait for: one nobody waits for is refused there and then (counted; a query gets an
-error reply, at most :data:`UNKNOWN_REPLIES` a second), before its payload is parsed or any
-lock is taken, so a flood of them costs the show's writer threads next to nothing. A known one
-is decided in the callback (the director releases the wait: a flag per robot) and only then
-told about (events, the reply), so nothing stands between the trigger and the first frame.
-``log``: the trigger's times (received, decided, the writer's release, the section's first
-frame written) go to the run log as ``trigger`` records, beside the show's own.
+Triggers. Each trigger the loaded show's sections wait for has a subscriber of its own
+(``NS/trigger/NAME``, declared at load) whose handler runs on Zenoh's receiving thread itself
+(no hand-over to another thread), raised to real-time priority while a show plays (where
+permitted: :func:`~xgo_show.runtime.realtime.raise_thread`, under the guard that lowers a
+thread using more than half a CPU); it is decided there (the director releases the wait: a
+flag per robot) and only then told about (events), so nothing stands between the trigger and
+the first frame. Puts for any other name reach one wildcard subscriber whose samples wait in
+a bounded ring (:data:`UNKNOWN_RING`) that a normal-priority thread drains every
+:data:`DRAIN_PERIOD`: a flood of triggers nobody waits for wakes no Python thread per message
+and never runs at real-time priority. They are counted and told in a ``warning`` event at most
+once a second. A trigger *query* is answered on the receiving thread: one for an unknown name
+gets an error reply (at most :data:`UNKNOWN_REPLIES` a second), before its payload is parsed
+or any lock is taken. ``log``: the trigger's times (received, decided, the writer's release,
+the section's first frame written) go to the run log as ``trigger`` records, beside the
+show's own.
 """
 
 from __future__ import annotations
@@ -60,6 +67,7 @@ from xgo_show.runtime.events import Event, EventBus, FrameSent, StateChanged
 from xgo_show.runtime.executor import ExecutorState
 from xgo_show.runtime.launch import Launch
 from xgo_show.runtime.preflight import PreflightError
+from xgo_show.runtime.realtime import HELPER_PRIORITY, lower_thread, raise_thread, threads_named
 from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 from xgo_show.sim.bench import SimBench
@@ -67,13 +75,20 @@ from xgo_show.sim.bench import SimBench
 if TYPE_CHECKING:
     import zenoh
 
-__all__ = ["UNKNOWN_REPLIES", "ServeOptions", "ShowServer"]
+__all__ = ["DRAIN_PERIOD", "UNKNOWN_REPLIES", "UNKNOWN_RING", "ServeOptions", "ShowServer"]
 
+#: Name prefix of Zenoh's receiving threads (its Rust runtime's ``rx-0``, ``rx-1``, ...).
+ZENOH_RX = "rx-"
 _QUEUE = 64  # control commands waiting for the control thread
 _COUNTERS = ("triggers", "accepted", "refused", "unknown", "malformed", "busy", "cancelled")
 #: Error replies a second, at most, to queries for triggers nobody waits for (the rest are
 #: dropped unanswered, counted): a flood of queries is not answered by a flood of replies.
 UNKNOWN_REPLIES = 100
+#: Seconds between drains of the puts for triggers nobody waits for (counted in batches).
+DRAIN_PERIOD = 0.05
+#: Puts for unknown triggers kept between drains: more in one period are dropped uncounted
+#: (counted exactly up to UNKNOWN_RING / DRAIN_PERIOD = 80,000 a second).
+UNKNOWN_RING = 4096
 _EMPTY = (b"", b"{}", b'{"v":1}', b'{"v": 1}')  # trigger payloads with nothing to parse
 _NO_PAYLOAD = TriggerRequest.model_validate({})
 
@@ -89,6 +104,10 @@ class _Tally:
 
     def bump(self) -> None:
         next(self._bumps)
+
+    def add(self, n: int) -> None:
+        """``n`` bumps at once (in C: a zero-length deque consumes them)."""
+        collections.deque(itertools.islice(self._bumps, n), maxlen=0)
 
     def value(self) -> int:
         n = next(self._bumps) - self._reads
@@ -179,18 +198,28 @@ class ShowServer:
         self._warned_at = float("-inf")  # when unknown triggers were last told of
         self._unknown_told = 0  # the unknown tally then
         self._trace: _Trace | None = None  # a release being timed (with a log)
+        #: one subscriber per trigger the loaded show waits for (replaced at each load)
+        self._trigger_subs: list[Any] = []
+        self._stopping = threading.Event()  # the drain thread's cue to end
         self.log = RunLog(opts.log) if opts.log is not None else None
         self.publisher = EventPublisher(self.ns, self._put, clock=self.clock)
         if load is not None:  # before answering anyone: a client never sees it unloaded
             self._cmd_load(load)
         self._worker = threading.Thread(target=self._work, name="xgo-show control", daemon=True)
         self._worker.start()
+        direct = zenoh.handlers.Callback  # indirect=False: on Zenoh's receiving thread
+        self._unknown_puts = session.declare_subscriber(
+            trigger_key(self.ns), zenoh.handlers.RingChannel(UNKNOWN_RING))
         self._decls: list[Any] = [
             session.declare_queryable(control_key(self.ns), self._on_control),
             session.declare_queryable(status_key(self.ns), self._on_status),
-            session.declare_queryable(trigger_key(self.ns), self._on_trigger_query),
-            session.declare_subscriber(trigger_key(self.ns), self._on_trigger_put),
+            session.declare_queryable(trigger_key(self.ns),
+                                      direct(self._on_trigger_query, indirect=False)),
+            self._unknown_puts,
         ]
+        self._drainer = threading.Thread(target=self._drain, name="xgo-show unknown triggers",
+                                         daemon=True)
+        self._drainer.start()
 
     # ------------------------------------------------------------------ Zenoh handlers
 
@@ -217,11 +246,10 @@ class ShowServer:
         self._reply(query, "status", self.status())
 
     def _on_trigger_put(self, sample: Any) -> None:
+        """A put on ``NS/trigger/NAME`` for a trigger the loaded show waits for (its own
+        subscriber, on Zenoh's receiving thread)."""
         received = self.clock.now()
         name = str(sample.key_expr).rpartition("/")[2]
-        if name not in self._waited:
-            self._unknown(name)
-            return
         try:
             request = _trigger_request(sample.payload.to_bytes())
         except ControlError as exc:
@@ -254,12 +282,25 @@ class ShowServer:
         else:
             self._reply(query, "trigger", fields)
 
-    def _unknown(self, name: str) -> str:
-        """Refuse a trigger no section of the loaded show waits for: counted, told in a
-        ``warning`` event at most once a second (how many, and the last name). No lock, no
-        parse: this is what a flood of them costs. Returns the refusal's message."""
+    def _drain(self) -> None:
+        """Count the puts for triggers nobody waits for, a batch every :data:`DRAIN_PERIOD`
+        (the wildcard subscriber also gets the waited ones: their own subscribers took them)."""
+        ring = self._unknown_puts.handler
+        while not self._stopping.wait(DRAIN_PERIOD):
+            waited, n, last = self._waited, 0, ""
+            while (sample := ring.try_recv()) is not None:
+                name = str(sample.key_expr).rpartition("/")[2]
+                if name not in waited:
+                    n, last = n + 1, name
+            if n:
+                self._unknown(last, n)
+
+    def _unknown(self, name: str, n: int = 1) -> str:
+        """Refuse ``n`` triggers no section of the loaded show waits for (``name``: the
+        last): counted, told in a ``warning`` event at most once a second (how many, and the
+        last name). No lock, no parse. Returns the refusal's message."""
         for what in ("triggers", "refused", "unknown"):
-            self._tallies[what].bump()
+            self._tallies[what].add(n)
         now = self.clock.now()
         if now - self._warned_at >= 1.0:  # a race may tell twice: harmless
             self._warned_at = now
@@ -338,14 +379,27 @@ class ShowServer:
             if self._run is not None:
                 raise ControlError("a show is running: stop it before loading another")
         schedule, source = _load(req)
+        waited = frozenset(trigger_names(schedule.sections))
         with self._lock:
             self._loaded = (schedule, source)
-            self._waited = frozenset(trigger_names(schedule.sections))
+            self._declare_triggers(waited)
+            self._waited = waited
         summary = show_summary(schedule, source)
         self.say(f"loaded {schedule.name!r} ({source}); triggers: "
                  f"{', '.join(summary['triggers']) or 'none'}")
         self.publisher.publish("state", state="loaded", show=schedule.name)
         return {"show": summary, "warnings": [d.format() for d in schedule.warnings]}
+
+    def _declare_triggers(self, names: frozenset[str]) -> None:
+        """One subscriber per trigger the loaded show waits for, its handler on Zenoh's
+        receiving thread (the previous show's are undeclared)."""
+        for sub in self._trigger_subs:
+            sub.undeclare()
+        direct = self._zenoh.handlers.Callback
+        self._trigger_subs = [
+            self.session.declare_subscriber(trigger_key(self.ns, name),
+                                            direct(self._on_trigger_put, indirect=False))
+            for name in sorted(names)]
 
     def _cmd_start(self, req: StartRequest) -> dict[str, Any]:
         with self._lock:
@@ -439,11 +493,16 @@ class ShowServer:
         return _Run(schedule, launch, runner, director, sims)
 
     def _play(self, run: _Run, offset: float, start_at: float | None) -> None:
+        # Zenoh's receiving threads run the trigger handlers: above normal threads while the
+        # show plays (where permitted, guarded), so a trigger is not queued behind them.
+        raised = [tid for tid in threads_named(ZENOH_RX) if raise_thread(tid, HELPER_PRIORITY)]
         try:
             run.result = run.launch.run(offset=offset, start_at=start_at, handle_signals=False)
         except BaseException as exc:  # the runner safe-stopped every robot before raising
             run.result = ShowResult(False, f"exception: {exc!r}")
         finally:
+            for tid in raised:
+                lower_thread(tid)
             run.director.close()
             run.launch.close()
             if run.sims is not None:
@@ -619,9 +678,11 @@ class ShowServer:
             self._closed = True
             self._cond.notify_all()
         self._worker.join(2.0)
-        for decl in self._decls:
+        self._stopping.set()
+        self._drainer.join(2.0)
+        for decl in [*self._decls, *self._trigger_subs]:
             decl.undeclare()
-        self._decls = []
+        self._decls, self._trigger_subs = [], []
         self.publisher.close()
         if self.log is not None:
             self.log.close()

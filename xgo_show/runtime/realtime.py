@@ -17,14 +17,17 @@ writer thread calls :func:`enter_show_thread` as it starts:
 Only the show's own threads are raised, never the process, and only while a show plays: the
 writers at :data:`PRIORITY`, and at :data:`HELPER_PRIORITY` the other threads that run Python
 code while frames are due (each performer's telemetry reader, the thread that supervises the
-show), since a writer waits for Python's lock behind whichever thread holds it. Zenoh's
-threads, listeners' own threads and simulators keep normal priority. A FIFO thread that never
-blocked would keep every lower-priority thread off its CPU, so the design is bounded twice:
-the real clock's waits block in the kernel for the whole wait under FIFO (no spinning, see
-:class:`~xgo_show.runtime.clock.MonotonicClock`), and a :class:`_Guard` thread checks the CPU
-time of every raised thread each :data:`GUARD_PERIOD` and returns one that used more than
-:data:`GUARD_SHARE` of a CPU to normal priority, saying so. The kernel's own limit on real-time
-CPU (``/proc/sys/kernel/sched_rt_runtime_us``, 95 % by default) is the last line.
+show), since a writer waits for Python's lock behind whichever thread holds it. ``serve``
+also raises, at :data:`HELPER_PRIORITY` while a show plays, Zenoh's receiving threads (which
+run its trigger handlers: :func:`raise_thread`, :func:`threads_named`) and the director's
+thread. Other Zenoh threads, listeners' own threads and simulators keep normal priority.
+A FIFO thread that never blocked would keep every lower-priority thread off its CPU, so the
+design is bounded twice: the real clock's waits block in the kernel for the whole wait under
+FIFO (no spinning, see :class:`~xgo_show.runtime.clock.MonotonicClock`), and a
+:class:`_Guard` thread checks the CPU time of every raised thread each :data:`GUARD_PERIOD`
+and returns one that used more than :data:`GUARD_SHARE` of a CPU to normal priority, saying
+so. The kernel's own limit on real-time CPU (``/proc/sys/kernel/sched_rt_runtime_us``, 95 %
+by default) is the last line.
 """
 
 from __future__ import annotations
@@ -37,6 +40,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal
 
 from xgo_show.errors import UsageError
@@ -54,8 +58,11 @@ __all__ = [
     "decide",
     "enter_show_thread",
     "leave_show_thread",
+    "lower_thread",
     "policy",
+    "raise_thread",
     "restore",
+    "threads_named",
 ]
 
 Mode = Literal["auto", "required", "off"]
@@ -213,20 +220,48 @@ def enter_show_thread(priority: int = PRIORITY) -> bool:
 
     Returns whether it did. Pair with :func:`leave_show_thread` when the thread's work ends.
     """
-    if not _policy.granted:
-        return False
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
-    except OSError:
-        return False
-    _GUARD.watch(threading.get_native_id())
-    return True
+    return raise_thread(threading.get_native_id(), priority)
 
 
 def leave_show_thread() -> None:
     """Back to normal priority (a no-op for a thread that was never raised)."""
-    if _GUARD.forget(threading.get_native_id()):
-        _to_normal(0)
+    lower_thread(threading.get_native_id())
+
+
+def raise_thread(native: int, priority: int = HELPER_PRIORITY) -> bool:
+    """Raise this process's thread ``native`` (its kernel id: also a thread Python did not
+    start, such as one of Zenoh's runtime threads, see :func:`threads_named`) to SCHED_FIFO
+    ``priority`` if the policy grants it, under the same guard as the writers: one that uses
+    more than :data:`GUARD_SHARE` of a CPU goes back to normal priority. Returns whether it
+    did; pair with :func:`lower_thread`."""
+    if not _policy.granted:
+        return False
+    try:
+        os.sched_setscheduler(native, os.SCHED_FIFO, os.sched_param(priority))
+    except OSError:
+        return False
+    _GUARD.watch(native)
+    return True
+
+
+def lower_thread(native: int) -> None:
+    """Thread ``native`` back to normal priority (a no-op unless :func:`raise_thread` or
+    :func:`enter_show_thread` raised it and the guard has not lowered it already)."""
+    if _GUARD.forget(native):
+        _to_normal(native)
+
+
+def threads_named(prefix: str) -> list[int]:
+    """Kernel ids of this process's threads whose name starts with ``prefix`` (Zenoh's Rust
+    runtime names its threads ``rx-0``, ``tx-0``, ...: /proc/self/task/ID/comm)."""
+    out = []
+    with contextlib.suppress(OSError):
+        for task in os.listdir("/proc/self/task"):
+            with contextlib.suppress(OSError):
+                name = Path(f"/proc/self/task/{task}/comm").read_text(encoding="utf-8")
+                if name.startswith(prefix):
+                    out.append(int(task))
+    return sorted(out)
 
 
 def _to_normal(tid: int) -> None:
