@@ -15,16 +15,17 @@ All times are CLOCK_MONOTONIC, which every process on the host shares.
    - *polling*: asks ``NS/status`` every 20 ms and, when it sees the show holding, fires the
      trigger as a query (the way a client that polls does everything).
    For each: trigger sent -> the section's first scheduled frame at the simulator, and the show
-   began holding (its ``wait`` event) -> that frame. Then the push client again, against a
-   server started with ``--log``: where the time goes, from the run log's ``trigger`` records
-   (sent -> the server's Zenoh callback -> decided (payload read, director released the wait)
-   -> the writer thread took the release -> its first write -> the section's first frame
-   written -> arrival at the simulator).
+   began holding (its ``wait`` event) -> that frame. Then the push client ``--runs`` times
+   more, against a server started with ``--log`` (every run's figures, with the load average,
+   and all runs pooled): where the time goes, from the run log's ``trigger`` records (sent ->
+   the server's Zenoh callback -> decided (payload read, director released the wait) -> the
+   writer thread took the release -> its first write -> the section's first frame written ->
+   arrival at the simulator), and the steps of the slowest releases.
 2. A 14 s show without waits, played ``--runs`` times alone and as often while a client puts
    1,000 triggers a second nobody waits for, alternately (alone, flood, alone, ...) in one
    server. Send-time error: each frame's arrival at the simulator minus its planned time (the
    start time the ``start`` reply gives, plus the frame's time). Per run and pooled, with the
-   load average.
+   load average, the serve process's CPU and the flooding client's own (it shares the machine).
 
 Prints figures only (no asserts)::
 
@@ -155,7 +156,7 @@ def flood_client(endpoint: str, rate: int, seconds: float) -> None:
                 session.put(key, b"{}", congestion_control=zenoh.CongestionControl.BLOCK)
                 sent += 1
             time.sleep(0.002)
-        print(f"flooded {sent}", flush=True)
+        print(f"flooded {sent} cpu {time.process_time():.3f}", flush=True)
 
 
 # ---------------------------------------------------------------------- the bench
@@ -320,18 +321,22 @@ class Bench:
         flooder = _client(self.endpoint, "flood", "--seconds", str(schedule.duration + 2)) \
             if flood else None
         began, cpu = time.monotonic(), cpu_seconds(self.pid)
+        client_cpu = 0.0
         try:
             self.client.command("start", **{"in": 0.5})
             self.wait_until_loaded()
             cpu = (cpu_seconds(self.pid) - cpu) / (time.monotonic() - began)
         finally:
             if flooder is not None:
-                flooder.communicate(timeout=30)
+                out, _ = flooder.communicate(timeout=30)
+                words = out.split()
+                if "cpu" in words:  # its CPU over its whole life: the show's and 2 s more
+                    client_cpu = float(words[words.index("cpu") + 1]) / (schedule.duration + 2)
         time.sleep(0.2)  # the log's last records reach its file
         records = read_log(log)
         first = [i for i, r in enumerate(records) if r.get("event") == "start"][starts]
         start = records[first]["start_at"]
-        timing = Timing(cpu=cpu)
+        timing = Timing(cpu=cpu, client_cpu=client_cpu)
         written = []
         for r in records[first:]:
             if r["kind"] == "frame" and r["send"] == "frame":
@@ -359,6 +364,7 @@ class Timing:
     issue: list[float] = field(default_factory=list)
     delivery: list[float] = field(default_factory=list)  # arrival - the server's write
     cpu: float = 0.0  # the serve process's CPU use meanwhile, share of one CPU
+    client_cpu: float = 0.0  # the flooding client's, share of one CPU over the show
 
 
 @dataclass
@@ -416,6 +422,23 @@ def breakdown(released: Released, log: Path) -> list[tuple[str, list[float]]]:
     return rows
 
 
+def slowest(released: Released, log: Path, k: int = 3) -> list[str]:
+    """The ``k`` slowest releases, each step's ms: where a tail came from."""
+    traces = {r["section"]: r for r in read_log(log) if r["kind"] == "trigger"}
+    worst = sorted(released.sent, key=lambda s: released.sent[s] - released.arrived[s])[:k]
+    out = []
+    for section in worst:
+        trace = traces.get(section)
+        if trace is None:
+            continue
+        times = {**trace, "sent": released.sent[section], "arrived": released.arrived[section]}
+        parts = [f"{b} +{(times[b] - times[a]) * 1000:.2f}" for _, a, b in STEPS[:-1]
+                 if times.get(a) is not None and times.get(b) is not None]
+        total = (times["arrived"] - times["sent"]) * 1000
+        out.append(f"   {section}: {total:.2f} ms = " + ", ".join(parts))
+    return out
+
+
 def row(name: str, seconds: list[float]) -> str:
     if not seconds:
         return f"{name:<58} {'-':>8} {'-':>8} {'-':>8} {'-':>8}  (n=0)"
@@ -432,7 +455,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--triggers", type=int, default=200, help="triggers per client")
     parser.add_argument("--runs", type=int, default=3,
-                        help="plays of the steady show alone, and as many under the flood")
+                        help="runs of the push client against serve --log; plays of the steady "
+                        "show alone, and as many under the flood")
     parser.add_argument("--no-polling", action="store_true", help="leave the polling client out")
     parser.add_argument("--no-steady", action="store_true", help="leave part 2 out")
     parser.add_argument("--client", choices=("push", "polling", "flood"), help=argparse.SUPPRESS)
@@ -471,10 +495,18 @@ def main() -> None:
                 push = bench.triggered(triggered_path, triggered, "push", n)
                 if not args.no_polling:
                     poll = bench.triggered(triggered_path, triggered, "polling", n)
+            logged: list[tuple[Released, str]] = []
+            steps: list[tuple[str, list[float]]] = []
+            worst: list[str] = []
             with serving(sim_path, log=log) as (endpoint, session, pid):
                 bench = Bench(sim, session, endpoint, pid)
-                logged = bench.triggered(triggered_path, triggered, "push", n)
-                steps = breakdown(logged, log)
+                for _ in range(max(1, args.runs)):
+                    run = bench.triggered(triggered_path, triggered, "push", n)
+                    logged.append((run, f"{os.getloadavg()[0]:.1f}"))
+                    run_steps = breakdown(run, log)
+                    steps = [(label, values + more) for (label, values), (_, more)
+                             in zip(steps, run_steps, strict=True)] if steps else run_steps
+                    worst += slowest(run, log, 2)
                 for _ in range(0 if args.no_steady else args.runs):
                     quiet.append(bench.steady(steady_path, steady, False, log))
                     loads.append(f"{os.getloadavg()[0]:.1f}")
@@ -492,17 +524,25 @@ def main() -> None:
     print(row("push client: show began holding -> first frame", push.held_to_frame()))
     if poll is not None:
         print(row("polling client: show began holding -> first frame", poll.held_to_frame()))
-    print(f"\n   where the time goes (push client, serve --log), ms\n{head}")
+    print(f"\n   push client against serve --log, {len(logged)} runs of {n}, ms\n{head}")
+    for k, (run, load) in enumerate(logged):
+        print(row(f"   run {k + 1} (load {load}): trigger put -> first frame",
+                  run.sent_to_frame()))
+    print(row("   all runs: trigger put -> first frame",
+              [x for run, _ in logged for x in run.sent_to_frame()]))
+    print(f"\n   where the time goes (push client, serve --log, all runs), ms\n{head}")
     for label, values in steps:
         print(row("   " + label, values))
+    print("\n   the slowest releases of each run, step by step (ms after the step before)")
+    print("\n".join(worst))
     if quiet:
         print("\n2. send-time error of a running show (arrival at the robot - planned), ms, "
               f"alone and under 1,000 triggers a second nobody waits for, alternately\n{head}")
         for k, (q, f) in enumerate(zip(quiet, flooded, strict=True)):
             print(row(f"run {k + 1} alone (load {loads[2 * k]}, serve {q.cpu:.0%} CPU)",
                       q.error))
-            print(row(f"run {k + 1} flood (load {loads[2 * k + 1]}, serve {f.cpu:.0%} CPU)",
-                      f.error))
+            print(row(f"run {k + 1} flood (load {loads[2 * k + 1]}, serve {f.cpu:.0%}, "
+                      f"client {f.client_cpu:.0%} CPU)", f.error))
         print(row("all runs alone", [e for q in quiet for e in q.error]))
         print(row("all runs under the flood", [e for f in flooded for e in f.error]))
         print(f"\n   the server's issue lateness (its write - planned, run log), ms\n{head}")
