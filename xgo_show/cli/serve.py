@@ -36,7 +36,8 @@ def add_parser(sub: Any) -> None:
             "example:\n"
             "  xgo-show serve --map rex=/dev/ttyUSB0 --map ivy=/dev/ttyUSB1\n"
             "  xgo-show serve --sim --load choreographies/curtain_call.yaml\n"
-            "  xgo-show serve --map rex=zenoh:stage-left/dog1 --connect tcp/10.0.0.5:7447"
+            "  xgo-show serve --map rex=zenoh:stage-left/dog1 --connect tcp/10.0.0.5:7447\n"
+            "  xgo-show serve --sim --load show.yaml --follow osc:0.0.0.0:9000"
         ),
     )
     parser.add_argument("--map", action="append", default=[], metavar="NAME=PORT",
@@ -52,6 +53,10 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("--log", metavar="FILE",
                         help="write the run log (JSON lines) of every show played to FILE, with "
                         "each trigger's times (received, decided, released, first frame)")
+    parser.add_argument("--follow", metavar="osc:[HOST:]PORT",
+                        help="also take the sound desk's OSC cues on this UDP port: /go starts "
+                        "the loaded show (or goes on), /stop, /pause, /resume, /seek SECONDS, "
+                        "/bar N, and /trigger NAME fires a trigger as NS/trigger/NAME does")
     add_conductor_arguments(parser)
     add_realtime_arguments(parser)
     parser.set_defaults(func=run)
@@ -88,9 +93,14 @@ def run(args: argparse.Namespace) -> int:
         telemetry=not args.no_telemetry,
         allow_unsafe=args.allow_unsafe,
         log=Path(args.log) if args.log else None,
+        follow=args.follow,
     )
     if not opts.maps and not opts.sim:
         raise UsageError("serve needs robots: give --map NAME=PORT (repeatable) or --sim")
+    if args.follow is not None:
+        from xgo_show.timecode.osc import parse_spec
+
+        parse_spec(args.follow)  # a mistake is said before anything opens
     done = threading.Event()
 
     def on_signal(signum: int, frame: object) -> None:
@@ -104,6 +114,9 @@ def run(args: argparse.Namespace) -> int:
         try:
             print(f"serving on {sopts.namespace}/control, {sopts.namespace}/status and "
                   f"{sopts.namespace}/trigger/* (Ctrl-C to stop)", flush=True)
+            if server.osc is not None:
+                print(f"listening for OSC cues on {server.osc.host}:{server.osc.port} "
+                      "(/go /stop /pause /resume /seek /bar /trigger NAME)", flush=True)
             while not done.wait(0.5):
                 pass
         finally:

@@ -75,6 +75,8 @@ from xgo_show.sim.bench import SimBench
 if TYPE_CHECKING:
     import zenoh
 
+    from xgo_show.timecode.osc import Command, OscServer
+
 __all__ = ["DRAIN_PERIOD", "UNKNOWN_REPLIES", "UNKNOWN_RING", "ServeOptions", "ShowServer"]
 
 #: Name prefix of Zenoh's receiving threads (its Rust runtime's ``rx-0``, ``rx-1``, ...).
@@ -91,6 +93,7 @@ DRAIN_PERIOD = 0.05
 UNKNOWN_RING = 4096
 _EMPTY = (b"", b"{}", b'{"v":1}', b'{"v": 1}')  # trigger payloads with nothing to parse
 _NO_PAYLOAD = TriggerRequest.model_validate({})
+_OSC_TRIGGER = TriggerRequest.model_validate({"source": "osc"})
 
 
 class _Tally:
@@ -144,6 +147,9 @@ class ServeOptions:
     arm_margin: float = 0.1
     allow_unsafe: bool = False
     log: Path | None = None  # run log (JSON lines) of every show played, and triggers' times
+    #: ``osc:[HOST:]PORT``: also take the sound desk's OSC cues (``/go``, ``/stop``,
+    #: ``/pause``, ``/resume``, ``/seek``, ``/bar``, ``/trigger NAME``)
+    follow: str | None = None
 
 
 @dataclass
@@ -220,6 +226,11 @@ class ShowServer:
         self._drainer = threading.Thread(target=self._drain, name="xgo-show unknown triggers",
                                          daemon=True)
         self._drainer.start()
+        self.osc: OscServer | None = None
+        if opts.follow is not None:
+            from xgo_show.timecode.osc import OscServer, parse_spec
+
+            self.osc = OscServer(self._on_osc, *parse_spec(opts.follow))
 
     # ------------------------------------------------------------------ Zenoh handlers
 
@@ -282,6 +293,49 @@ class ShowServer:
         else:
             self._reply(query, "trigger", fields)
 
+    def _on_osc(self, command: Command | str) -> None:
+        """An OSC cue (on the OSC thread): a trigger is decided here, as a Zenoh one; the
+        other commands queue for the control thread like a query, their outcome said in a
+        line (an OSC message has no one to answer)."""
+        if isinstance(command, str):
+            self.say(f"osc: {command}")
+            return
+        received = self.clock.now()
+        if command.kind == "trigger":
+            name = str(command.name)
+            try:
+                if name not in self._waited:
+                    raise ControlError(self._unknown(name))
+                self._trigger(name, _OSC_TRIGGER, received)
+            except ControlError as exc:
+                self.say(f"osc: {exc}")
+            return
+        with self._lock:
+            running = self._run is not None
+        request: Any
+        if command.kind == "go" and running:  # as in run --follow: /go goes on
+            name, request = "resume", None
+        elif command.kind == "go":
+            name = "start"
+            request = StartRequest.model_validate({} if command.value is None
+                                                  else {"time": command.value})
+        elif command.kind in ("seek", "bar"):
+            value = command.value
+            name = "seek"
+            request = SeekRequest.model_validate(
+                {"time": value} if command.kind == "seek" else {"bar": int(value or 1)})
+        elif command.kind == "stop":
+            name, request = "stop", StopRequest.model_validate({"reason": "OSC /stop"})
+        else:
+            name, request = command.kind, None
+        with self._cond:
+            if len(self._queue) >= _QUEUE:
+                self._count("busy")
+                self.say(f"osc: /{command.kind} refused: {_QUEUE} commands are already waiting")
+                return
+            self._queue.append((name, request, None))
+            self._cond.notify()
+
     def _drain(self) -> None:
         """Count the puts for triggers nobody waits for, a batch every :data:`DRAIN_PERIOD`
         (the wildcard subscriber also gets the waited ones: their own subscribers took them)."""
@@ -328,12 +382,18 @@ class ShowServer:
         return True
 
     def _reply(self, query: Any, command: str, fields: dict[str, Any]) -> None:
+        if query is None:  # an OSC cue's
+            self.say(f"osc: {command}: {fields.get('state', 'done')}")
+            return
         try:
             query.reply(query.key_expr, ok_payload(command, **fields))
         finally:
             query.drop()
 
     def _reply_err(self, query: Any, command: str, code: str, message: str) -> None:
+        if query is None:  # an OSC cue's
+            self.say(f"osc: {command} refused ({code}): {message}")
+            return
         try:
             query.reply_err(error_payload(command, code, message))
         finally:
@@ -495,7 +555,10 @@ class ShowServer:
     def _play(self, run: _Run, offset: float, start_at: float | None) -> None:
         # Zenoh's receiving threads run the trigger handlers: above normal threads while the
         # show plays (where permitted, guarded), so a trigger is not queued behind them.
-        raised = [tid for tid in threads_named(ZENOH_RX) if raise_thread(tid, HELPER_PRIORITY)]
+        threads = threads_named(ZENOH_RX)
+        if self.osc is not None and self.osc.native_id is not None:
+            threads.append(self.osc.native_id)  # OSC triggers, likewise
+        raised = [tid for tid in threads if raise_thread(tid, HELPER_PRIORITY)]
         try:
             run.result = run.launch.run(offset=offset, start_at=start_at, handle_signals=False)
         except BaseException as exc:  # the runner safe-stopped every robot before raising
@@ -680,6 +743,8 @@ class ShowServer:
         self._worker.join(2.0)
         self._stopping.set()
         self._drainer.join(2.0)
+        if self.osc is not None:
+            self.osc.close()
         for decl in [*self._decls, *self._trigger_subs]:
             decl.undeclare()
         self._decls, self._trigger_subs = [], []

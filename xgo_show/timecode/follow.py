@@ -1,9 +1,10 @@
 """``run``/``dry-run --follow``: the sound desk drives the show (OSC cues or MTC chase).
 
 ``osc:[HOST:]PORT`` listens for OSC cues (see :mod:`.osc`): the show waits for ``/go``, then
-``/pause``, ``/resume``, ``/seek``, ``/bar`` and ``/stop`` steer it. ``mtc:PORT`` chases MIDI
-timecode from the MIDI input PORT (see :mod:`.chase`; needs python-rtmidi): the show starts when
-the timecode locks and holds or stops on a jump or dropout, as ``--chase-policy`` says.
+``/pause``, ``/resume``, ``/seek``, ``/bar`` and ``/stop`` steer it, ``/trigger NAME`` fires a
+trigger. ``mtc:PORT`` chases MIDI timecode from the MIDI input PORT (see :mod:`.chase`; needs
+python-rtmidi): the show starts when the timecode locks and holds or stops on a jump or
+dropout, as ``--chase-policy`` says.
 
 A show whose sections wait for triggers follows OSC cues through its
 :class:`~xgo_show.control.director.Director` (set :attr:`Follow.director`): the desk starts,
@@ -22,7 +23,7 @@ from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import TimecodeError, UsageError
 from xgo_show.runtime.clock import Clock
 from xgo_show.timecode.chase import Chaser, ChaseSettings, Policy
-from xgo_show.timecode.osc import Command, OscServer
+from xgo_show.timecode.osc import Command, OscServer, parse_spec
 
 __all__ = ["Follow", "parse_timecode"]
 
@@ -71,14 +72,7 @@ class Follow:
         self._closers: list[Callable[[], None]] = []
         kind, _, where = spec.partition(":")
         if kind == "osc":
-            host, _, port = where.rpartition(":")
-            try:
-                number = int(port)
-            except ValueError:
-                number = -1
-            if not 0 <= number <= 65535:
-                raise UsageError(f"--follow {spec!r}: write osc:[HOST:]PORT, e.g. osc:9000")
-            server = OscServer(self._on_osc, host or "127.0.0.1", number)
+            server = OscServer(self._on_osc, *parse_spec(spec))
             self._closers.append(server.close)
             self.note = f"listening for OSC cues on {server.host}:{server.port} (/go starts)"
         elif kind == "mtc" and where:
@@ -130,6 +124,8 @@ class Follow:
             print(f"osc: /{kind} before /go: ignored", file=self.out, flush=True)
         elif kind == "stop":
             self.stop("OSC /stop")
+        elif kind == "trigger":
+            self.trigger(str(command.name))
         elif kind == "pause":
             self.pause(now + LEAD)
         elif kind in ("resume", "go"):
@@ -174,6 +170,14 @@ class Follow:
             self._direct("seek", lambda: self.director.seek(show_time, at=at))
         elif self.runner is not None:
             self.runner.seek(show_time, at=at)
+
+    def trigger(self, name: str) -> None:
+        """The desk fires trigger ``name``: through the director, as a Zenoh trigger."""
+        if self.director is None:
+            print(f"osc: /trigger {name} refused: this show waits for no trigger",
+                  file=self.out, flush=True)
+        else:
+            self._direct(f"trigger {name}", lambda: self.director.trigger(name))
 
     def _direct(self, what: str, command: Callable[[], None]) -> None:
         """A cue through the director: one line saying why, if it refuses it."""

@@ -10,6 +10,8 @@ Commands (each address may carry a prefix, ``/xgo/go`` as well as ``/go``):
 ``/seek f``         go to show time ``f`` (catch-up moves, never a jump)
 ``/bar i``          go to bar ``i`` (needs the show's tempo)
 ``/stop``           safe-stop every robot
+``/trigger s``      fire trigger ``s`` (releases the wait of a section that waits
+                    for it, as a Zenoh trigger does)
 ==================  ==========================================================
 
 :func:`parse_packet` is pure (bytes in, commands or a reason out); python-osc decodes the OSC
@@ -18,6 +20,7 @@ encoding itself, bundles included.
 
 from __future__ import annotations
 
+import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -25,17 +28,21 @@ from typing import Any
 
 from xgo_show.audio.decode import require
 
-__all__ = ["COMMANDS", "Command", "OscServer", "parse_command", "parse_packet"]
+__all__ = ["COMMANDS", "Command", "OscServer", "parse_command", "parse_packet", "parse_spec"]
 
-COMMANDS = ("go", "pause", "resume", "seek", "bar", "stop")
+COMMANDS = ("go", "pause", "resume", "seek", "bar", "stop", "trigger")
+#: A trigger's name over OSC: as a section's ``wait`` names it.
+_TRIGGER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
 
 
 @dataclass(frozen=True)
 class Command:
-    """``kind`` (one of :data:`COMMANDS`) and its value: seconds for go/seek, a bar for bar."""
+    """``kind`` (one of :data:`COMMANDS`) and its value: seconds for go/seek, a bar for bar;
+    ``name``: the trigger's, for trigger."""
 
     kind: str
     value: float | None = None
+    name: str | None = None
 
 
 def _number(args: list[Any]) -> float | None:
@@ -56,12 +63,33 @@ def parse_command(address: str, args: list[Any], prefix: str = "") -> Command | 
         return Command(kind) if not args else f"/{kind} takes no arguments"
     if kind == "go" and not args:
         return Command("go")
+    if kind == "trigger":
+        if len(args) != 1 or not isinstance(args[0], str) \
+                or not _TRIGGER_NAME.fullmatch(args[0]):
+            return f"/trigger takes one trigger name (letters, digits, _ and -), not {args!r}"
+        return Command("trigger", name=args[0])
     value = _number(args)
     if value is None or value < 0:
         return f"/{kind} takes one number >= 0, not {args!r}"
     if kind == "bar" and (value != int(value) or value < 1):
         return f"/bar takes a bar number (1, 2, ...), not {args[0]!r}"
     return Command(kind, value)
+
+
+def parse_spec(spec: str, option: str = "--follow") -> tuple[str, int]:
+    """``osc:[HOST:]PORT`` -> (host, port); host 127.0.0.1 when not given. Raises
+    :class:`~xgo_show.errors.UsageError` naming ``option`` for anything else."""
+    from xgo_show.errors import UsageError
+
+    kind, _, where = spec.partition(":")
+    host, _, port = where.rpartition(":")
+    try:
+        number = int(port)
+    except ValueError:
+        number = -1
+    if kind != "osc" or not 0 <= number <= 65535:
+        raise UsageError(f"{option} {spec!r}: write osc:[HOST:]PORT, e.g. osc:9000")
+    return host or "127.0.0.1", number
 
 
 def parse_packet(data: bytes, prefix: str = "") -> list[Command | str]:
@@ -111,6 +139,11 @@ class OscServer:
         self._thread = threading.Thread(target=self._server.serve_forever, kwargs={
             "poll_interval": 0.05}, name="osc-server", daemon=True)
         self._thread.start()
+
+    @property
+    def native_id(self) -> int | None:
+        """The kernel id of the thread that hands the commands on (to raise its priority)."""
+        return self._thread.native_id
 
     def close(self) -> None:
         """Stop listening (idempotent)."""
