@@ -159,6 +159,62 @@ def flood_client(endpoint: str, rate: int, seconds: float) -> None:
         print(f"flooded {sent} cpu {time.process_time():.3f}", flush=True)
 
 
+# ---------------------------------------------------------------------- the stall probe
+
+STALL_FIFO = 30  # the probe's SCHED_FIFO priority: above everything of the bench's
+STALL_PERIOD = 0.001  # seconds it sleeps between looks at the clock
+STALL_MIN = 0.002  # a wake-up this much later than asked is a stall (recorded)
+
+
+def stall_probe(record: Path) -> None:
+    """Child process: one thread per CPU, pinned to it, at SCHED_FIFO :data:`STALL_FIFO`,
+    sleeps :data:`STALL_PERIOD` again and again and records each wake-up more than
+    :data:`STALL_MIN` late (CPU, from, to). Nothing in this machine's scheduler can keep a
+    thread of that priority off its CPU for milliseconds (it outranks every thread of the
+    bench, and blocks at once): a stall is the CPU itself not running (the hypervisor, which
+    this VM's kernel does not report as steal time) or the kernel not preempting."""
+    import threading
+
+    out = record.open("w", encoding="utf-8")
+    lock = threading.Lock()
+
+    def watch(cpu: int) -> None:
+        os.sched_setaffinity(0, {cpu})
+        with contextlib.suppress(OSError):
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(STALL_FIFO))
+        last = time.monotonic()
+        while True:
+            time.sleep(STALL_PERIOD)
+            now = time.monotonic()
+            if now - last > STALL_PERIOD + STALL_MIN:
+                with lock:
+                    out.write(f"{cpu} {last + STALL_PERIOD:.6f} {now:.6f}\n")
+                    out.flush()
+            last = now
+
+    for cpu in sorted(os.sched_getaffinity(0)):
+        threading.Thread(target=watch, args=(cpu,), daemon=True).start()
+    print("ready", flush=True)
+    sys.stdin.read()
+
+
+def read_stalls(record: Path) -> list[tuple[int, float, float]]:
+    """The probe's stalls so far: (CPU, from, to), clock seconds."""
+    out = []
+    with contextlib.suppress(OSError), record.open(encoding="utf-8") as fh:
+        for line in fh:
+            cpu, a, b = line.split()
+            out.append((int(cpu), float(a), float(b)))
+    return out
+
+
+def stalls_within(stalls: list[tuple[int, float, float]], a: float, b: float) -> str:
+    """The stalls overlapping [a, b], as words (empty: none)."""
+    hits = [f"CPU{cpu} stalled {(min(y, b) - max(x, a)) * 1000:.2f} ms"
+            for cpu, x, y in stalls if x < b and y > a]
+    return "; ".join(hits)
+
+
 # ---------------------------------------------------------------------- the bench
 
 
@@ -348,6 +404,7 @@ class Bench:
         for t, data in self.sim.frames_since(began):
             if i < len(datas) and data == datas[i]:
                 timing.error.append(t - planned[i])
+                timing.spans.append((planned[i], t))
                 if i < len(written):
                     timing.delivery.append(t - written[i])
                 i += 1
@@ -365,6 +422,15 @@ class Timing:
     delivery: list[float] = field(default_factory=list)  # arrival - the server's write
     cpu: float = 0.0  # the serve process's CPU use meanwhile, share of one CPU
     client_cpu: float = 0.0  # the flooding client's, share of one CPU over the show
+    spans: list[tuple[float, float]] = field(default_factory=list)  # (planned, arrived)
+
+    def late_in_stalls(self, stalls: list[tuple[int, float, float]],
+                       over: float = 0.001) -> str:
+        """How many frames arrived more than ``over`` s late, and how many of them while a
+        CPU stalled (the probe's record)."""
+        late = [(a, b) for a, b in self.spans if b - a > over]
+        hit = sum(1 for a, b in late if any(x < b and y > a for _, x, y in stalls))
+        return f"{len(late)} frames > {over * 1000:g} ms late, {hit} of them during a CPU stall"
 
 
 @dataclass
@@ -422,8 +488,10 @@ def breakdown(released: Released, log: Path) -> list[tuple[str, list[float]]]:
     return rows
 
 
-def slowest(released: Released, log: Path, k: int = 3) -> list[str]:
-    """The ``k`` slowest releases, each step's ms: where a tail came from."""
+def slowest(released: Released, log: Path, stalls: list[tuple[int, float, float]],
+            k: int = 3) -> list[str]:
+    """The ``k`` slowest releases, each step's ms, and the probe's stalls meanwhile: where a
+    tail came from."""
     traces = {r["section"]: r for r in read_log(log) if r["kind"] == "trigger"}
     worst = sorted(released.sent, key=lambda s: released.sent[s] - released.arrived[s])[:k]
     out = []
@@ -435,7 +503,9 @@ def slowest(released: Released, log: Path, k: int = 3) -> list[str]:
         parts = [f"{b} +{(times[b] - times[a]) * 1000:.2f}" for _, a, b in STEPS[:-1]
                  if times.get(a) is not None and times.get(b) is not None]
         total = (times["arrived"] - times["sent"]) * 1000
-        out.append(f"   {section}: {total:.2f} ms = " + ", ".join(parts))
+        stalled = stalls_within(stalls, times["sent"], times["arrived"])
+        out.append(f"   {section}: {total:.2f} ms = " + ", ".join(parts)
+                   + f"; {stalled or 'no CPU stalled'}")
     return out
 
 
@@ -464,6 +534,7 @@ def main() -> None:
     parser.add_argument("--count", type=int, default=0, help=argparse.SUPPRESS)
     parser.add_argument("--seconds", type=float, default=0.0, help=argparse.SUPPRESS)
     parser.add_argument("--serve-sim", help=argparse.SUPPRESS)
+    parser.add_argument("--stall-probe", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.client == "push":
         return push_client(args.connect, args.count)
@@ -473,6 +544,8 @@ def main() -> None:
         return flood_client(args.connect, 1000, args.seconds)
     if args.serve_sim:
         return serve_sim(Path(args.serve_sim))
+    if args.stall_probe:
+        return stall_probe(Path(args.stall_probe))
     n = args.triggers
     with tempfile.TemporaryDirectory() as tmp:
         triggered_path, steady_path = Path(tmp) / "triggered.yaml", Path(tmp) / "steady.yaml"
@@ -480,9 +553,14 @@ def main() -> None:
         steady_path.write_text(STEADY, encoding="utf-8")
         triggered, steady = (compile_show(load_show(p)) for p in (triggered_path, steady_path))
         record, log = Path(tmp) / "robot.jsonl", Path(tmp) / "serve.jsonl"
+        stall_record = Path(tmp) / "stalls.txt"
         with _process(sys.executable, "-c", "while True: pass"), \
+                _process(sys.executable, __file__, "--stall-probe", str(stall_record),
+                         stdin=True) as probe, \
                 _process(sys.executable, __file__, "--serve-sim", str(record),
                          stdin=True) as simproc:
+            assert probe.stdout is not None
+            probe.stdout.readline()
             assert simproc.stdout is not None
             priority, sim_path = simproc.stdout.readline().split()
             sim = Sim(record)
@@ -506,15 +584,19 @@ def main() -> None:
                     run_steps = breakdown(run, log)
                     steps = [(label, values + more) for (label, values), (_, more)
                              in zip(steps, run_steps, strict=True)] if steps else run_steps
-                    worst += slowest(run, log, 2)
+                    worst += slowest(run, log, read_stalls(stall_record), 2)
                 for _ in range(0 if args.no_steady else args.runs):
                     quiet.append(bench.steady(steady_path, steady, False, log))
                     loads.append(f"{os.getloadavg()[0]:.1f}")
                     flooded.append(bench.steady(steady_path, steady, True, log))
                     loads.append(f"{os.getloadavg()[0]:.1f}")
                 counters = bench.client.status()["counters"]
+            stalls = read_stalls(stall_record)
     print(f"xgo-show serve, a simulated Mini on a pty ({priority}), Zenoh on loopback, one CPU "
           f"kept busy; load average {load_average()}")
+    print(f"CPU stalls (a SCHED_FIFO-{STALL_FIFO} probe per CPU woke > {STALL_MIN * 1000:g} ms "
+          f"late) during the bench: {len(stalls)}, " + (
+              f"longest {max(b - a for _, a, b in stalls) * 1000:.1f} ms" if stalls else ""))
     head = f"{'':<58} {'p50':>8} {'p99':>8} {'p99.9':>8} {'max':>8}"
     print(f"\n1. {n} sections released by triggers, ms\n{head}")
     print(row("push client: trigger put -> first frame at the robot", push.sent_to_frame()))
@@ -543,6 +625,9 @@ def main() -> None:
                       q.error))
             print(row(f"run {k + 1} flood (load {loads[2 * k + 1]}, serve {f.cpu:.0%}, "
                       f"client {f.client_cpu:.0%} CPU)", f.error))
+        for k, (q, f) in enumerate(zip(quiet, flooded, strict=True)):
+            print(f"   run {k + 1}: alone {q.late_in_stalls(stalls)}; "
+                  f"flood {f.late_in_stalls(stalls)}")
         print(row("all runs alone", [e for q in quiet for e in q.error]))
         print(row("all runs under the flood", [e for f in flooded for e in f.error]))
         print(f"\n   the server's issue lateness (its write - planned, run log), ms\n{head}")
