@@ -321,6 +321,19 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def thread_cpu(pid: int) -> dict[str, float]:
+    """CPU seconds per thread name of process ``pid`` (threads of one name summed)."""
+    out: dict[str, float] = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        with contextlib.suppress(OSError):
+            text = (task / "stat").read_text()
+            name = text[text.index("(") + 1:text.rindex(")")]
+            fields = text.rsplit(")", 1)[1].split()
+            cpu = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+            out[name] = out.get(name, 0.0) + cpu
+    return out
+
+
 class Bench:
     """One serve process, the simulator and an operator's session."""
 
@@ -377,11 +390,15 @@ class Bench:
         flooder = _client(self.endpoint, "flood", "--seconds", str(schedule.duration + 2)) \
             if flood else None
         began, cpu = time.monotonic(), cpu_seconds(self.pid)
+        threads = thread_cpu(self.pid)
         client_cpu = 0.0
         try:
             self.client.command("start", **{"in": 0.5})
             self.wait_until_loaded()
-            cpu = (cpu_seconds(self.pid) - cpu) / (time.monotonic() - began)
+            took = time.monotonic() - began
+            cpu = (cpu_seconds(self.pid) - cpu) / took
+            threads = {name: (t - threads.get(name, 0.0)) / took
+                       for name, t in thread_cpu(self.pid).items()}
         finally:
             if flooder is not None:
                 out, _ = flooder.communicate(timeout=30)
@@ -392,7 +409,7 @@ class Bench:
         records = read_log(log)
         first = [i for i, r in enumerate(records) if r.get("event") == "start"][starts]
         start = records[first]["start_at"]
-        timing = Timing(cpu=cpu, client_cpu=client_cpu)
+        timing = Timing(cpu=cpu, client_cpu=client_cpu, threads=threads)
         written = []
         for r in records[first:]:
             if r["kind"] == "frame" and r["send"] == "frame":
@@ -423,6 +440,11 @@ class Timing:
     cpu: float = 0.0  # the serve process's CPU use meanwhile, share of one CPU
     client_cpu: float = 0.0  # the flooding client's, share of one CPU over the show
     spans: list[tuple[float, float]] = field(default_factory=list)  # (planned, arrived)
+    threads: dict[str, float] = field(default_factory=dict)  # serve's CPU share per thread
+
+    def busiest(self, k: int = 4) -> str:
+        top = sorted(self.threads.items(), key=lambda kv: -kv[1])[:k]
+        return ", ".join(f"{name} {share:.1%}" for name, share in top if share > 0)
 
     def late_in_stalls(self, stalls: list[tuple[int, float, float]],
                        over: float = 0.001) -> str:
@@ -628,6 +650,7 @@ def main() -> None:
         for k, (q, f) in enumerate(zip(quiet, flooded, strict=True)):
             print(f"   run {k + 1}: alone {q.late_in_stalls(stalls)}; "
                   f"flood {f.late_in_stalls(stalls)}")
+            print(f"      serve's threads alone: {q.busiest()}; flood: {f.busiest()}")
         print(row("all runs alone", [e for q in quiet for e in q.error]))
         print(row("all runs under the flood", [e for f in flooded for e in f.error]))
         print(f"\n   the server's issue lateness (its write - planned, run log), ms\n{head}")
