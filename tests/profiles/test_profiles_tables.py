@@ -477,6 +477,9 @@ def test_safe_stop_brings_xgos_to_rest() -> None:
     assert {r.name for r in rider.registers if r.group in ("speed", "periodic")} == {
         name for name, _ in rider.safe_stop
     }
+    # At rest: no speed, no periodic motion (0.0 in each register's unit, not a small value
+    # that rounds to the same byte).
+    assert all(value == 0.0 for _, value in rider.safe_stop)
 
 
 def test_default_posture_registers_exist_and_are_posture() -> None:
@@ -508,7 +511,8 @@ def test_capabilities() -> None:
         )
         assert not dog.supports("led")
     assert rider.supports("led") and rider.supports("actions") and rider.supports("imu")
-    assert not rider.supports("lateral") and not rider.supports("legs")
+    assert rider.capabilities == frozenset({"wheels", "led", "actions", "periodic", "posture",
+                                             "imu"})
 
 
 @pytest.mark.parametrize("model", XGO_MODELS)
@@ -556,17 +560,69 @@ def test_dog_action_durations_match_the_vendor_library() -> None:
 
 
 def test_rider_actions() -> None:
-    assert [a.id for a in RIDER.actions] == [*rider_action_ids(), 255]
-    assert [a.id for a in RIDER.actions] == [*rider_action_ids(RIDER_ZH_DOC), 255]
-    assert [a.name for a in RIDER.actions[:6]] == [
+    rider = build_profile("rider")
+    assert [a.id for a in rider.actions] == [*rider_action_ids(), 255]
+    assert [a.id for a in rider.actions] == [*rider_action_ids(RIDER_ZH_DOC), 255]
+    assert [a.name for a in rider.actions] == [
         "swinging",
         "ups_and_downs",
         "forward_and_backward",
         "four_sided_serpentine",
         "lift_and_rotate",
         "circular_shake",
+        "reset",
     ]
-    assert all(a.duration is None for a in RIDER.actions)
+    assert all(a.duration is None for a in rider.actions)
+
+
+# The Rider's own registers (the shared ones: _SHARED) as its document states them: access,
+# encoding, bytes, and each setting's codes (0x02 "0x00 falling state, 0x01 normal", 0x06
+# "0x01 setting", 0x08 feedback on, 0x0A "0x00 off, 0x01 on"). 0x36 roll is not in the Rider
+# table (the brief and the vendor library use it) and is written like the other postures.
+_RIDER_OWN: dict[str, tuple[Access, Encoding, int, dict[str, int]]] = {
+    "status": (Access.READ, Encoding.ENUM, 1, {"fallen": 0, "normal": 1}),
+    "set_origin": (Access.WRITE, Encoding.ENUM, 1, {"idle": 0, "set": 1}),
+    "auto_feedback": (Access.WRITE, Encoding.ENUM, 1, {"off": 0, "on": 1}),
+    "steering_hold": (Access.WRITE, Encoding.ENUM, 1, {"off": 0, "on": 1}),
+    "vx": (Access.WRITE, Encoding.U8, 1, {}),
+    "vyaw": (Access.WRITE, Encoding.U8, 1, {}),
+    "body_z": (Access.WRITE, Encoding.U8, 1, {}),
+    "roll": (Access.WRITE, Encoding.U8, 1, {}),
+    "periodic_roll": (Access.WRITE, Encoding.U8_PERIODIC, 1, {}),
+    "action": (Access.WRITE, Encoding.U8, 1, {}),
+    **{f"led{n}": (Access.WRITE, Encoding.RGB, 3, {}) for n in range(1, 5)},
+    "periodic_z": (Access.WRITE, Encoding.U8_PERIODIC, 1, {}),
+}
+
+
+def test_the_riders_own_registers() -> None:
+    rider = build_profile("rider")
+    for name, (access, encoding, size, choices) in _RIDER_OWN.items():
+        reg = rider.register(name)
+        assert (reg.access, reg.encoding, reg.size, dict(reg.choices)) == (
+            access, encoding, size, choices), name
+    # Each LED register says which LED it colours.
+    for n in range(1, 5):
+        assert rider.register(f"led{n}").description.startswith(f"LED {n} colour"), n
+
+
+# The Rider's default trajectory limits (our choice, not a vendor fact: a full-scale change
+# within about a second): what a move without its own limits gets, per second^n.
+_RIDER_LIMITS = {
+    "vx": (1.5, 6.0, 40.0),
+    "vyaw": (360.0, 1800.0, 15000.0),
+    "body_z": (60.0, 300.0, 2000.0),
+    "roll": (40.0, 200.0, 1500.0),
+}
+
+
+def test_rider_trajectory_limits() -> None:
+    rider = build_profile("rider")
+    for name, expected in _RIDER_LIMITS.items():
+        lim = rider.register(name).limits
+        assert lim is not None, name
+        assert (lim.velocity, lim.acceleration, lim.jerk) == expected, name
+    assert {r.name for r in rider.registers if r.limits is not None} == set(_RIDER_LIMITS)
 
 
 def test_unknown_action_lists_valid_ones() -> None:
