@@ -2,17 +2,29 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from xgo_show.choreo.resolved import ActionCue, ArmCue, MotionCue, SetCue
 from xgo_show.compiler import compile_show, describe_frame, frames_to_reach, state_at
-from xgo_show.compiler.state import FrameLabels, format_fields, frame_labels
+from xgo_show.compiler import state as state_module
+from xgo_show.compiler.schedule import ScheduledFrame
+from xgo_show.compiler.state import (
+    FrameLabels,
+    format_fields,
+    frame_label,
+    frame_labels,
+    link_use,
+    xgo_state_at,
+)
 from xgo_show.errors import ProtocolError
 from xgo_show.profiles import get_profile
+from xgo_show.profiles.model import Access, Link, Profile, Register
 from xgo_show.sim.xgo_robot import XgoRobot
-from xgo_show.wire.xgo import write_frame
+from xgo_show.wire.xgo import MAX_DATA, write_frame
 
 MINI = get_profile("mini")
 
@@ -157,3 +169,117 @@ def test_compiled_frames_derive_their_labels_from_their_bytes(make_show, o) -> N
         assert f == ScheduledFrame(f.t, f.data, f.origin, f.duration)  # labels aside
     assert frames[-1].label == "action=13(wave)"
     assert ScheduledFrame(0.0, frames[0].data).label == ""  # no labels given: no label
+
+
+# --- labels: malformed bytes, the field cache, one labeller a profile ------------------------
+
+def test_frame_labels_refuse_bytes_that_are_not_one_write_frame() -> None:
+    good = write_frame(0x35, b"\x90")
+    bad_length = good[:2] + bytes((good[2] + 1,)) + good[3:]  # the length byte disagrees
+    for data in (good[:5], bad_length):
+        with pytest.raises(ProtocolError, match="not a single XGO write frame"):
+            FrameLabels(MINI)(data)
+        assert frame_labels(MINI)(data).startswith("(not a single XGO write frame")
+    assert frame_label(MINI, good) == FrameLabels(MINI)(good) == "body_z=100.4mm"
+
+
+def test_frame_labels_make_each_distinct_fields_text_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    made: list[tuple[int, bytes]] = []
+    real = state_module.field_label
+
+    def counting(profile, address, raw):  # type: ignore[no-untyped-def]
+        made.append((address, bytes(raw)))
+        return real(profile, address, raw)
+
+    monkeypatch.setattr(state_module, "field_label", counting)
+    labels = FrameLabels(get_profile("rider"))
+    one = write_frame(0x35, b"\x90\x70", write_type=0x01)  # body_z, roll: one byte each
+    leds = write_frame(0x69, b"\x01\x02\x03\x04\x05\x06", write_type=0x01)  # led1, led2
+    for data in (one, leds, one, leds):
+        labels(data)
+    assert made == [(0x35, b"\x90"), (0x36, b"\x70"), (0x69, b"\x01\x02\x03"),
+                    (0x6A, b"\x04\x05\x06")]
+    labels(write_frame(0x35, b"\x90\x71", write_type=0x01))  # a new roll byte only
+    assert made[4:] == [(0x36, b"\x71")]
+
+
+def test_each_profile_has_one_labeller_and_a_new_profile_object_its_own() -> None:
+    assert frame_labels(MINI) is frame_labels(MINI)
+    copy = dataclasses.replace(MINI, title="Mini (a copy)")
+    labels = frame_labels(copy)
+    assert labels is frame_labels(copy) and labels is not frame_labels(MINI)
+    assert labels(write_frame(0x35, b"\x90")) == "body_z=100.4mm"
+
+
+# --- state_at: up to and including t; an action ends at its end -------------------------------
+
+def test_state_at_includes_a_frame_at_exactly_t_and_drops_an_action_at_its_end() -> None:
+    frames = [ScheduledFrame(1.0, write_frame(0x35, b"\x90")),
+              ScheduledFrame(2.0, write_frame(0x3E, b"\x17"), duration=3.0)]
+    assert xgo_state_at(MINI, frames, 0.999999) == {}
+    assert xgo_state_at(MINI, frames, 1.0) == {"body_z": b"\x90"}
+    assert xgo_state_at(MINI, frames, 2.0) == {"body_z": b"\x90", "action": b"\x17"}
+    assert xgo_state_at(MINI, frames, 4.999999)["action"] == b"\x17"
+    assert xgo_state_at(MINI, frames, 5.0) == {"body_z": b"\x90"}
+
+
+# --- frames_to_reach: what is written, how it is grouped ----------------------------------------
+
+def test_frames_to_reach_write_only_safe_writable_registers_and_the_action_last() -> None:
+    state = {"battery": b"\x10", "calibration": b"\x01", "leg1_x": b"\x90",
+             "action": b"\x17", "body_z": b"\x70"}
+    frames = frames_to_reach(MINI, state)
+    assert [f.data for f in frames] == [write_frame(0x35, b"\x70"), write_frame(0x40, b"\x90"),
+                                        write_frame(0x3E, b"\x17")]
+    assert all(f.t == 0.0 and f.duration == 0.0 for f in frames)
+
+
+def test_frames_to_reach_use_the_profiles_write_type() -> None:
+    rider = get_profile("rider")
+    frames = frames_to_reach(rider, {"body_z": b"\x70", "action": b"\x01"})
+    assert [f.data for f in frames] == [write_frame(0x35, b"\x70", write_type=0x01),
+                                        write_frame(0x3E, b"\x01", write_type=0x01)]
+
+
+@pytest.mark.parametrize(("names", "frames"), [
+    # body_y and roll are bridged with their initial bytes: one frame for all three.
+    (("body_x", "body_z", "pitch"), 1),
+    # seven leg registers between: bridged (shorter than a frame's 8 bytes of overhead) ...
+    (("leg1_x", "leg3_z"), 1),
+    # ... eight are not: two frames
+    (("leg1_x", "leg4_x"), 2),
+    # servo_speed (a setting) is never re-sent to bridge a gap
+    (("servo_43", "servo_52"), 2),
+])
+def test_frames_to_reach_bridge_short_gaps_of_state_registers(names: tuple[str, ...],
+                                                              frames: int) -> None:
+    state = {name: b"\x90" for name in names}
+    got = frames_to_reach(MINI, state)
+    assert len(got) == frames
+    robot = XgoRobot(MINI)
+    for i, f in enumerate(got):
+        robot.receive(f.data, 0.01 * i)
+    for reg in MINI.registers:
+        if reg.access.writable and not reg.unsafe and reg.name != "action":
+            assert robot.raw(reg.name) == state.get(reg.name, reg.initial), reg.name
+
+
+# 250 one-byte state registers at 0x00..0xF9, initial 0: more than one frame's worth.
+LONG = Profile("long", "xgo", "Long", Link(115200, 0.001), tuple(
+    Register(a, f"r{a}", Access.READ_WRITE, initial=b"\x00", group="posture")
+    for a in range(250)))
+
+
+def test_frames_to_reach_cut_runs_at_max_data_bytes_and_no_sooner() -> None:
+    frames = frames_to_reach(LONG, {f"r{a}": b"\x01" for a in range(250)})
+    assert [len(f.data) - 8 for f in frames] == [MAX_DATA, 250 - MAX_DATA]
+    bridged = frames_to_reach(LONG, {f"r{a}": b"\x01" for a in range(0, 250, 2)})
+    assert all(len(f.data) - 8 <= MAX_DATA for f in bridged)
+    # r0..r246 (r1, r3, ... bridged), then r248 alone
+    assert [len(f.data) - 8 for f in bridged] == [MAX_DATA, 1]
+
+
+def test_link_use_of_a_part_of_no_duration_is_zero() -> None:
+    frames = [ScheduledFrame(0.0, write_frame(0x35, b"\x90"))]
+    assert link_use(MINI.link, frames, 0.0) == 0.0
+    assert link_use(MINI.link, frames, 1.0) == pytest.approx(9 * 10 / 115200)
