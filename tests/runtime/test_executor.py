@@ -14,8 +14,8 @@ import pytest
 from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
-from xgo_show.runtime.events import EventRecorder, StateChanged
-from xgo_show.runtime.executor import ExecutorState, PerformerExecutor
+from xgo_show.runtime.events import EventRecorder, FaultRaised, SafeStopped, StateChanged
+from xgo_show.runtime.executor import ExecutorState, PerformerExecutor, SafeStopResult
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryPoller
 from xgo_show.sim import create_robot
@@ -464,3 +464,145 @@ def test_seek_while_paused_takes_effect_on_resume(perf) -> None:
     assert ex.join(5)
     assert reached == [pytest.approx(0.2)]
     assert [r.index for r in rec.sent() if r.kind == "frame"] == [*range(7), *range(2, 10)]
+
+
+class FailingSim(SimTransport):
+    """A sim link whose port dies after ``good`` writes (an unplugged adapter)."""
+
+    def __init__(self, clock: FakeClock, good: int) -> None:
+        super().__init__(create_robot("mini"), clock=clock.now, sleep=clock.advance)
+        self.good = good
+        self.open()
+
+    def write(self, data: bytes) -> None:
+        if self.good <= 0:
+            raise OSError("port gone")
+        self.good -= 1
+        super().write(data)
+
+
+class StuckSim(SimTransport):
+    """A sim link whose writes block until ``release`` is set (a wedged USB adapter)."""
+
+    def __init__(self, clock: FakeClock) -> None:
+        super().__init__(create_robot("mini"), clock=clock.now, sleep=clock.advance)
+        self.writing = threading.Event()
+        self.release = threading.Event()
+        self.open()
+
+    def write(self, data: bytes) -> None:
+        self.writing.set()
+        self.release.wait(5)
+        super().write(data)
+
+
+def test_a_safe_stop_sends_the_stop_frames_and_says_what_it_sent_and_when(perf) -> None:
+    clock = FakeClock()
+    link = sim_link(clock)
+    ex = PerformerExecutor(perf("rex", count=3), link, clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    requested = clock.now()
+    result = ex.safe_stop("operator")
+    labels = tuple(f.label for f in stop_frames(MINI))
+    sent = rec.sent()
+    assert [(r.kind, r.note, r.data) for r in sent] == [
+        ("stop", f.label, f.data) for f in stop_frames(MINI)]
+    assert [f.data for f in link.robot.received] == [f.data for f in stop_frames(MINI)]
+    # Elapsed: from the request to the last stop frame's send (the link's spacing between).
+    assert len(labels) > 1 and sent[-1].t > requested
+    assert result == SafeStopResult("rex", "operator", True, labels, "",
+                                    pytest.approx(sent[-1].t - requested))
+    assert ex.stop_result is result and ex.state is ExecutorState.STOPPED and ex.done
+    stopped = [e for e in rec.events if isinstance(e, SafeStopped)]
+    assert stopped == [SafeStopped(clock.now(), "rex", result)]
+    # A second stop (a fault right after the operator's) sends nothing and says the same.
+    assert ex.safe_stop("fault") is result
+    assert len(rec.sent()) == len(sent) and len(link.robot.received) == len(labels)
+    assert len([e for e in rec.events if isinstance(e, SafeStopped)]) == 1
+
+
+def test_a_port_that_dies_during_the_stop_is_reported_never_raised(perf) -> None:
+    clock = FakeClock()
+    ex = PerformerExecutor(perf("rex", count=3), FailingSim(clock, good=1), clock=clock,
+                           profile=MINI)
+    requested = clock.now()
+    result = ex.safe_stop("fault")
+    first = stop_frames(MINI)[0].label
+    assert result == SafeStopResult("rex", "fault", False, (first,), "port gone",
+                                    pytest.approx(clock.now() - requested))
+    assert ex.state is ExecutorState.STOPPED
+
+
+def test_a_stuck_write_makes_the_stop_give_up_in_its_timeout_and_say_so(perf) -> None:
+    clock = FakeClock()
+    link = StuckSim(clock)
+    ex = PerformerExecutor(perf("rex", count=3), link, clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    first = threading.Thread(target=ex.safe_stop, args=("operator",), daemon=True)
+    first.start()  # holds the port: its first stop frame never returns
+    assert link.writing.wait(5)
+    began = time.monotonic()
+    result = ex.safe_stop("fault")  # the default timeout: 0.1 s
+    assert time.monotonic() - began < 0.6
+    blocked = SafeStopResult("rex", "fault", False, error="port blocked: write stuck")
+    assert result == blocked and ex.stop_result == blocked
+    assert [e for e in rec.events if isinstance(e, SafeStopped)] == [
+        SafeStopped(clock.now(), "rex", blocked)]
+    link.release.set()
+    first.join(5)
+    assert ex.stop_result == blocked  # the first answer stands
+
+
+def test_a_failed_port_is_a_fault_once_and_the_stop_after_it_leaves_it_failed(perf) -> None:
+    clock = FakeClock()
+    ex = PerformerExecutor(perf("rex", count=3), sim_link(clock), clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    clock.advance(1.5)
+    ex.port_failed("read error")
+    ex.port_failed("another")
+    assert ex.fault == "read error" and ex.state is ExecutorState.FAILED
+    assert [e for e in rec.events if isinstance(e, FaultRaised)] == [
+        FaultRaised(clock.now(), "rex", "read error")]
+    assert ex.safe_stop("fault").ok and ex.state is ExecutorState.FAILED
+
+
+def test_a_port_failing_after_the_part_is_over_is_no_fault(perf) -> None:
+    clock = FakeClock()
+    ex = PerformerExecutor(perf("rex", count=3), sim_link(clock), clock=clock, profile=MINI)
+    ex.safe_stop("operator")
+    rec = EventRecorder(ex.events)
+    ex.port_failed("closed by its owner")
+    assert ex.fault is None and ex.state is ExecutorState.STOPPED and rec.events == []
+
+
+def test_the_lead_time_is_the_catch_up_frames_wire_time_plus_50_ms(perf) -> None:
+    clock = FakeClock()
+    asked: list[float] = []
+
+    def reach(t: float) -> list[tuple[bytes, str]]:
+        asked.append(t)
+        return [(b"\x00" * 9, "a"), (b"\x00" * 12, "b")]
+
+    schedule = perf("rex", count=3)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI, reach=reach)
+    link = schedule.link
+    want = link.wire_time(9) + link.wire_time(12) + 2 * link.gap + 0.05
+    assert ex.lead_time(2.0) == pytest.approx(want) and asked == [2.0]
+    assert ex.lead_time(0.0) == 0.05 and ex.lead_time(-1.0) == 0.05 and asked == [2.0]
+    plain = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI)
+    assert plain.lead_time(2.0) == 0.05
+
+
+def test_frames_sent_before_the_start_go_before_the_first_frame(perf) -> None:
+    clock = FakeClock()
+    link = sim_link(clock)
+    schedule = perf("rex", count=3, spacing=0.1)
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    led = write_frame(MINI.register("vx").address, b"\x80")
+    ex.send([(led, "led blue"), (led, "led red")])
+    ex.run(clock.now() + 0.5)
+    sent = rec.sent()
+    assert [(r.kind, r.note) for r in sent[:3]] == [("set", "led blue"), ("set", "led red"),
+                                                    ("frame", "")]
+    assert [f.data for f in link.robot.received[:3]] == [led, led, schedule.frames[0].data]
