@@ -606,3 +606,53 @@ def test_frames_sent_before_the_start_go_before_the_first_frame(perf) -> None:
     assert [(r.kind, r.note) for r in sent[:3]] == [("set", "led blue"), ("set", "led red"),
                                                     ("frame", "")]
     assert [f.data for f in link.robot.received[:3]] == [led, led, schedule.frames[0].data]
+
+
+class UnpluggedSim(PollingSim):
+    """A sim link whose reads fail: the adapter was pulled out mid-show."""
+
+    def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+        raise OSError("unplugged")
+
+
+def test_a_port_that_cannot_be_read_is_a_fault_that_ends_the_part(perf) -> None:
+    clock = HookClock()
+    rider = get_profile("rider")
+    link = UnpluggedSim(create_robot("rider"), clock=clock.now)
+    link.open()
+    ex = PerformerExecutor(perf("rita", "rider", count=20, spacing=0.1), link, clock=clock,
+                           profile=rider, telemetry=TelemetryPoller(rider))
+    rec = EventRecorder(ex.events)
+    faulted = threading.Event()
+    readers: list[str] = []  # the thread that found the fault
+
+    def found(event: object) -> None:
+        readers.append(threading.current_thread().name)
+        faulted.set()
+
+    ex.events.subscribe(found, FaultRaised)
+
+    def hold(deadline: float) -> None:  # the writer waits for the reader's verdict
+        faulted.wait(5)
+
+    clock.hook = hold
+    ex.run(clock.now() + 0.5)
+    assert readers == ["xgo-show reader rita"]
+    assert ex.fault == f"port {link.url}: unplugged" and ex.state is ExecutorState.FAILED
+    assert [e.reason for e in rec.events if isinstance(e, FaultRaised)] == [ex.fault]
+    assert len([r for r in rec.sent() if r.kind == "frame"]) <= 1  # the part ended there
+    assert not any(t.name == "xgo-show reader rita" for t in threading.enumerate())
+
+
+def test_no_reader_without_telemetry_or_when_the_port_is_read_by_its_owner(perf) -> None:
+    clock = FakeClock()
+    rider = get_profile("rider")
+    for telemetry, read_port in ((None, True), (TelemetryPoller(rider), False)):
+        ex = PerformerExecutor(perf("rita", "rider", count=2), sim_link(clock, "rider"),
+                               clock=clock, profile=rider, telemetry=telemetry,
+                               read_port=read_port)
+        seen: list[str] = []
+        ex.events.subscribe(lambda e, seen=seen: seen.extend(
+            t.name for t in threading.enumerate() if "reader" in t.name))
+        ex.run(clock.now() + 0.1)
+        assert seen == [] and ex.state is ExecutorState.FINISHED
