@@ -190,15 +190,19 @@ class _Fake:
     thread, and hands out stand-in performers."""
 
     def __init__(self, names: Sequence[str], log: list[tuple[str, str, object]],
-                 problems: Sequence[str] = (), opened: bool = True) -> None:
+                 problems: Sequence[str] = (), opened: bool = True,
+                 broken: bool = False) -> None:
         self.names = tuple(names)
         self.log, self.problems, self.opened = log, list(problems), opened
+        self.broken = broken
 
     def _say(self, what: str, arg: object = None) -> None:
         self.log.append((what, threading.current_thread().name, arg))
 
     def open(self) -> Mapping[str, str]:
         self._say("open")
+        if self.broken:
+            raise RuntimeError("endpoint broke while opening")
         return {} if self.opened else {n: f"{n} did not open" for n in self.names}
 
     def preflight(self, *, battery_floor: float) -> list[PreflightRow]:
@@ -378,3 +382,62 @@ def test_local_runner_builds_one_executor_per_transport_with_the_shows_settings(
     assert all(p.clock is real.clock for p in real.performers.values())  # type: ignore[attr-defined]
     with pytest.raises(XgoShowError, match="no port for performer"):
         local_runner(schedule, {"rex": links["rex"]}, clock=clock)
+
+
+def test_local_ports_open_check_and_close_only_their_own_performers(perf, sched,
+                                                                   tmp_path) -> None:
+    schedule = sched(perf("rex", "mini", count=2), perf("lola", "lite", count=2),
+                     perf("bob", "mini", count=2))
+    missing = str(tmp_path / "no-such-port")
+    ports = LocalPorts(schedule, {"rex": "sim:mini", "lola": missing})
+    ports.close()  # nothing opened yet: nothing to close
+    errors = ports.open()
+    assert list(errors) == ["lola"] and list(ports.transports) == ["rex"]
+    rows = {r.performer: r for r in ports.preflight(battery_floor=101.0)}
+    assert list(rows) == ["rex", "lola"]  # not bob: another endpoint's
+    assert rows["rex"].opened and rows["rex"].port == "sim:mini"
+    assert any("101" in p for p in rows["rex"].problems)  # the floor asked for, not the show's
+    assert not rows["lola"].opened and rows["lola"].port == missing
+    assert any(errors["lola"] in p for p in rows["lola"].problems)
+    rex = ports.transports["rex"]
+    ports.close()
+    ports.close()  # twice is harmless
+    assert not rex.is_open and ports.transports == {}
+
+
+def test_unsafe_writes_pass_only_when_allowed(perf, sched) -> None:
+    from dataclasses import replace
+
+    from xgo_show.compiler.schedule import ScheduledFrame
+
+    good = perf("rex", "mini", count=2)
+    zero = write_frame(get_profile("mini").register("servo_zero").address, b"\x01")
+    bad = sched(replace(good, frames=(*good.frames, ScheduledFrame(0.5, zero))))
+    link = {"rex": SimTransport(create_robot("mini"))}
+    with pytest.raises(UnsafeScheduleError, match="servo_zero"):
+        local_runner(bad, link)
+    assert local_runner(bad, link, allow_unsafe=True).performers["rex"] is not None
+    allowed = Launch(bad, {"rex": "/dev/null-never-opened"}, allow_unsafe=True)
+    assert [w for w in allowed.unsafe] != []
+
+
+def test_local_runner_uses_the_bus_given_and_watches_until_the_show_ends(perf, sched) -> None:
+    schedule = sched(perf("rex", "mini", count=2, end=1.0), perf("lola", "lite", end=3.0))
+    bus, clock = EventBus(), FakeClock()
+    links = {"rex": SimTransport(create_robot("mini")), "lola": SimTransport(create_robot("lite"))}
+    runner = local_runner(schedule, links, clock=clock, events=bus)
+    rex = runner.performers["rex"]
+    assert runner.events is bus and rex.events is bus  # type: ignore[attr-defined]
+    # rex's part ends at 1 s; its telemetry is watched until the show's end at 3 s.
+    assert rex.linger_until == schedule.duration == 3.0  # type: ignore[attr-defined]
+
+
+def test_a_failed_open_closes_every_endpoint_on_named_threads(perf, sched, fake) -> None:
+    schedule = sched(perf("rex", "mini", count=2), perf("lola", "lite", count=2))
+    fake.options["broken"] = True
+    with Launch(schedule, {"rex": "fake:1", "lola": "fake:2"}) as launch, pytest.raises(
+        RuntimeError, match="broke"
+    ):
+        launch.open()
+    closes = [where for what, where, _ in fake.log if what == "close"]
+    assert len(closes) == 2 and all(w.startswith("xgo-show close") for w in closes)
