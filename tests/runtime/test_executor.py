@@ -15,7 +15,7 @@ from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
 from xgo_show.runtime.events import EventRecorder, FaultRaised, SafeStopped, StateChanged
-from xgo_show.runtime.executor import ExecutorState, PerformerExecutor, SafeStopResult
+from xgo_show.runtime.executor import ExecutorState, PerformerExecutor, Progress, SafeStopResult
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryPoller
 from xgo_show.sim import create_robot
@@ -656,3 +656,61 @@ def test_no_reader_without_telemetry_or_when_the_port_is_read_by_its_owner(perf)
             t.name for t in threading.enumerate() if "reader" in t.name))
         ex.run(clock.now() + 0.1)
         assert seen == [] and ex.state is ExecutorState.FINISHED
+
+
+def test_a_new_executor_is_idle_at_show_time_zero_with_its_models_profile(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", "lite", count=3)
+    ex = PerformerExecutor(schedule, sim_link(clock, "lite"), clock=clock)
+    assert ex.profile is get_profile("lite") and ex.read_port is True
+    assert ex.state is ExecutorState.IDLE and not ex.done and ex.fault is None
+    clock.advance(5.0)
+    assert ex.progress == Progress("rex", ExecutorState.IDLE, 0.0, 0, 3, "", "")
+    assert ex.join() is True  # never started: nothing to wait for
+    other = PerformerExecutor(schedule, sim_link(clock, "lite"), clock=clock)
+    assert other.events is not ex.events  # each its own bus unless given one
+
+
+def test_state_changes_say_when_and_at_which_show_time(perf) -> None:
+    clock = FakeClock()
+    now = clock.now()
+    schedule = perf("rex", count=4, spacing=0.1)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events, StateChanged)
+    start = clock.now() + 0.5
+    ex.run(start, offset=2.0)  # show time 2.0 at ``start``: past every frame (0.0 to 0.3)
+    changes = [(e.performer, e.state, e.show_time) for e in rec.events]
+    assert [c[:2] for c in changes] == [("rex", ExecutorState.RUNNING),
+                                        ("rex", ExecutorState.FINISHED)]
+    assert changes[0][2] == pytest.approx(2.0 - 0.5)  # running from now, before the start
+    assert rec.events[0].t == pytest.approx(now)
+    assert [f.data for f in link_frames(ex)] == []  # nothing was left to send
+    ex.port_failed("late")  # after the end: no fault, no change
+    assert ex.state is ExecutorState.FINISHED and len(rec.events) == 2
+
+
+def link_frames(ex: PerformerExecutor) -> list[object]:
+    """The scheduled frames the robot received (none of the rest frames after the show)."""
+    return [f for f in ex.transport.robot.received  # type: ignore[attr-defined]
+            if f.data not in {r.data for r in rest_frames(ex.profile)}]
+
+
+def test_a_start_at_a_frames_time_sends_that_frame(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=4, spacing=0.1)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI)
+    ex.run(clock.now() + 0.5, offset=schedule.frames[2].t)
+    assert [f.data for f in link_frames(ex)] == [f.data for f in schedule.frames[2:]]
+
+
+def test_the_writer_runs_on_a_named_daemon_thread_and_join_waits_for_it(perf) -> None:
+    clock = HookClock()
+    gate = threading.Event()
+    clock.hook = lambda deadline: gate.wait(5)
+    ex = PerformerExecutor(perf("rex", count=3), sim_link(clock), clock=clock, profile=MINI)
+    ex.start(clock.now() + 0.5)
+    writers = [t for t in threading.enumerate() if t.name == "xgo-show writer rex"]
+    assert len(writers) == 1 and writers[0].daemon  # never keeps the process alive
+    assert ex.join(0.05) is False  # held at its first deadline
+    gate.set()
+    assert ex.join(5) is True and ex.state is ExecutorState.FINISHED
