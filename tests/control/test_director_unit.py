@@ -13,6 +13,7 @@ import pytest
 from xgo_show.choreo.sections import Section, Wait
 from xgo_show.control.director import (
     ControlError,
+    Director,
     TriggerOutcome,
     TriggerRefused,
     WaitReleased,
@@ -820,5 +821,22 @@ def test_the_directors_thread_is_a_named_daemon() -> None:
     try:
         thread = s.director._thread
         assert thread is not None and (thread.name, thread.daemon) == ("xgo-show director", True)
+    finally:
+        s.close()
+
+
+def test_by_default_a_wait_is_armed_a_tenth_of_a_second_before_it() -> None:
+    s = Show(virtual=False)
+    s.director.close()
+    s.director = Director(s.runner, clock=s.clock)  # type: ignore[arg-type]
+    try:
+        assert s.director.arm_margin == 0.1
+        s.start()
+        s.clock.t = T0 + 0.89  # type: ignore[union-attr]
+        s.state(RUNNING, T0, 0.0)
+        assert s.p().calls == []
+        s.clock.t = T0 + 0.9  # type: ignore[union-attr]
+        s.state(RUNNING, T0, 0.0)
+        assert s.p().calls == [("pause", T0 + 1.0)]
     finally:
         s.close()
