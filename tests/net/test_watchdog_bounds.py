@@ -81,3 +81,34 @@ def test_stop_waits_for_the_thread_to_end() -> None:
     assert thread is not None and thread.is_alive()
     dog.stop()
     assert not thread.is_alive() and dog._thread is None
+
+
+def test_start_counts_from_now_and_forgets_an_old_loss() -> None:
+    clock = FakeClock(10.0)
+    dog = Watchdog(0.5, clock=clock)
+    assert dog.check(11.0) == 1.0 and dog.lost is True
+    clock.advance(2.0)
+    dog.start()  # no grace by default: from now
+    try:
+        assert dog.last_heard == 12.0 and dog.lost is False
+    finally:
+        dog.stop()
+    dog.start(grace=0.25)
+    try:
+        assert dog.last_heard == 12.25
+    finally:
+        dog.stop()
+
+
+def test_a_watchdog_without_a_callback_only_marks_the_loss() -> None:
+    dog = Watchdog(0.05).start()
+    try:
+        deadline = time.monotonic() + 5
+        while not dog.lost:
+            assert time.monotonic() < deadline
+            time.sleep(0.005)
+        dog.heard()
+        assert dog._thread is not None and dog._thread.is_alive()  # not killed by a None call
+        assert dog.lost is False
+    finally:
+        dog.stop()
