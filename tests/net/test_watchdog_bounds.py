@@ -84,18 +84,16 @@ def test_stop_waits_for_the_thread_to_end() -> None:
 
 
 def test_start_counts_from_now_and_forgets_an_old_loss() -> None:
-    clock = FakeClock(10.0)
-    dog = Watchdog(0.5, clock=clock)
-    assert dog.check(11.0) == 1.0 and dog.lost is True
-    clock.advance(2.0)
+    dog = Watchdog(30.0)
+    assert dog.check(time.monotonic() + 31) is not None and dog.lost is True
     dog.start()  # no grace by default: from now
     try:
-        assert dog.last_heard == 12.0 and dog.lost is False
+        assert abs(dog.last_heard - time.monotonic()) < 0.5 and dog.lost is False
     finally:
         dog.stop()
-    dog.start(grace=0.25)
+    dog.start(grace=5.0)
     try:
-        assert dog.last_heard == 12.25
+        assert 4.5 < dog.last_heard - time.monotonic() <= 5.0
     finally:
         dog.stop()
 
