@@ -375,7 +375,7 @@ def test_a_stop_that_does_not_finish_in_time_is_reported_and_delays_no_one(
 ) -> None:
     stuck = threading.Event()
     two["rex"].block_stop = stuck
-    runner = runner_for(schedule, two, clock, stop_timeout=0.2)
+    runner = runner_for(schedule, two, clock, stop_timeout=0.5)
     result = in_thread(runner)
     started(two)
     began = time.monotonic()
@@ -386,7 +386,7 @@ def test_a_stop_that_does_not_finish_in_time_is_reported_and_delays_no_one(
     assert res.stops["rex"] == SafeStopResult("rex", "enough", False,
                                               error="safe stop did not finish in time")
     assert res.stops["ivy"].ok
-    assert 0.38 < took < 0.58  # twice the stop timeout for the stuck one, no more
+    assert 0.95 < took < 1.4  # twice the stop timeout for the stuck one, no more
 
 
 def test_an_exception_in_the_coordinating_thread_stops_everyone_then_is_raised(
@@ -706,8 +706,8 @@ def test_a_full_pipe_is_a_wake_up_already_pending(waker: _Waker) -> None:
 
 def test_a_wake_up_from_another_thread_ends_the_wait(waker: _Waker) -> None:
     waker.open()
+    t = time.monotonic()  # before the timer starts: on a busy machine it may fire at once
     threading.Timer(0.02, waker.wake).start()
-    t = time.monotonic()
     waker.wait(2.0)
     assert 0.015 < time.monotonic() - t < 1.0
 
