@@ -14,6 +14,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
@@ -224,12 +225,17 @@ def test_a_thread_is_raised_only_when_the_policy_grants_it(monkeypatch: pytest.M
     monkeypatch.setattr(realtime._GUARD, "watch", watched.append)
     realtime.restore(RealtimePolicy("auto", False, EPERM))
     assert realtime.enter_show_thread() is False
+    assert realtime.raise_thread(4321) is False
     assert seen == [] and watched == []
     realtime.restore(RealtimePolicy("auto", True))
+    me = threading.get_native_id()
     assert realtime.enter_show_thread() is True
     assert realtime.enter_show_thread(realtime.HELPER_PRIORITY) is True
-    assert seen == [(0, os.SCHED_FIFO, 10), (0, os.SCHED_FIFO, 9)]
-    assert watched == [threading.get_native_id()] * 2
+    assert realtime.raise_thread(4321) is True  # a helper (a thread Python did not start)
+    assert realtime.raise_thread(4322, 3) is True
+    assert seen == [(me, os.SCHED_FIFO, 10), (me, os.SCHED_FIFO, 9), (4321, os.SCHED_FIFO, 9),
+                    (4322, os.SCHED_FIFO, 3)]
+    assert watched == [me, me, 4321, 4322]
 
 
 def test_a_refused_raise_is_not_watched(monkeypatch: pytest.MonkeyPatch, refused: None) -> None:
@@ -237,6 +243,7 @@ def test_a_refused_raise_is_not_watched(monkeypatch: pytest.MonkeyPatch, refused
     monkeypatch.setattr(realtime._GUARD, "watch", watched.append)
     realtime.restore(RealtimePolicy("auto", True))
     assert realtime.enter_show_thread() is False
+    assert realtime.raise_thread(4321) is False
     assert watched == []
 
 
@@ -247,13 +254,67 @@ def test_leaving_lowers_only_a_thread_that_was_raised(monkeypatch: pytest.Monkey
     monkeypatch.setattr(realtime, "_GUARD", guard)
     me = threading.get_native_id()
     realtime.leave_show_thread()
+    realtime.lower_thread(4321)
     assert lowered == []
-    guard._watched[me] = 0.0
-    guard._watched[me + 1] = 0.0
+    guard._watched.update({me: 0.0, 4321: 0.0, 4322: 0.0})
     realtime.leave_show_thread()
-    assert lowered == [0] and guard._watched == {me + 1: 0.0}
+    assert lowered == [me] and set(guard._watched) == {4321, 4322}
     realtime.leave_show_thread()  # once only
-    assert lowered == [0]
+    realtime.lower_thread(4321)
+    assert lowered == [me, 4321] and set(guard._watched) == {4322}
+
+
+def named_thread(name: bytes) -> tuple[threading.Thread, threading.Event, list[int]]:
+    """A thread whose kernel name is ``name`` (as Zenoh names its own), until the event."""
+    import ctypes
+
+    libc = ctypes.CDLL(None)
+    ready, done = threading.Event(), threading.Event()
+    out: list[int] = []
+
+    def body() -> None:
+        libc.prctl(15, ctypes.c_char_p(name), 0, 0, 0)  # PR_SET_NAME
+        out.append(threading.get_native_id())
+        ready.set()
+        done.wait(5.0)
+
+    th = threading.Thread(target=body, daemon=True)
+    th.start()
+    ready.wait(5.0)
+    return th, done, out
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="/proc/self/task")
+def test_threads_are_found_by_the_start_of_their_kernel_name(
+    monkeypatch: pytest.MonkeyPatch
+) -> None:
+    made = [named_thread(name) for name in (b"rx-1", b"rx-0", b"tx-0")]
+    try:
+        ids = [out[0] for _, _, out in made]
+        assert realtime.threads_named("rx-") == sorted(ids[:2])
+        assert realtime.threads_named("tx-0") == [ids[2]]
+        assert realtime.threads_named("no such thread") == []
+        # A thread that ends while the list is read is left out; no /proc: none.
+        real = Path.read_text
+
+        def gone(self: Path, *args: object, **kwargs: object) -> str:
+            if self.parent.name == str(ids[0]):
+                raise FileNotFoundError(str(self))
+            return real(self, *args, **kwargs)  # type: ignore[arg-type]
+
+        monkeypatch.setattr(Path, "read_text", gone)
+        assert realtime.threads_named("rx-") == [ids[1]]
+        monkeypatch.undo()
+
+        def no_proc(path: str) -> list[str]:
+            raise FileNotFoundError(path)
+
+        monkeypatch.setattr(os, "listdir", no_proc)
+        assert realtime.threads_named("rx-") == []
+    finally:
+        for th, done, _ in made:
+            done.set()
+            th.join(5.0)
 
 
 @needs_fifo
