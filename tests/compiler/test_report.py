@@ -27,10 +27,10 @@ def _frame(t: float, data: bytes) -> ScheduledFrame:
 
 def _schedule() -> Schedule:
     rex = PerformerSchedule("rex", "mini", LINK, (
-        _frame(0.0, b"\x01\x02"), _frame(1.000001, b"\x03"), _frame(1.000001, b"\x04\x05\x06")),
-        end=2.0)
+        _frame(0.0, b"\x01\x02"), _frame(0.010001, b"\x03"), _frame(0.010001, b"\x04\x05\x06")),
+        end=0.02)
     long_name = PerformerSchedule("wheels-long", "rider", LINK, (
-        _frame(1.000001, b"\xaa"), _frame(12.5, b"\xbb" * 10)), end=20.0)
+        _frame(0.010001, b"\xaa"), _frame(12.5, b"\xbb" * 10)), end=20.0)
     warnings = tuple(Diagnostic("warning", "w", None, path) for path in (
         "tracks.rex", "tracks.rex[2].to.body_z", "tracks.rex.limits",
         "tracks.rexa[0]",  # another performer whose name starts with rex's
@@ -42,9 +42,9 @@ def _schedule() -> Schedule:
 def test_totals_per_performer() -> None:
     # Link use: the bytes' wire time (1 ms each here) over the part's duration.
     got = totals(_schedule())
-    assert [t.link_use for t in got] == pytest.approx([0.006 / 2.0, 0.011 / 20.0])
+    assert [t.link_use for t in got] == pytest.approx([0.006 / 0.02, 0.011 / 20.0])
     assert [replace(t, link_use=0.0) for t in got] == [
-        PerformerTotals("rex", "mini", 3, 6, 0.0, 2.0, 3),
+        PerformerTotals("rex", "mini", 3, 6, 0.0, 0.02, 3),
         PerformerTotals("wheels-long", "rider", 2, 11, 0.0, 20.0, 1),
     ]
 
@@ -52,7 +52,7 @@ def test_totals_per_performer() -> None:
 def test_totals_table_columns_are_aligned_names_left_numbers_right() -> None:
     assert totals_table(_schedule()) == (
         "performer    model  frames  bytes  link use  duration  warnings\n"
-        "rex          mini        3      6     0.3 %   2.000 s         3\n"
+        "rex          mini        3      6    30.0 %   0.020 s         3\n"
         "wheels-long  rider       2     11     0.1 %  20.000 s         1\n"
     )
 
@@ -60,9 +60,9 @@ def test_totals_table_columns_are_aligned_names_left_numbers_right() -> None:
 def test_transcript_in_time_order_then_performer_then_schedule_order() -> None:
     assert transcript(_schedule()) == (
         "    0.000000  rex          n=2  [01 02]\n"
-        "    1.000001  rex          n=1  [03]\n"
-        "    1.000001  rex          n=3  [04 05 06]\n"
-        "    1.000001  wheels-long  n=1  [aa]\n"
+        "    0.010001  rex          n=1  [03]\n"
+        "    0.010001  rex          n=3  [04 05 06]\n"
+        "    0.010001  wheels-long  n=1  [aa]\n"
         "   12.500000  wheels-long  n=10  [bb bb bb bb bb bb bb bb bb bb]\n"
     )
 
