@@ -15,8 +15,10 @@ from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.compiler.state import (
     FrameLabels,
     format_fields,
+    format_value,
     frame_label,
     frame_labels,
+    layout_of,
     link_use,
     xgo_state_at,
 )
@@ -24,7 +26,7 @@ from xgo_show.errors import ProtocolError
 from xgo_show.profiles import get_profile
 from xgo_show.profiles.model import Access, Link, Profile, Register
 from xgo_show.sim.xgo_robot import XgoRobot
-from xgo_show.wire.xgo import MAX_DATA, write_frame
+from xgo_show.wire.xgo import MAX_DATA, read_frame, write_frame
 
 MINI = get_profile("mini")
 
@@ -283,3 +285,29 @@ def test_link_use_of_a_part_of_no_duration_is_zero() -> None:
     frames = [ScheduledFrame(0.0, write_frame(0x35, b"\x90"))]
     assert link_use(MINI.link, frames, 0.0) == 0.0
     assert link_use(MINI.link, frames, 1.0) == pytest.approx(9 * 10 / 115200)
+
+
+def test_one_layout_a_profile_and_a_new_profile_object_gets_its_own() -> None:
+    assert layout_of(MINI) is layout_of(MINI) and layout_of(MINI).profile is MINI
+    copy = dataclasses.replace(MINI, registers=MINI.registers[:10])
+    assert layout_of(copy).profile is copy and len(layout_of(copy).by_address) == 10
+    assert layout_of(copy) is layout_of(copy)
+    assert layout_of(MINI).profile is MINI  # asked again: the table's own profile
+
+
+@pytest.mark.parametrize("data", [
+    read_frame(0x35, 1),  # a whole frame, but a read
+    write_frame(0x35, b"\x90") + b"\x00",  # a write and a byte more
+    b"\x00\x01\x02",  # no frame at all
+])
+def test_only_one_whole_write_frame_is_described(data: bytes) -> None:
+    with pytest.raises(ProtocolError, match="not a single XGO write frame"):
+        describe_frame(MINI, data)
+
+
+def test_values_as_a_transcript_shows_them() -> None:
+    assert format_value(MINI, "roll", 5.04) == "5.0deg"
+    assert format_value(MINI, "roll", -0.01) == "0.0deg"  # no negative zero
+    assert format_value(MINI, "not_a_register", 2.5) == "2.5"  # a float without a unit
+    assert format_value(MINI, "action", 13) == "13(wave)"
+    assert format_value(MINI, "battery", 13) == "13"  # an int elsewhere is not an action
