@@ -68,6 +68,7 @@ class Stub:
         self.calls: list[tuple[Any, ...]] = []
         self.on_start: Callable[[], object] = lambda: None
         self.block_stop: threading.Event | None = None  # a stuck port: stop waits for it
+        self.stopped_on: tuple[str, bool] | None = None  # the stop thread: name, daemon
 
     @property
     def done(self) -> bool:
@@ -103,6 +104,8 @@ class Stub:
 
     def safe_stop(self, reason: str, *, timeout: float = 0.1) -> SafeStopResult:
         self.calls.append(("safe_stop", reason, timeout))
+        me = threading.current_thread()
+        self.stopped_on = (me.name, me.daemon)  # a stuck port must not keep the process up
         if self.block_stop is not None:
             self.block_stop.wait(5.0)
         self.clock.advance(self.stop_cost)
@@ -268,7 +271,7 @@ def test_a_show_every_performer_finishes_is_completed(
     started(two)
     two["rex"].end()
     time.sleep(0.03)
-    assert runner.result is not None and not runner.result.reason  # ivy still plays
+    assert runner.result is not None and runner.result.reason == ""  # ivy still plays
     two["ivy"].end()
     res = result()
     assert res is runner.result
@@ -322,6 +325,7 @@ def test_a_fault_halts_every_performer_by_default(
         assert s.names()[2:] == ["abort", "safe_stop", "join", "close"]
         assert s.calls[3] == ("safe_stop", why, 0.3)
         assert res.stops[name] == SafeStopResult(name, why, True, ("stop",))
+        assert s.stopped_on == (f"xgo-show stop {name}", True)
     # From the fault's time to the end of the last stop: the two stops advance the clock
     # 20 ms each, in parallel threads on one fake clock.
     assert res.stop_latency == pytest.approx(0.01 + 0.04)
@@ -339,7 +343,7 @@ def test_with_continue_only_the_failing_performer_is_stopped(
     result = in_thread(runner)
     started(stubs)
     stubs["rex"].fault = "fell over"
-    fault(runner, "rex", "fell over", T0)
+    fault(runner, "rex", "fell over", T0 - 0.25)  # reported late: the latency counts from it
     wait_until(lambda: stubs["rex"].state is S.STOPPED)
     fault(runner, "rex", "fell over again", T0)  # stopped once only
     time.sleep(0.03)
@@ -351,6 +355,7 @@ def test_with_continue_only_the_failing_performer_is_stopped(
     assert stubs["rex"].names() == ["lead_time", "start", "abort", "safe_stop", "join", "close"]
     assert stubs["rex"].calls[3][1] == "fault on rex: fell over"
     assert res.faults == {"rex": "fell over"}
+    assert res.stop_latency == pytest.approx(0.25)
 
 
 def test_a_stop_request_safe_stops_everyone_and_keeps_the_first_reason(
@@ -390,7 +395,7 @@ def test_a_stop_that_does_not_finish_in_time_is_reported_and_delays_no_one(
 
 
 def test_an_exception_in_the_coordinating_thread_stops_everyone_then_is_raised(
-    schedule: Schedule, clock: FakeClock, two: dict[str, Stub]
+    schedule: Schedule, clock: FakeClock, two: dict[str, Stub], show_thread: list[object]
 ) -> None:
     runner = runner_for(schedule, two, clock)
     rec = EventRecorder(runner.events, RunnerFailed, ShowEnded)
@@ -409,6 +414,7 @@ def test_an_exception_in_the_coordinating_thread_stops_everyone_then_is_raised(
         assert s.names()[-4:] == ["abort", "safe_stop", "join", "close"]
         assert s.calls[-3][1] == why
     failed, ended = rec.events
+    assert show_thread == []  # never raised, so never lowered
     assert failed == RunnerFailed(T0, "RuntimeError('boom')", "RuntimeError")
     assert (ended.completed, ended.reason) == (False, why)  # type: ignore[attr-defined]
 
@@ -422,20 +428,24 @@ def test_pause_resume_and_seek_reach_every_performer_at_one_time(
     stubs = {"rex": Stub("rex", clock, show_time=2.0), "ivy": Stub("ivy", clock, show_time=2.5)}
     runner = runner_for(schedule, stubs, clock, command_lead=0.1)
     rec = EventRecorder(runner.events, ShowPaused, ShowResumed, ShowSought)
+    assert runner.paused is False
     runner.pause()
-    assert runner.paused
+    assert runner.paused is True
     runner.resume(at=T0 + 3.0)
-    assert not runner.paused
+    assert runner.paused is False
     clock.advance(1.0)
     stubs["ivy"].lead = 0.4  # a seek waits for the slowest performer's catch-up
     runner.seek(4.0)
     runner.seek(5.0, at=T0 + 9.0)
+    runner.pause(at=T0 + 5.0)
+    runner.resume()
     for s in stubs.values():
         assert s.calls[0] == ("pause", pytest.approx(T0 + 0.1))
         assert s.calls[1] == ("resume", T0 + 3.0)
         assert s.calls[2] == ("lead_time", 4.0)
         assert s.calls[3] == ("seek", 4.0, pytest.approx(T0 + 1.4))
         assert s.calls[5] == ("seek", 5.0, T0 + 9.0)
+        assert s.calls[6:] == [("pause", T0 + 5.0), ("resume", pytest.approx(T0 + 1.1))]
     assert rec.events[:2] == [ShowPaused(T0, 2.5), ShowResumed(T0, 2.5)]
     assert rec.events[2] == ShowSought(T0 + 1.0, 4.0, pytest.approx(T0 + 1.4))
     assert rec.events[3] == ShowSought(T0 + 1.0, 5.0, T0 + 9.0)
@@ -493,6 +503,21 @@ def test_progress_ticks_come_once_per_interval_of_clock_time(
     first, second = ticks.events
     assert first.t == T0 and second.t == T0 + 2**-7
     assert first.progress.duration == 20.0  # type: ignore[attr-defined]
+
+
+def test_the_first_progress_tick_comes_at_once_whatever_the_clock_reads(
+    schedule: Schedule, two: dict[str, Stub]
+) -> None:
+    clock = FakeClock(0.0)
+    runner = runner_for(schedule, two, clock)
+    ticks = EventRecorder(runner.events, ProgressTick)
+    result = in_thread(runner)
+    started(two)
+    wait_until(lambda: len(ticks.events) == 1)
+    for s in two.values():
+        s.end()
+    result()
+    assert ticks.events[0].t == 0.0
 
 
 def test_frames_sent_count_in_their_performers_stats_until_the_run_ends(
@@ -602,6 +627,16 @@ def tstp() -> None:
         os.kill(os.getpid(), signal.SIGTSTP)
 
 
+def send(sig: int, stubs: Mapping[str, Stub]) -> None:
+    """``sig`` to this process if the runner handles it; else end the show (a default
+    handler would end the test run)."""
+    if signal.getsignal(sig) in (signal.SIG_DFL, signal.default_int_handler, None):
+        for s in stubs.values():
+            s.end()
+        return
+    os.kill(os.getpid(), sig)
+
+
 def test_signals_stop_or_pause_the_show_in_the_main_thread(
     schedule: Schedule, clock: FakeClock, two: dict[str, Stub]
 ) -> None:
@@ -610,7 +645,7 @@ def test_signals_stop_or_pause_the_show_in_the_main_thread(
     for sig, name in ((signal.SIGINT, "SIGINT"), (signal.SIGTERM, "SIGTERM")):
         for s in two.values():
             s.state, s.calls = S.IDLE, []
-        two["rex"].on_start = lambda sig=sig: os.kill(os.getpid(), sig)  # type: ignore[misc]
+        two["rex"].on_start = lambda sig=sig: send(sig, two)  # type: ignore[misc]
         res = runner_for(schedule, two, clock).run()
         assert res.reason == name
         assert all(s.names()[2:4] == ["abort", "safe_stop"] for s in two.values())
