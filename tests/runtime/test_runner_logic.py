@@ -277,6 +277,7 @@ def test_a_show_every_performer_finishes_is_completed(
     assert res is runner.result
     assert (res.completed, res.reason, res.stops, res.faults) == (True, "completed", {}, {})
     assert res.performers == two and res.stats is runner.stats and res.stop_latency is None
+    assert runner.events.listener_errors == 0  # the runner listens only for what it reads
     for s in two.values():
         assert s.names() == ["lead_time", "start", "join", "close"]  # no stop
         assert s.calls[2] == ("join", 1.0)
@@ -678,6 +679,29 @@ def test_signals_stop_or_pause_the_show_in_the_main_thread(
     assert {s: signal.getsignal(s) for s in before} == before
 
 
+def test_two_quick_ctrl_zs_pause_and_resume(
+    schedule: Schedule, clock: FakeClock, two: dict[str, Stub]
+) -> None:
+    two["rex"].on_start = lambda: (tstp(), tstp())  # both before the supervisor looks
+    runner = runner_for(schedule, two, clock)
+
+    def script() -> None:
+        try:
+            wait_until(lambda: "resume" in two["ivy"].names())
+        finally:
+            for s in two.values():
+                s.end()
+
+    th = threading.Thread(target=script)
+    th.start()
+    try:
+        result = runner.run()
+    finally:
+        th.join(5.0)
+    assert result.completed and not runner.paused
+    assert two["ivy"].names() == ["lead_time", "start", "pause", "resume", "join", "close"]
+
+
 def test_without_signal_handling_or_outside_the_main_thread_no_handler_changes(
     schedule: Schedule, clock: FakeClock, two: dict[str, Stub]
 ) -> None:
@@ -714,8 +738,11 @@ def waker() -> Iterator[_Waker]:
     w.close()
 
 
-def test_a_wake_up_ends_a_wait_at_once_and_only_once(waker: _Waker) -> None:
+def test_a_wake_up_ends_a_wait_at_once_and_only_once(
+    waker: _Waker, capfd: pytest.CaptureFixture[str]
+) -> None:
     waker.wake()  # before open: nowhere to write, and nothing to wait for
+    assert capfd.readouterr() == ("", "")
     t = time.monotonic()
     waker.wait(1.0)
     assert time.monotonic() - t < 0.05
