@@ -31,7 +31,11 @@ with the load average it was taken at:
    frame's planned and actual write time on both clocks), (b) issue lateness (the write
    against the planned time), (c) delivery (the simulator's receive time against the write);
 2. skew after a long show (``--drift-seconds``, 60 by default): spread of the receive time of
-   the show's last frame, synced with tracking, synced without tracking (offset only), naive;
+   the show's first and last frame, synced with tracking, synced without tracking (offset
+   only), naive; and of every frame of its last 10 s (p50/p99/max over 200 frames), split
+   into the same parts as a start (the ``frames_host`` records): (a) the spread of the planned
+   write times (where each relay's slewing clock put the frame; with a start time, also each
+   relay's error against the true time), (b) issue lateness, (c) delivery;
 3. send-time error at the robot (receive time - planned time) of a relayed robot vs the same
    schedule played by the local processes: what the relay adds;
 4. the estimator with a test-only delay on every time-sync reply (5 ms +- 2 ms, one way): its
@@ -510,6 +514,56 @@ def print_parts(label: str, robots: Sequence[Relay], runs: Sequence[Run]) -> Non
         print(f"     {'  its spread across the robots, per start':58s} {stats(spread)}")
 
 
+#: seconds at the end of a long show whose every frame the drift figures split into parts
+DRIFT_WINDOW = 10.0
+
+
+def host_frames(relay: Relay, run: Run) -> dict[int, tuple[float, float]]:
+    """schedule index -> (planned, actual) write time on this machine's clock of every
+    scheduled frame of ``run``, from the relay's ``frames_host`` record (``XGO_SHOW_TEST_TRACE``)."""
+    assert relay.log is not None
+    for line in relay.log.read_text(encoding="utf-8").splitlines():
+        rec = json.loads(line)
+        if rec.get("event") == "frames_host" and run.sent <= rec["start_host"] <= run.ended:
+            rows = rec["frames"].get("bot", [])
+            return {int(i): (float(p), float(a)) for i, p, a in rows}
+    return {}
+
+
+def print_drift_parts(label: str, robots: Sequence[Relay], run: Run, window: float) -> None:
+    """The skew of every frame in the last ``window`` seconds of a long show and its parts'
+    spreads: (a) where each relay's clock put the frame, (b) issue lateness, (c) delivery;
+    with a start time (synced), also each relay's clock error against the true planned time."""
+    traced = [host_frames(r, run) for r in robots]
+    got = [received_in(r.sim, run) for r in robots]
+    n = min(len(g) for g in got)
+    if not all(traced) or n == 0 or any(len(g) != len(t) for g, t in zip(got, traced, strict=True)):
+        print(f"   {label:26s} (frames missing: not split)")
+        return
+    first = max(0, n - round(window * RATE))
+    rows: dict[str, list[float]] = {k: [] for k, _ in PARTS}
+    errors: list[float] = []
+    for k in range(first, n):
+        if any(k not in t for t in traced):
+            continue
+        planned = [t[k][0] for t in traced]
+        late = [(t[k][1] - t[k][0]) * 1000 for t in traced]
+        delivery = [(g[k] - t[k][1]) * 1000 for g, t in zip(got, traced, strict=True)]
+        recv = [g[k] for g in got]
+        rows["clock"].append((max(planned) - min(planned)) * 1000)
+        rows["late"].append(max(late) - min(late))
+        rows["delivery"].append(max(delivery) - min(delivery))
+        rows["total"].append((max(recv) - min(recv)) * 1000)
+        if run.start_at is not None:
+            errors += [abs(p - run.start_at - k / RATE) * 1000 for p in planned]
+    print(f"   {label}")
+    names = {"clock": "(a) planned write time (the relay's clock)", "total": "receive time: the skew"}
+    for k, what in PARTS:
+        print(f"     {names.get(k, what)[:58]:58s} {stats(rows[k])}")
+    if errors:
+        print(f"     {'  (a) each relay: |planned - true planned time|':58s} {stats(errors)}")
+
+
 def send_errors(relays: Sequence[Relay], run: Run, schedule: Schedule) -> list[float]:
     """Receive time - planned time (ms) of every frame of a synced run, every robot."""
     assert run.start_at is not None
@@ -620,6 +674,15 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
                 group = plain if r.mode.endswith("--no-realtime") else relays
                 first, last = skew(group, r, 0), skew(group, r, -1)
                 print(f"   {r.mode[6:]:26s} first {first or 0:8.3f}   last {last or 0:8.3f}")
+        window = min(DRIFT_WINDOW, args.drift_seconds / 2)
+        print(
+            f"   every frame of the last {window:g} s: its spread across the robots, and the "
+            "spread of each part (ms)"
+        )
+        for r in runs:
+            if r.mode.startswith("drift"):
+                group = plain if r.mode.endswith("--no-realtime") else relays
+                print_drift_parts(r.mode[6:], group, r, window)
         print("   the clock tracker's drift estimates at the end of the synced show:")
         for line in rates:
             print(f"     {line}")

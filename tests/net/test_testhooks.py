@@ -108,3 +108,38 @@ def test_the_start_tracer_logs_each_robots_first_frame_once_per_show() -> None:
     assert first["actual_host"] == pytest.approx(110.002)  # 10 s behind the relay's clock
     assert first["planned_host"] == pytest.approx(110.0)
     assert first["start_host"] == pytest.approx(110.0)
+
+
+def test_the_start_tracer_logs_every_scheduled_frame_on_the_host_clock_when_the_show_ends() -> None:
+    from xgo_show.net.testhooks import SkewedClock as Skewed
+    from xgo_show.net.testhooks import StartTracer
+    from xgo_show.runtime.events import EventBus, FrameSent, ShowEnded, ShowStarted
+
+    host = FakeClock(100.0)
+    clock = Skewed(host, offset=10.0)
+    bus = EventBus()
+    logged: list[tuple[str, dict[str, object]]] = []
+    tracer = StartTracer(bus, clock, lambda event, **fields: logged.append((event, fields)))
+
+    def frame(performer: str, kind: str, index: int, planned: float | None, t: float) -> FrameSent:
+        return FrameSent(t, performer, kind, index, planned, b"\x00", "", None, 0.0)
+
+    bus.publish(ShowStarted(119.0, "s", 0.0, 120.0, ("a", "b"), "halt_all", 0.0))
+    bus.publish(frame("a", "frame", 0, 120.0, 120.002))
+    bus.publish(frame("a", "read", 1, None, 120.01))  # not a scheduled frame
+    bus.publish(frame("a", "rest", 1, 120.05, 120.05))  # a stop frame: not either
+    bus.publish(frame("a", "frame", 1, 120.05, 120.0515))
+    bus.publish(frame("b", "frame", 0, 120.0, 120.001))
+    assert [e for e, _ in logged] == ["first_frame", "first_frame"]  # nothing more until the end
+    bus.publish(ShowEnded(121.0, True, "completed"))
+    tracer.close()
+    event, fields = logged[-1]
+    assert event == "frames_host"
+    assert fields["start_host"] == pytest.approx(110.0)
+    frames = fields["frames"]
+    assert isinstance(frames, dict) and set(frames) == {"a", "b"}
+    assert [i for i, _, _ in frames["a"]] == [0, 1]
+    assert frames["a"][1][1:] == pytest.approx((110.05, 110.0515))
+    assert frames["b"][0][1:] == pytest.approx((110.0, 110.001))
+    bus.publish(ShowEnded(122.0, True, "completed"))  # after close: nothing
+    assert len(logged) == 3

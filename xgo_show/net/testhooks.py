@@ -12,7 +12,9 @@ environment variables, read by the relay process, change that; nothing reads the
 - ``XGO_SHOW_TEST_TRACE=1``: the relay's run log gets a ``first_frame`` record per robot and
   show (:class:`StartTracer`): the first frame's planned and actual write time on the show
   clock and on this machine's own monotonic clock, which the simulators share, so a benchmark
-  can split a start's skew into the clock estimate's error, the relay's lateness and delivery.
+  can split a start's skew into the clock estimate's error, the relay's lateness and delivery;
+  and, when the show ends, a ``frames_host`` record with the same two times of every scheduled
+  frame, so the skew late in a long show splits the same way.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 from xgo_show.runtime.clock import Clock, MonotonicClock
-from xgo_show.runtime.events import EventBus, FrameSent, ShowStarted, Subscription
+from xgo_show.runtime.events import EventBus, FrameSent, ShowEnded, ShowStarted, Subscription
 
 __all__ = [
     "CLOCK_ENV",
@@ -158,12 +160,15 @@ def host_time(clock: Clock, t: float) -> float:
 
 
 class StartTracer:
-    """Records each robot's first scheduled frame of each show on ``log(event, **fields)``.
+    """Records each robot's scheduled frames of each show on ``log(event, **fields)``.
 
-    ``planned``/``actual`` are on ``clock`` (the relay's show clock); ``planned_host`` and
-    ``actual_host`` the same instants on this machine's monotonic clock (:func:`host_time`), and
-    ``start_host`` the start. The conversion runs in the writer thread after its first write,
-    once per robot and show.
+    A ``first_frame`` record per robot and show, at its first frame: ``planned``/``actual`` on
+    ``clock`` (the relay's show clock); ``planned_host`` and ``actual_host`` the same instants
+    on this machine's monotonic clock (:func:`host_time`), and ``start_host`` the start. Every
+    scheduled frame's two host times are kept too (converted in the writer thread after its
+    write, a few microseconds, while the mapping in force is the one the frame was timed by)
+    and logged when the show ends, as one ``frames_host`` record: ``start_host`` and, per
+    robot, ``[index, planned_host, actual_host]`` rows.
     """
 
     def __init__(
@@ -173,18 +178,36 @@ class StartTracer:
         self._log = log
         self._lock = threading.Lock()
         self._start: float | None = None
+        self._start_host: float | None = None
         self._pending: set[str] = set()
-        self._sub: Subscription = bus.subscribe(self._on_event, ShowStarted, FrameSent)
+        self._frames: dict[str, list[tuple[int, float, float]]] = {}
+        self._sub: Subscription = bus.subscribe(
+            self._on_event, ShowStarted, FrameSent, ShowEnded
+        )
 
     def _on_event(self, ev: object) -> None:
         if isinstance(ev, ShowStarted):
             with self._lock:
                 self._start = ev.start_at
+                self._start_host = host_time(self.clock, ev.start_at)
                 self._pending = set(ev.performers)
+                self._frames = {p: [] for p in ev.performers}
+            return
+        if isinstance(ev, ShowEnded):
+            with self._lock:
+                frames, self._frames = self._frames, {}
+                start_host = self._start_host
+            if start_host is not None and frames:
+                self._log("frames_host", start_host=start_host, frames=frames)
             return
         if not isinstance(ev, FrameSent) or ev.kind != "frame" or ev.planned is None:
             return
+        planned_host = host_time(self.clock, ev.planned)
+        actual_host = host_time(self.clock, ev.t)
         with self._lock:
+            rows = self._frames.get(ev.performer)
+            if rows is not None and ev.index is not None:
+                rows.append((ev.index, planned_host, actual_host))
             if ev.performer not in self._pending or self._start is None:
                 return
             self._pending.discard(ev.performer)
@@ -196,8 +219,8 @@ class StartTracer:
             planned=ev.planned,
             actual=ev.t,
             start_host=host_time(self.clock, start),
-            planned_host=host_time(self.clock, ev.planned),
-            actual_host=host_time(self.clock, ev.t),
+            planned_host=planned_host,
+            actual_host=actual_host,
         )
 
     def close(self) -> None:
