@@ -520,7 +520,7 @@ DRIFT_WINDOW = 10.0
 
 def host_frames(relay: Relay, run: Run) -> dict[int, tuple[float, float]]:
     """schedule index -> (planned, actual) write time on this machine's clock of every
-    scheduled frame of ``run``, from the relay's ``frames_host`` record (``XGO_SHOW_TEST_TRACE``)."""
+    scheduled frame of ``run``: the relay's ``frames_host`` record (``XGO_SHOW_TEST_TRACE``)."""
     assert relay.log is not None
     for line in relay.log.read_text(encoding="utf-8").splitlines():
         rec = json.loads(line)
@@ -530,21 +530,41 @@ def host_frames(relay: Relay, run: Run) -> dict[int, tuple[float, float]]:
     return {}
 
 
-def print_drift_parts(label: str, robots: Sequence[Relay], run: Run, window: float) -> None:
+def scheduled_received(sim: Sim, run: Run, schedule: Schedule) -> dict[int, float]:
+    """schedule index -> receive time of the frames ``sim`` got during ``run``, matched in
+    order by their bytes (stop and rest frames the show ends with are not the schedule's)."""
+    want = [f.data.hex() for f in schedule.performers[0].frames]
+    out: dict[int, float] = {}
+    k = 0
+    for t, data in sim.frames():
+        if not run.sent <= t < run.ended:
+            continue
+        j = k
+        while j < len(want) and want[j] != data and j < k + 3:
+            j += 1  # a frame lost on the way is skipped, not matched to a later one's bytes
+        if j < len(want) and want[j] == data:
+            out[j] = t
+            k = j + 1
+    return out
+
+
+def print_drift_parts(
+    label: str, robots: Sequence[Relay], run: Run, window: float, schedule: Schedule
+) -> None:
     """The skew of every frame in the last ``window`` seconds of a long show and its parts'
     spreads: (a) where each relay's clock put the frame, (b) issue lateness, (c) delivery;
     with a start time (synced), also each relay's clock error against the true planned time."""
     traced = [host_frames(r, run) for r in robots]
-    got = [received_in(r.sim, run) for r in robots]
-    n = min(len(g) for g in got)
-    if not all(traced) or n == 0 or any(len(g) != len(t) for g, t in zip(got, traced, strict=True)):
-        print(f"   {label:26s} (frames missing: not split)")
+    got = [scheduled_received(r.sim, run, schedule) for r in robots]
+    n = len(schedule.performers[0].frames)
+    if not all(traced):
+        print(f"   {label:26s} (no frames_host record: not split)")
         return
     first = max(0, n - round(window * RATE))
     rows: dict[str, list[float]] = {k: [] for k, _ in PARTS}
     errors: list[float] = []
     for k in range(first, n):
-        if any(k not in t for t in traced):
+        if any(k not in t for t in traced) or any(k not in g for g in got):
             continue
         planned = [t[k][0] for t in traced]
         late = [(t[k][1] - t[k][0]) * 1000 for t in traced]
@@ -557,7 +577,10 @@ def print_drift_parts(label: str, robots: Sequence[Relay], run: Run, window: flo
         if run.start_at is not None:
             errors += [abs(p - run.start_at - k / RATE) * 1000 for p in planned]
     print(f"   {label}")
-    names = {"clock": "(a) planned write time (the relay's clock)", "total": "receive time: the skew"}
+    names = {
+        "clock": "(a) planned write time (the relay's clock)",
+        "total": "receive time: the skew",
+    }
     for k, what in PARTS:
         print(f"     {names.get(k, what)[:58]:58s} {stats(rows[k])}")
     if errors:
@@ -682,7 +705,7 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
         for r in runs:
             if r.mode.startswith("drift"):
                 group = plain if r.mode.endswith("--no-realtime") else relays
-                print_drift_parts(r.mode[6:], group, r, window)
+                print_drift_parts(r.mode[6:], group, r, window, long)
         print("   the clock tracker's drift estimates at the end of the synced show:")
         for line in rates:
             print(f"     {line}")
