@@ -474,6 +474,19 @@ def first_frames(relay: Relay) -> dict[float, tuple[float, float]]:
     return out
 
 
+def after_writes(relay: Relay, since: float, until: float) -> list[float]:
+    """The writer thread's work after each write (ms), until the tracer saw the frame: its
+    CPU hand-off and the listeners before the tracer (the run log, the event collector), for
+    every show that started between ``since`` and ``until`` (``frames_host`` records)."""
+    assert relay.log is not None
+    out = []
+    for line in relay.log.read_text(encoding="utf-8").splitlines():
+        rec = json.loads(line)
+        if rec.get("event") == "frames_host" and since <= rec["start_host"] <= until:
+            out += [(row[3] - row[2]) * 1000 for rows in rec["frames"].values() for row in rows]
+    return out
+
+
 #: the parts of a robot's first-frame receive time against the intended start
 PARTS = (
     ("clock", "(a) planned - start: the relay's clock estimate's error"),
@@ -770,6 +783,14 @@ def report_starts(
     for mode, robots in local_robots.items():
         errors = [e for r in runs if r.mode == mode for e in send_errors(robots, r, short)]
         print(f"   {mode:34s} {stats(errors)}")
+    print("   its relay's writer thread after each write, until the tracer: hand-off, listeners")
+    for group, members in groups.items():
+        started = [r for r in runs if r.mode == f"start synced{group}"]
+        busy = [
+            x for relay in members for r in started
+            for x in after_writes(relay, r.sent, r.ended)
+        ]
+        print(f"   {'relayed' + group:34s} {stats(busy)}")
     print("   its issue lateness: write - planned time of every frame (ms)")
     for group in groups:
         late = [x * 1000 for r in runs if r.mode == f"start synced{group}" for x in r.lates]

@@ -75,7 +75,7 @@ def test_host_time_walks_a_relay_clock_down_to_this_machine() -> None:
 def test_the_start_tracer_logs_each_robots_first_frame_once_per_show() -> None:
     from xgo_show.net.testhooks import SkewedClock as Skewed
     from xgo_show.net.testhooks import StartTracer
-    from xgo_show.runtime.events import EventBus, FrameSent, ShowStarted
+    from xgo_show.runtime.events import EventBus, FrameSent, ShowEnded, ShowStarted
 
     host = FakeClock(100.0)
     clock = Skewed(host, offset=10.0)
@@ -92,12 +92,15 @@ def test_the_start_tracer_logs_each_robots_first_frame_once_per_show() -> None:
         bus.publish(frame("a", "frame", start, start + 0.002))
         bus.publish(frame("a", "frame", start + 0.05, start + 0.051))  # not the first
         bus.publish(frame("b", "frame", start, start + 0.001))
+        assert not logged or logged[-1][0] == "frames_host"  # nothing logged until the end
+        bus.publish(ShowEnded(start + 1, True, "completed"))
 
     show(120.0)
     show(130.0)
     tracer.close()
     bus.publish(ShowStarted(139.0, "s", 0.0, 140.0, ("a",), "halt_all", 0.0))
     bus.publish(frame("a", "frame", 140.0, 140.0))  # after close: nothing
+    logged = [(e, f) for e, f in logged if e == "first_frame"]
     assert [(e, f["performer"], f["start_at"]) for e, f in logged] == [
         ("first_frame", "a", 120.0),
         ("first_frame", "b", 120.0),
@@ -129,17 +132,20 @@ def test_the_start_tracer_logs_every_scheduled_frame_on_the_host_clock_when_the_
     bus.publish(frame("a", "read", 1, None, 120.01))  # not a scheduled frame
     bus.publish(frame("a", "rest", 1, 120.05, 120.05))  # a stop frame: not either
     bus.publish(frame("a", "frame", 1, 120.05, 120.0515))
+    host.advance(0.25)
     bus.publish(frame("b", "frame", 0, 120.0, 120.001))
-    assert [e for e, _ in logged] == ["first_frame", "first_frame"]  # nothing more until the end
+    assert logged == []  # nothing until the end
     bus.publish(ShowEnded(121.0, True, "completed"))
     tracer.close()
+    assert [e for e, _ in logged] == ["first_frame", "first_frame", "frames_host"]
+    assert logged[1][1]["actual_host"] == pytest.approx(110.001)
     event, fields = logged[-1]
     assert event == "frames_host"
     assert fields["start_host"] == pytest.approx(110.0)
     frames = fields["frames"]
     assert isinstance(frames, dict) and set(frames) == {"a", "b"}
-    assert [i for i, _, _ in frames["a"]] == [0, 1]
-    assert frames["a"][1][1:] == pytest.approx((110.05, 110.0515))
-    assert frames["b"][0][1:] == pytest.approx((110.0, 110.001))
+    assert [row[0] for row in frames["a"]] == [0, 1]
+    assert frames["a"][1][1:] == pytest.approx((110.05, 110.0515, 100.0))  # seen: host now
+    assert frames["b"][0][1:] == pytest.approx((110.0, 110.001, 100.25))
     bus.publish(ShowEnded(122.0, True, "completed"))  # after close: nothing
-    assert len(logged) == 3
+    assert len(logged) == 3  # nothing more

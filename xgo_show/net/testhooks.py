@@ -162,13 +162,16 @@ def host_time(clock: Clock, t: float) -> float:
 class StartTracer:
     """Records each robot's scheduled frames of each show on ``log(event, **fields)``.
 
-    A ``first_frame`` record per robot and show, at its first frame: ``planned``/``actual`` on
-    ``clock`` (the relay's show clock); ``planned_host`` and ``actual_host`` the same instants
-    on this machine's monotonic clock (:func:`host_time`), and ``start_host`` the start. Every
-    scheduled frame's two host times are kept too (converted in the writer thread after its
-    write, a few microseconds, while the mapping in force is the one the frame was timed by)
-    and logged when the show ends, as one ``frames_host`` record: ``start_host`` and, per
-    robot, ``[index, planned_host, actual_host]`` rows.
+    Every scheduled frame's planned and actual write time is converted to this machine's
+    monotonic clock (:func:`host_time`) in the writer thread after its write (microseconds,
+    while the mapping in force is the one the frame was timed by) and kept; nothing is logged
+    until the show ends, so the writer does no logging work for the trace. Then, per robot, a
+    ``first_frame`` record: ``planned``/``actual`` on ``clock`` (the relay's show clock),
+    ``planned_host``/``actual_host`` the same instants on the host clock and ``start_host``
+    the start; and one ``frames_host`` record: ``start_host`` and, per robot,
+    ``[index, planned_host, actual_host, seen_host]`` rows. ``seen_host`` is when this listener
+    saw the frame: what the writer thread did between its write and then (its CPU hand-off and
+    the listeners subscribed before this one).
     """
 
     def __init__(
@@ -179,8 +182,8 @@ class StartTracer:
         self._lock = threading.Lock()
         self._start: float | None = None
         self._start_host: float | None = None
-        self._pending: set[str] = set()
-        self._frames: dict[str, list[tuple[int, float, float]]] = {}
+        self._first: dict[str, tuple[float, float]] = {}  # show-clock planned, actual
+        self._frames: dict[str, list[tuple[int, float, float, float]]] = {}
         self._sub: Subscription = bus.subscribe(
             self._on_event, ShowStarted, FrameSent, ShowEnded
         )
@@ -190,38 +193,47 @@ class StartTracer:
             with self._lock:
                 self._start = ev.start_at
                 self._start_host = host_time(self.clock, ev.start_at)
-                self._pending = set(ev.performers)
+                self._first = {}
                 self._frames = {p: [] for p in ev.performers}
             return
         if isinstance(ev, ShowEnded):
-            with self._lock:
-                frames, self._frames = self._frames, {}
-                start_host = self._start_host
-            if start_host is not None and frames:
-                self._log("frames_host", start_host=start_host, frames=frames)
+            self._flush()
             return
         if not isinstance(ev, FrameSent) or ev.kind != "frame" or ev.planned is None:
             return
+        seen_host = host_time(self.clock, self.clock.now())
         planned_host = host_time(self.clock, ev.planned)
         actual_host = host_time(self.clock, ev.t)
         with self._lock:
             rows = self._frames.get(ev.performer)
-            if rows is not None and ev.index is not None:
-                rows.append((ev.index, planned_host, actual_host))
-            if ev.performer not in self._pending or self._start is None:
+            if rows is None:
                 return
-            self._pending.discard(ev.performer)
-            start = self._start
-        self._log(
-            "first_frame",
-            performer=ev.performer,
-            start_at=start,
-            planned=ev.planned,
-            actual=ev.t,
-            start_host=host_time(self.clock, start),
-            planned_host=planned_host,
-            actual_host=actual_host,
-        )
+            if not rows:
+                self._first[ev.performer] = (ev.planned, ev.t)
+            rows.append((-1 if ev.index is None else ev.index, planned_host, actual_host, seen_host))
+
+    def _flush(self) -> None:
+        with self._lock:
+            frames, self._frames = self._frames, {}
+            first, self._first = self._first, {}
+            start, start_host = self._start, self._start_host
+        if start is None or start_host is None:
+            return
+        for performer, (planned, actual) in first.items():
+            row = frames[performer][0]
+            self._log(
+                "first_frame",
+                performer=performer,
+                start_at=start,
+                planned=planned,
+                actual=actual,
+                start_host=start_host,
+                planned_host=row[1],
+                actual_host=row[2],
+                seen_host=row[3],
+            )
+        if any(frames.values()):
+            self._log("frames_host", start_host=start_host, frames=frames)
 
     def close(self) -> None:
         self._sub.close()

@@ -40,6 +40,7 @@ from xgo_show.net.slew import SlewingClock
 from xgo_show.net.testhooks import DelayInjector, StartTracer
 from xgo_show.net.timesync import TimeServer, serve_time
 from xgo_show.net.watchdog import Watchdog
+from xgo_show.relay.deferred import DeferredListeners
 from xgo_show.relay.forward import EventCollector
 from xgo_show.relay.performer import executor_lead
 from xgo_show.relay.robots import OwnedRobot
@@ -130,10 +131,15 @@ class Relay:
         self.sync_delay = sync_delay
         self.allow_unsafe = allow_unsafe
         self.log = log if log is not None else RunLog(None, keep=False)
-        #: every show's runtime events (frames, faults, safe stops); the run log listens
+        #: every show's runtime events (frames, faults, safe stops), published by the writers
         self.events = EventBus()
-        self._log_sub = self.log.attach(self.events)
-        self._collector = EventCollector(self.events)  # sent back in heartbeat answers
+        # The run log and the collector (events sent back in heartbeat answers) listen on a
+        # bus of their own, fed a few ms late by a thread of ours: not in the writer threads
+        # right after a write, when the robot's end needs the CPU (relay/deferred.py).
+        self._booked = EventBus()
+        self._bookkeeping = DeferredListeners(self.events, [self._booked.publish])
+        self._log_sub = self.log.attach(self._booked)
+        self._collector = EventCollector(self._booked)
         self._tracer = StartTracer(self.events, self.clock, self.log.event) if trace else None
         self.telemetry = telemetry
         self.instance = uuid.uuid4().hex[:12]  # tells a restarted relay from the old one
@@ -196,6 +202,7 @@ class Relay:
             self.stop_show(reason)
         for th in self._threads:
             th.join(2.0)
+        self._bookkeeping.close()  # what the show's end published is logged first
         self.log.event("relay_stop", relay=self.name, reason=reason)
         self._log_sub.close()
         self._collector.close()
@@ -436,6 +443,7 @@ class Relay:
                 battery_floor=request.maybe_number("battery_floor"),
             )
             self._last = None
+            self._bookkeeping.flush()
             self._collector.drain()  # nothing of an earlier show goes to this one
         self.log.event(
             "upload",
@@ -524,6 +532,8 @@ class Relay:
             )
         except Exception as exc:  # the runner has safe-stopped every robot already
             result = ShowResult(False, f"exception: {exc!r}")
+        # The show's last events are logged and collected before it is reported over.
+        self._bookkeeping.flush()
         late = result.start_at - show.start_at if result.start_at else 0.0
         if late > 0:  # the host was too busy to be ready in time: say so, it plays behind
             self.log.event("late_start", late_ms=round(late * 1e3, 3))
