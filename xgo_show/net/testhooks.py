@@ -210,7 +210,8 @@ class StartTracer:
                 return
             if not rows:
                 self._first[ev.performer] = (ev.planned, ev.t)
-            rows.append((-1 if ev.index is None else ev.index, planned_host, actual_host, seen_host))
+            index = -1 if ev.index is None else ev.index
+            rows.append((index, planned_host, actual_host, seen_host))
 
     def _flush(self) -> None:
         with self._lock:
