@@ -539,7 +539,7 @@ def host_frames(relay: Relay, run: Run) -> dict[int, tuple[float, float]]:
         rec = json.loads(line)
         if rec.get("event") == "frames_host" and run.sent <= rec["start_host"] <= run.ended:
             rows = rec["frames"].get("bot", [])
-            return {int(i): (float(p), float(a)) for i, p, a in rows}
+            return {int(row[0]): (float(row[1]), float(row[2])) for row in rows}
     return {}
 
 
