@@ -90,3 +90,63 @@ def test_a_shorter_timeout_set_while_waiting_takes_effect_at_once() -> None:
         assert dog.lost
     with pytest.raises(ValueError, match="positive"):
         dog.set_timeout(-1.0)
+
+
+class StarvedClock(FakeClock):
+    """A fake clock whose sleeps, while ``starve`` is set, end ``late`` seconds late; before
+    each sleep it runs ``on_sleep`` (what the process's other threads do meanwhile)."""
+
+    def __init__(self, start: float) -> None:
+        super().__init__(start)
+        self.late = 0.0
+        self.starve = 0  # how many sleeps to end late
+        self.on_sleep: Callable[[], None] = lambda: None
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        self.on_sleep()
+        ok = super().sleep_until(deadline, interrupt)
+        if ok and self.starve > 0:
+            self.starve -= 1
+            self.advance(self.late)
+        return ok
+
+
+def test_a_watchdog_starved_past_its_deadline_first_hears_what_arrived_meanwhile(
+    wait: Callable[..., None],
+) -> None:
+    clock = StarvedClock(100.0)
+    silences: list[tuple[float, float]] = []
+    dog = Watchdog(0.5, lambda s: silences.append((s, clock.now())), clock=clock)
+    clock.late, clock.starve = 0.2, 1  # the whole process got no CPU for 0.2 s
+    woke: list[float] = []
+
+    def catch_up() -> None:
+        # The heartbeat the starvation held up is read once the process runs again: here, when
+        # the watchdog goes to sleep for its grace after its late wake-up.
+        if clock.now() > 100.5 and not woke:
+            woke.append(clock.now())
+            dog.heard()
+
+    clock.on_sleep = catch_up
+    with dog.start():
+        wait(lambda: len(silences) == 1)
+    assert woke == [pytest.approx(100.7)]  # it woke 0.2 s late and did not judge then
+    # heard during its grace, so lost only at that heartbeat's deadline (silent from then on)
+    assert silences == [(pytest.approx(0.5), pytest.approx(101.2))]
+
+
+def test_a_silent_peer_is_lost_after_the_grace_a_late_wake_up_gives() -> None:
+    clock = StarvedClock(100.0)
+    lost = threading.Event()
+    at: list[tuple[float, float]] = []
+
+    def on_silence(silence: float) -> None:
+        at.append((silence, clock.now()))
+        lost.set()
+
+    clock.late, clock.starve = 0.3, 2  # late from the deadline, and from the first grace
+    with Watchdog(0.5, on_silence, clock=clock).start():
+        assert lost.wait(2.0)
+    # woke at 100.8 (0.3 late): grace to 101.1, woke 101.4 (late again): grace to 101.7, on time
+    assert at == [(pytest.approx(1.7), pytest.approx(101.7))]
+    assert clock.waits[:3] == [pytest.approx(100.5), pytest.approx(101.1), pytest.approx(101.7)]

@@ -280,7 +280,8 @@ class RelayClient:
         on_lost: Callable[[float], None] | None = None,
     ) -> None:
         """Send a heartbeat every ``period``; call ``on_lost(silence)`` once after
-        ``watchdog`` seconds without an answer, ``on_status`` with each answer's show status."""
+        ``watchdog`` seconds without an answer (and send no more), ``on_status`` with each
+        answer's show status."""
         import zenoh
 
         if self._beat is not None:
@@ -290,6 +291,10 @@ class RelayClient:
 
         def lost(silence: float) -> None:
             self.link.lost = True
+            # Silent from now on: a relay that was only starved or frozen, and reads the
+            # heartbeats it missed once it runs again, must still apply its link-loss policy,
+            # as this side has given it up (its watchdog judges silence after a grace).
+            self._beat_stop.set()
             if on_lost is not None:
                 on_lost(silence)
 
