@@ -13,9 +13,10 @@ later than the same robot driven from a local process.
 event to a queue (microseconds), and a thread of the relay's own calls the listeners, in
 publishing order, :data:`DELAY` after the oldest queued event, when the frame has long been
 delivered and the next one is still far off. That thread runs just below the writers
-(:data:`~xgo_show.runtime.realtime.HELPER_PRIORITY`, where real-time scheduling is granted), so a
-busy host's normal processes cannot preempt it while it holds Python's lock, which a writer
-waking for its next frame would then wait for.
+(:data:`~xgo_show.runtime.realtime.HELPER_PRIORITY`, where real-time scheduling is granted, from
+the first event until :data:`IDLE` passes without one), so a busy host's normal processes cannot
+preempt it while it holds Python's lock, which a writer waking for its next frame would then
+wait for.
 """
 
 from __future__ import annotations
@@ -28,11 +29,13 @@ from collections.abc import Callable, Sequence
 from xgo_show.runtime.events import Event, EventBus, Subscription
 from xgo_show.runtime.realtime import HELPER_PRIORITY, enter_show_thread, leave_show_thread
 
-__all__ = ["BACKLOG", "DELAY", "DeferredListeners"]
+__all__ = ["BACKLOG", "DELAY", "IDLE", "DeferredListeners"]
 
 #: Seconds from an event to its listeners: past a frame's delivery (about 1 ms on a busy host),
 #: well before the next frame at 20-50 frames a second.
 DELAY = 0.004
+#: Seconds without an event after which the thread goes back to normal priority.
+IDLE = 0.3
 #: Events queued at most; beyond, the newest are dropped and counted (a thread starved this long
 #: has a host in trouble: the writers, which never wait on it, come first).
 BACKLOG = 100_000
@@ -83,16 +86,20 @@ class DeferredListeners:
                 self._cond.notify_all()
 
     def _run(self) -> None:
-        raised = self.realtime and enter_show_thread(HELPER_PRIORITY)
+        raised = False
         try:
             while True:
                 with self._cond:
                     while not self._queue and not self._closed:
-                        self._cond.wait()
+                        if not self._cond.wait(IDLE if raised else None) and raised:
+                            leave_show_thread()  # no show: nothing real-time between shows
+                            raised = False
                     if not self._queue:
                         return  # closed and drained
                     oldest = self._queue[0][0]
                     hurry = self._closed or self._queued > self._done + BACKLOG // 2
+                if self.realtime and not raised:
+                    raised = enter_show_thread(HELPER_PRIORITY)
                 wait = oldest + self.delay - time.monotonic()
                 if wait > 0 and not hurry:
                     with self._cond:  # flush() and close() wake it to hand on at once
