@@ -252,7 +252,10 @@ def test_eight_relays_start_together_on_a_lead_from_measured_round_trips(
 
     begun = next(r for r in read_log(log) if r.get("event") == "start")
     lead = begun["start_at"] - begun["mono"]
-    assert lead < 0.5, f"lead {lead:.3f} s"  # eight relays' worth of round trips would not fit
+    # One relay's worth of round trips (3 x its worst recent one, plus set-up): 0.15-0.35 s on
+    # an idle machine, 0.59 s seen with 8 relays on 2 CPUs at load 8; sent one after another,
+    # eight starts would need eight relays' worth, which would not fit.
+    assert lead < 1.0, f"lead {lead:.3f} s"
     firsts = []
     for relay, name in zip(started, names, strict=True):
         sent = [f.data for f in show.performer(name).frames]
