@@ -28,7 +28,7 @@ import queue
 import threading
 import uuid
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from xgo_show.compiler.schedule import Schedule
@@ -92,6 +92,9 @@ class _Show:
     offset: float = 0.0
     link_lost: bool = False
     battery_floor: float | None = None  # the conductor's, else the schedule's
+    #: set when the runner has returned (its robots stopped or done): a stop waits for this,
+    #: not for the show's thread, which still hands the show's last events on
+    ran: threading.Event = field(default_factory=threading.Event)
 
 
 class Relay:
@@ -532,6 +535,7 @@ class Relay:
             )
         except Exception as exc:  # the runner has safe-stopped every robot already
             result = ShowResult(False, f"exception: {exc!r}")
+        show.ran.set()  # a stop command answers now, not after the bookkeeping below
         # The show's last events are logged and collected before it is reported over.
         self._bookkeeping.flush()
         late = result.start_at - show.start_at if result.start_at else 0.0
@@ -602,7 +606,7 @@ class Relay:
             show = self._show
         if show is not None and show.runner is not None and show.thread is not None:
             show.runner.stop(reason)
-            show.thread.join(1.0)
+            show.ran.wait(1.0)
             return {n: s.ok for n, s in (show.runner.result or ShowResult(False, "")).stops.items()}
         with self._lock:
             self._show = None
