@@ -238,6 +238,9 @@ def test_an_upload_and_a_start_go_through(session: zenoh.Session, namespace: str
                                           relay: Relay) -> None:
     c = client(session, namespace)
     c.hello()
+    # Held through the pre-flight, which on a loaded machine takes longer than the relay's
+    # 500 ms watchdog (the relay then let go of a silent conductor: seen at load 9).
+    c.start_heartbeat(period=0.1, watchdog=5.0)
     text, sha = upload_text(walk_schedule(0.3, rex="mini"))
     got = c.upload(text, sha, link_loss="continue", watchdog_ms=800, battery_floor=10.0)
     assert got["sha256"] == sha and got["preflight_ok"] is True
@@ -248,6 +251,7 @@ def test_an_upload_and_a_start_go_through(session: zenoh.Session, namespace: str
     c.start(sha, relay.clock.now() + 0.3, offset=0.1)
     assert relay._show is not None and relay._show.offset == pytest.approx(0.1)
     c.command("stop", reason="test")
+    c.stop_heartbeat()
 
 
 # --- heartbeats ------------------------------------------------------------------------------------
