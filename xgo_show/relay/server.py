@@ -535,9 +535,6 @@ class Relay:
             )
         except Exception as exc:  # the runner has safe-stopped every robot already
             result = ShowResult(False, f"exception: {exc!r}")
-        show.ran.set()  # a stop command answers now, not after the bookkeeping below
-        # The show's last events are logged and collected before it is reported over.
-        self._bookkeeping.flush()
         late = result.start_at - show.start_at if result.start_at else 0.0
         if late > 0:  # the host was too busy to be ready in time: say so, it plays behind
             self.log.event("late_start", late_ms=round(late * 1e3, 3))
@@ -554,6 +551,11 @@ class Relay:
                     None if result.stop_latency is None else round(result.stop_latency * 1e3, 3)
                 ),
             }
+        show.ran.set()  # a stop command answers now, not after the bookkeeping below
+        # The show's last events are logged and collected before it is reported over (the
+        # state stays "running" until then, so a conductor keeps collecting).
+        self._bookkeeping.flush()
+        with self._lock:
             if self._show is show:
                 self._show = None
 
