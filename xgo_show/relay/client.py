@@ -303,8 +303,8 @@ class RelayClient:
         def on_reply(sent: float) -> Callable[[zenoh.Reply], None]:
             def handle(answer: zenoh.Reply) -> None:
                 ok = answer.ok
-                if ok is None:
-                    return
+                if ok is None or self._beat_stop.is_set():
+                    return  # an answer still in flight when the heartbeats stopped: not heard
                 try:
                     reply = msg.decode_reply(ok.payload.to_bytes())
                 except msg.MessageError:
