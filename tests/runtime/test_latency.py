@@ -3,20 +3,20 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import pytest
 
+from tests.runtime.recording import RecordsCommands
 from xgo_show.runtime.executor import ExecutorState, Progress, SafeStopResult
 from xgo_show.runtime.latency import Early
 from xgo_show.runtime.performer import Performer
 
 
-class Recorder:
+class Recorder(RecordsCommands):
     """A performer that records each call it gets and answers with fixed values."""
 
     def __init__(self) -> None:
-        self.calls: list[tuple[Any, ...]] = []
+        super().__init__()
         self.name = "rex"
         self.model = "mini"
         self.state = ExecutorState.PAUSED
@@ -33,18 +33,6 @@ class Recorder:
 
     def start(self, start_at: float, *, offset: float = 0.0) -> None:
         self.calls.append(("start", start_at, offset))
-
-    def pause(self, *, at: float | None = None) -> None:
-        self.calls.append(("pause", at))
-
-    def resume(self, *, at: float | None = None) -> None:
-        self.calls.append(("resume", at))
-
-    def seek(self, show_time: float, *, at: float | None = None) -> None:
-        self.calls.append(("seek", show_time, at))
-
-    def abort(self) -> None:
-        self.calls.append(("abort",))
 
     def safe_stop(self, reason: str, *, timeout: float = 0.1) -> SafeStopResult:
         self.calls.append(("safe_stop", reason, timeout))

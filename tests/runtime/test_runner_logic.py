@@ -23,6 +23,7 @@ from typing import Any
 import pytest
 
 from tests.conftest import wait_until
+from tests.runtime.recording import RecordsCommands
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.errors import SetupError, UsageError
 from xgo_show.runtime import show_runner as show_runner_module
@@ -49,7 +50,7 @@ S = ExecutorState
 ENDED = (S.FINISHED, S.STOPPED, S.FAILED)
 
 
-class Stub:
+class Stub(RecordsCommands):
     """A performer that records every call and does only what a test tells it to."""
 
     def __init__(self, name: str, clock: FakeClock, *, lead: float = 0.0,
@@ -65,7 +66,7 @@ class Stub:
         self.state = S.IDLE
         self.fault: str | None = None
         self.stop_result: SafeStopResult | None = None
-        self.calls: list[tuple[Any, ...]] = []
+        super().__init__()
         self.on_start: Callable[[], object] = lambda: None
         self.block_stop: threading.Event | None = None  # a stuck port: stop waits for it
         self.stopped_on: tuple[str, bool] | None = None  # the stop thread: name, daemon
@@ -89,18 +90,6 @@ class Stub:
         self.calls.append(("start", start_at, offset))
         self.state = S.RUNNING
         self.on_start()
-
-    def pause(self, *, at: float | None = None) -> None:
-        self.calls.append(("pause", at))
-
-    def resume(self, *, at: float | None = None) -> None:
-        self.calls.append(("resume", at))
-
-    def seek(self, show_time: float, *, at: float | None = None) -> None:
-        self.calls.append(("seek", show_time, at))
-
-    def abort(self) -> None:
-        self.calls.append(("abort",))
 
     def safe_stop(self, reason: str, *, timeout: float = 0.1) -> SafeStopResult:
         self.calls.append(("safe_stop", reason, timeout))
