@@ -47,6 +47,7 @@ from xgo_show.relay.robots import OwnedRobot
 from xgo_show.relay.validate import validate_upload
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.runtime.events import EventBus
+from xgo_show.runtime.executor import ExecutorState
 from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.preflight import preflight
 from xgo_show.runtime.realtime import policy
@@ -72,6 +73,10 @@ class RelayState:
     ARMED = "armed"  # a start time set
     RUNNING = "running"
     ENDED = "ended"  # the last show is over (see "last")
+
+
+#: A robot's states after its show: nothing more will happen to it.
+_ENDED = frozenset({ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED})
 
 
 @dataclass
@@ -632,8 +637,16 @@ class Relay:
 
     def _show_status(self) -> dict[str, Any]:
         show = self._show
+        t = self.clock.now()  # the show clock now: when the show times below were read
+        runner = show.runner if show is not None else None
+        snap = runner.snapshot() if runner is not None else None
+        if snap is not None and any(p.state in _ENDED for p in snap.performers):
+            # A robot's end goes out with the events that led to it: the conductor's runner
+            # returns once it sees every robot ended, and the bookkeeping thread hands events
+            # on a few ms late (relay/deferred.py), so they would miss the conductor's log.
+            self._bookkeeping.flush()
         status: dict[str, Any] = {
-            "t": self.clock.now(),  # the show clock now: when the show times below were read
+            "t": t,
             "state": self._state(),
             "last": self._last,
             "events": self._collector.drain(),
@@ -641,8 +654,7 @@ class Relay:
         }
         if self._stage is not None:
             status["stage"] = self._stage.status()
-        if show is not None and show.runner is not None:
-            snap = show.runner.snapshot()
+        if runner is not None and snap is not None:
             status["show_time"] = snap.show_time
             status["performers"] = {
                 p.performer: {
@@ -651,7 +663,7 @@ class Relay:
                     "sent": p.sent,
                     "total": p.total,
                     "cue": p.cue,
-                    "fault": show.runner.performers[p.performer].fault,
+                    "fault": runner.performers[p.performer].fault,
                 }
                 for p in snap.performers
             }
