@@ -27,6 +27,7 @@ __all__ = [
     "check_trigger_name",
     "control_key",
     "event_key",
+    "is_trigger_name",
     "status_key",
     "telemetry_key",
     "trigger_key",
@@ -60,9 +61,14 @@ def telemetry_key(ns: str, robot: str = "*") -> str:
     return f"{ns}/event/telemetry/{robot}"
 
 
+def is_trigger_name(name: str) -> bool:
+    """Whether ``name`` can be a trigger's name (one key chunk, like the language's names)."""
+    return _CHUNK.fullmatch(name) is not None
+
+
 def check_trigger_name(name: str) -> str:
-    """``name`` if it can be a trigger's name (one key chunk, like the language's names)."""
-    if not _CHUNK.match(name):
+    """``name`` if it can be a trigger's name (see :func:`is_trigger_name`)."""
+    if not is_trigger_name(name):
         raise UsageError(
             f"trigger name {name!r}: use letters, digits, '_' and '-', starting with a letter "
             "or '_' (at most 64)"

@@ -20,19 +20,17 @@ encoding itself, bundles included.
 
 from __future__ import annotations
 
-import re
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 from xgo_show.audio.decode import require
+from xgo_show.control.keys import is_trigger_name
 
 __all__ = ["COMMANDS", "Command", "OscServer", "parse_command", "parse_packet", "parse_spec"]
 
 COMMANDS = ("go", "pause", "resume", "seek", "bar", "stop", "trigger")
-#: A trigger's name over OSC: as a section's ``wait`` names it.
-_TRIGGER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]{0,63}")
 
 
 @dataclass(frozen=True)
@@ -64,8 +62,7 @@ def parse_command(address: str, args: list[Any], prefix: str = "") -> Command | 
     if kind == "go" and not args:
         return Command("go")
     if kind == "trigger":
-        if len(args) != 1 or not isinstance(args[0], str) \
-                or not _TRIGGER_NAME.fullmatch(args[0]):
+        if len(args) != 1 or not isinstance(args[0], str) or not is_trigger_name(args[0]):
             return f"/trigger takes one trigger name (letters, digits, _ and -), not {args!r}"
         return Command("trigger", name=args[0])
     value = _number(args)
