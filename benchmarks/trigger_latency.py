@@ -26,6 +26,11 @@ All times are CLOCK_MONOTONIC, which every process on the host shares.
    server. Send-time error: each frame's arrival at the simulator minus its planned time (the
    start time the ``start`` reply gives, plus the frame's time). Per run and pooled, with the
    load average, the serve process's CPU and the flooding client's own (it shares the machine).
+   Then the verdict on "p99 unchanged within 0.1 ms": the pooled p99's difference (flood -
+   alone) with a 95 % bootstrap confidence interval (:func:`bootstrap_p99_difference`: the
+   run pairs are resampled, not the frames, since frames of one run share its load and its
+   stalls), over all frames and again with the frames that overlap a CPU stall the probe saw
+   left out (the VM's stalls, not our process's).
 
 Prints figures only (no asserts)::
 
@@ -39,12 +44,13 @@ import contextlib
 import json
 import os
 import queue
+import random
 import socket
 import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -531,6 +537,76 @@ def slowest(released: Released, log: Path, stalls: list[tuple[int, float, float]
     return out
 
 
+Runs = Sequence[Sequence[float]]  # one list of per-frame values (seconds) per run
+
+
+def pooled_p99(runs: Runs) -> float:
+    """The p99 of every run's values together."""
+    return percentile([x for run in runs for x in run], 0.99)
+
+
+def bootstrap_p99_difference(alone: Runs, flood: Runs, *, resamples: int = 2000,
+                             level: float = 0.95, seed: int = 1,
+                             unit: str = "run") -> tuple[float, float, float]:
+    """The pooled p99 of ``flood`` minus that of ``alone``, and a ``level`` bootstrap
+    confidence interval of that difference (percentile method): (estimate, low, high).
+
+    ``alone[k]`` and ``flood[k]`` are the per-frame values of the k-th pair of runs, played
+    one after the other. ``unit="run"`` resamples the pairs with replacement (a cluster
+    bootstrap): frames of one run are not independent draws (a stall or a busy neighbour
+    delays several frames in a row, and a run shares its load), and the spread between runs
+    is what a repeat of the bench would see, so this is the interval to believe; keeping the
+    pairs together keeps what the alternation controls for (a load that drifts over the bench).
+    ``unit="frame"`` resamples the frames of every run within that run (the runs stay as they
+    are): an interval that assumes independent frames, too narrow when runs differ, for
+    comparison. Deterministic for a given ``seed``.
+    """
+    if len(alone) != len(flood) or not alone:
+        raise ValueError(f"need as many flood runs as alone runs, at least one: "
+                         f"{len(alone)} alone, {len(flood)} flood")
+    if unit not in ("run", "frame"):
+        raise ValueError(f"unit is 'run' or 'frame', not {unit!r}")
+    rng = random.Random(seed)
+    pairs = len(alone)
+    diffs = []
+    for _ in range(resamples):
+        if unit == "run":
+            picked = [rng.randrange(pairs) for _ in range(pairs)]
+            a: Runs = [alone[k] for k in picked]
+            f: Runs = [flood[k] for k in picked]
+        else:
+            a = [rng.choices(run, k=len(run)) for run in alone]
+            f = [rng.choices(run, k=len(run)) for run in flood]
+        diffs.append(pooled_p99(f) - pooled_p99(a))
+    diffs.sort()
+    tail = (1 - level) / 2
+    return (pooled_p99(flood) - pooled_p99(alone),
+            percentile(diffs, tail), percentile(diffs, 1 - tail))
+
+
+def outside_stalls(errors: Sequence[float], spans: Sequence[tuple[float, float]],
+                   stalls: Sequence[tuple[int, float, float]]) -> list[float]:
+    """The ``errors`` of the frames whose span (planned, arrived) overlaps no stall (any CPU,
+    the probe's record): what is left when the VM's own stalls are taken out."""
+    return [e for e, (a, b) in zip(errors, spans, strict=True)
+            if not any(x < max(a, b) and y > min(a, b) for _, x, y in stalls)]
+
+
+def difference_row(name: str, alone: Runs, flood: Runs) -> str:
+    """"name: pooled p99 alone, flood, flood - alone [95 % CI over run pairs] (frame CI)",
+    in ms."""
+    if len(alone) < 2:
+        return f"{name}: fewer than 2 run pairs, no interval"
+    est, lo, hi = bootstrap_p99_difference(alone, flood)
+    _, flo, fhi = bootstrap_p99_difference(alone, flood, unit="frame")
+    n = sum(len(r) for r in alone), sum(len(r) for r in flood)
+    return (f"{name}: p99 alone {pooled_p99(alone) * 1000:.2f}, flood "
+            f"{pooled_p99(flood) * 1000:.2f} (n={n[0]}/{n[1]}); flood - alone "
+            f"{est * 1000:+.2f} ms, 95 % CI [{lo * 1000:+.2f}, {hi * 1000:+.2f}] resampling "
+            f"the {len(alone)} run pairs ([{flo * 1000:+.2f}, {fhi * 1000:+.2f}] resampling "
+            f"frames within runs, which takes them for independent: too narrow)")
+
+
 def row(name: str, seconds: list[float]) -> str:
     if not seconds:
         return f"{name:<58} {'-':>8} {'-':>8} {'-':>8} {'-':>8}  (n=0)"
@@ -653,6 +729,16 @@ def main() -> None:
             print(f"      serve's threads alone: {q.busiest()}; flood: {f.busiest()}")
         print(row("all runs alone", [e for q in quiet for e in q.error]))
         print(row("all runs under the flood", [e for f in flooded for e in f.error]))
+        print("\n   flood - alone, pooled p99, with a bootstrap 95 % confidence interval "
+              "(target: within 0.1 ms)")
+        print("   " + difference_row("all frames", [q.error for q in quiet],
+                                      [f.error for f in flooded]))
+        calm = ([outside_stalls(q.error, q.spans, stalls) for q in quiet],
+                [outside_stalls(f.error, f.spans, stalls) for f in flooded])
+        left = (sum(len(q.error) for q in quiet) - sum(map(len, calm[0])),
+                sum(len(f.error) for f in flooded) - sum(map(len, calm[1])))
+        print("   " + difference_row(f"frames in no CPU stall ({left[0]} alone and {left[1]} "
+                                      "flood frames left out)", *calm))
         print(f"\n   the server's issue lateness (its write - planned, run log), ms\n{head}")
         print(row("   all runs alone", [e for q in quiet for e in q.issue]))
         print(row("   all runs under the flood", [e for f in flooded for e in f.issue]))
