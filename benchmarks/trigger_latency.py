@@ -604,7 +604,7 @@ def difference_row(name: str, alone: Runs, flood: Runs) -> str:
             f"{pooled_p99(flood) * 1000:.2f} (n={n[0]}/{n[1]}); flood - alone "
             f"{est * 1000:+.2f} ms, 95 % CI [{lo * 1000:+.2f}, {hi * 1000:+.2f}] resampling "
             f"the {len(alone)} run pairs ([{flo * 1000:+.2f}, {fhi * 1000:+.2f}] resampling "
-            f"frames within runs, which takes them for independent: too narrow)")
+            f"frames within runs, as if independent)")
 
 
 def row(name: str, seconds: list[float]) -> str:
