@@ -196,3 +196,136 @@ def test_estimates_must_come_in_time_order() -> None:
 def test_timebase_maps_both_ways(offset: float, rate: float, ref: float, c: float) -> None:
     tb = Timebase(offset, rate, ref, 0.0, 0.0)
     assert math.isclose(tb.to_conductor(tb.to_relay(c)), c, rel_tol=0, abs_tol=1e-7)
+
+
+# --- exact values on small cases: what each reading, interval and bound is ------------------
+
+
+def test_an_exchange_reads_its_interval_round_trip_and_middle() -> None:
+    # Sent at 10.000, at the relay from 15.004 to 15.005 (its clock), back at 10.010.
+    x = Exchange(10.0, 15.004, 15.005, 10.010)
+    assert x.rtt == pytest.approx(0.009, abs=1e-12)  # 10 ms less the relay's own 1 ms
+    assert x.low == pytest.approx(4.995, abs=1e-12)  # the reply took no time
+    assert x.high == pytest.approx(5.004, abs=1e-12)  # the request took no time
+    assert x.at == pytest.approx(10.005, abs=1e-12)
+
+
+def test_readings_in_order_are_valid_down_to_an_instant_exchange() -> None:
+    assert Exchange(1.0, 2.0, 2.0, 1.0).valid  # no time anywhere: still in order
+    assert not Exchange(1.0, 2.0, 2.0, 1.0 - 1e-6).valid  # back before it was sent
+    assert not Exchange(1.0, 2.0, 2.0 - 1e-6, 1.5).valid  # the relay replied before it heard
+    # A relay clock 500 ppm fast counts 1 s of its own work as up to 500 us too long, so the
+    # round trip may go that far below zero, not further.
+    assert Exchange(0.0, 10.0, 11.0, 1.0 - 400e-6).valid
+    assert not Exchange(0.0, 10.0, 11.0, 1.0 - 600e-6).valid
+    # Over 1 us of relay work that is 0.5 ns; the readings' own 4 ns resolution comes on top.
+    assert Exchange(0.0, 0.0, 1e-6, 1e-6 - 3e-9).valid
+    assert not Exchange(0.0, 0.0, 1e-6, 1e-6 - 6e-9).valid
+
+
+def test_the_bound_is_the_intersection_of_intervals_widened_by_drift_to_the_reference() -> None:
+    best = Exchange(100.0, 105.001, 105.001, 100.004)  # [4.997, 5.001], rtt 4 ms, at 100.002
+    # Earlier and slower, but its reply was quick: its low side (4.999) is the tighter one.
+    quick_reply = Exchange(99.0, 104.0045, 104.0045, 99.0055)  # [4.999, 5.0045], at 99.00275
+    rate = 1e-3
+    own = rate * 0.004 + 2 * RESOLUTION  # drift over its own round trip
+    carried = rate * ((100.002 - 99.00275) + 0.0055) + 2 * RESOLUTION  # ...and to the reference
+    low, high = 4.999 - carried, 5.001 + own
+    for exchanges in ([quick_reply, best], [best, quick_reply]):
+        est = estimate_offset(exchanges, max_rate=rate)
+        assert est.consistent and est.samples == 2
+        assert est.at == pytest.approx(100.002, abs=1e-12)  # the lowest round trip's middle
+        assert est.rtt == pytest.approx(0.004, abs=1e-12)
+        assert est.offset == pytest.approx((low + high) / 2, abs=1e-12)
+        assert est.bound == pytest.approx((high - low) / 2, abs=1e-12)
+        assert (est.low, est.high) == (pytest.approx(low, abs=1e-12),
+                                       pytest.approx(high, abs=1e-12))
+    tight = estimate_offset([quick_reply, best], max_rate=0.0)
+    assert tight.bound == pytest.approx((5.001 - 4.999) / 2 + 2 * RESOLUTION, abs=1e-12)
+
+
+def test_the_default_drift_allowance_is_500_ppm() -> None:
+    best = Exchange(100.0, 105.001, 105.001, 100.004)
+    quick_reply = Exchange(99.0, 104.0045, 104.0045, 99.0055)
+    assert estimate_offset([quick_reply, best]) == estimate_offset([quick_reply, best],
+                                                                   max_rate=500e-6)
+    assert estimate_offset([quick_reply, best]) != estimate_offset([quick_reply, best],
+                                                                   max_rate=400e-6)
+
+
+def test_a_contradicting_burst_falls_back_on_the_best_exchange_with_its_drift() -> None:
+    before = Exchange(1000.0, 1001.001, 1001.001, 1000.002)  # offset 1.0, rtt 2 ms
+    after = Exchange(1000.01, 1011.0105, 1011.0105, 1000.011)  # offset 11.0, rtt 1 ms
+    est = estimate_offset([before, after], max_rate=1e-3)
+    assert not est.consistent and est.samples == 2
+    assert est.offset == pytest.approx(11.0, abs=1e-9)
+    assert est.at == pytest.approx(1000.0105, abs=1e-12)
+    # half the round trip, what 1000 ppm adds over it, and the readings' resolution
+    assert est.bound == pytest.approx(0.0005 + 1e-3 * 0.001 + 2 * RESOLUTION, abs=1e-12)
+
+
+def test_a_fallback_on_a_round_trip_below_zero_counts_it_as_zero() -> None:
+    before = Exchange(1000.0, 1001.001, 1001.001, 1000.002)
+    # The relay worked 1 s by its clock while 0.9998 s passed here: a round trip of -200 us.
+    fast = Exchange(1000.01, 1010.0, 1011.0, 1001.0098)
+    assert fast.valid and fast.rtt < 0
+    est = estimate_offset([before, fast], max_rate=1e-3)
+    assert not est.consistent and est.rtt == pytest.approx(-0.0002, abs=1e-9)
+    assert est.bound == pytest.approx(1e-3 * 0.9998 + 2 * RESOLUTION, abs=1e-12)
+
+
+def test_a_timebase_maps_and_bounds_at_a_given_time() -> None:
+    tb = Timebase(2.0, 1e-4, 100.0, 0.001, 2e-5)
+    assert tb.to_relay(110.0) == pytest.approx(112.001, abs=1e-12)  # 2 s ahead, 1 ms gained
+    assert tb.to_conductor(112.001) == pytest.approx(110.0, abs=1e-12)
+    assert tb.to_relay(90.0) == pytest.approx(91.999, abs=1e-12)
+    assert tb.bound_at(90.0) == pytest.approx(0.0012, abs=1e-15)  # 10 s away, either side
+    assert tb.bound_at(110.0) == pytest.approx(0.0012, abs=1e-15)
+    assert Timebase(1.5) == Timebase(1.5, 0.0, 0.0, math.inf, 500e-6)  # nothing known yet
+
+
+def test_an_estimate_spans_its_bound_either_side() -> None:
+    est = OffsetEstimate(2.0, 0.25, 0.5, 10.0, 3)
+    assert (est.low, est.high, est.consistent) == (1.75, 2.25, True)
+
+
+def test_the_drift_window_keeps_the_newest_120_estimates_by_default() -> None:
+    fit = DriftFit()
+    for k in range(130):
+        fit.add(OffsetEstimate(1.0, 0.001, 0.002, 1000.0 + k, 1))
+    assert len(fit) == 120
+    small = DriftFit(window=2)
+    for k in range(3):
+        small.add(OffsetEstimate(1.0, 0.001, 0.002, 1000.0 + k, 1))
+    assert len(small) == 2
+    with pytest.raises(ValueError, match=r"^the drift window needs at least two estimates$"):
+        DriftFit(window=1)
+
+
+def test_an_estimate_at_the_same_time_as_the_last_is_refused() -> None:
+    fit = DriftFit()
+    fit.add(OffsetEstimate(1.0, 0.001, 0.002, 1000.0, 1))
+    with pytest.raises(ValueError, match=r"^offset estimates must come in time order$"):
+        fit.add(OffsetEstimate(1.0, 0.001, 0.002, 1000.0, 1))
+
+
+def test_one_estimate_gives_its_own_offset_and_the_whole_rate_allowance() -> None:
+    est = OffsetEstimate(3.0, 0.002, 0.004, 50.0, 5)
+    assert DriftFit().add(est) == Timebase(3.0, 0.0, 50.0, 0.002, 500e-6)
+    assert DriftFit(max_rate=1e-4).add(est) == Timebase(3.0, 0.0, 50.0, 0.002, 1e-4)
+
+
+def test_two_estimates_bound_the_rate_by_their_intervals_and_the_allowance() -> None:
+    # 1.000 +- 2 ms at t=0, then 1.0015 +- 1 ms at t=10: rates from -150 to +450 ppm fit both.
+    first = OffsetEstimate(1.0, 0.002, 0.004, 0.0, 5)
+    second = OffsetEstimate(1.0015, 0.001, 0.002, 10.0, 5)
+    fit = DriftFit(max_rate=2e-4)  # ...but no more than 200 ppm
+    fit.add(first)
+    tb = fit.add(second)
+    assert tb.rate == pytest.approx(1.5e-4, abs=1e-12)  # the line through both
+    assert tb.rate_bound == pytest.approx(3e-4, abs=1e-12)  # down to -150 ppm
+    assert tb.ref == 10.0 and tb.offset == pytest.approx(1.0015, abs=1e-12)
+    assert tb.bound == pytest.approx(0.001, abs=1e-12)
+    wide = DriftFit()
+    wide.add(first)
+    assert wide.add(second).rate_bound == pytest.approx(3e-4, abs=1e-12)  # -150..450 ppm

@@ -149,3 +149,137 @@ def test_a_skewed_clock_is_offset_and_fast_by_what_it_was_told() -> None:
     assert skewed.now() == pytest.approx(1997.0 + 0.25)
     assert skewed.sleep_until(3000.0)
     assert skewed.now() == pytest.approx(3000.0)
+
+
+# --- the rate limits and the mapping, exactly ------------------------------------------------
+
+
+def test_by_default_a_1_ms_correction_takes_2_s_at_500_ppm() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base)
+    assert clock.max_slew == 500e-6
+    clock.follow(Timebase(0.0, 0.0, 100.0))
+    ahead = Timebase(-0.001, 0.0, 100.0)  # the conductor is 1 ms ahead of what we read
+    assert clock.follow(ahead) == pytest.approx(0.001, abs=1e-12)
+    assert clock.error() == pytest.approx(0.001, abs=1e-12)  # behind: positive
+    start = clock.now()
+    base.advance(1.0)
+    assert clock.now() - start == pytest.approx(1.0005, abs=1e-12)  # running 500 ppm fast
+    base.advance(0.999)
+    assert clock.error() == pytest.approx(0.0000005, abs=1e-12)  # not yet
+    base.advance(0.001)
+    assert clock.error() == pytest.approx(0.0, abs=1e-12)
+    base.advance(3.0)  # and then it follows the estimate, at its rate
+    assert clock.now() == pytest.approx(ahead.to_conductor(base.now()), abs=1e-12)
+    assert clock.error() == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_slew_runs_at_the_new_estimates_rate_plus_the_slew() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base, max_slew=SLEW)
+    clock.follow(Timebase(0.0, 0.0, 100.0))
+    fast = Timebase(-0.002, 100e-6, 100.0)  # relay clock 100 ppm fast; conductor 2 ms ahead
+    start = clock.now()
+    base.advance(0.5)
+    assert clock.now() - start == pytest.approx(0.5, abs=1e-12)  # the old mapping until then
+    start = clock.now()
+    clock.follow(fast)
+    base.advance(1.0)
+    assert clock.now() - start == pytest.approx(1.0 / (1 + 100e-6) + SLEW, abs=1e-12)
+
+
+@pytest.mark.parametrize("slew", [0.0, -1e-4, 0.1, 0.5])
+def test_max_slew_outside_0_to_10_percent_is_refused(slew: float) -> None:
+    with pytest.raises(ValueError, match=r"^max_slew must be a small positive fraction "
+                       r"\(e\.g\. 500e-6\)$"):
+        SlewingClock(FakeClock(), max_slew=slew)
+
+
+def test_max_slew_just_under_10_percent_is_taken() -> None:
+    assert SlewingClock(FakeClock(), max_slew=0.0999).max_slew == 0.0999
+
+
+def test_the_timebase_is_the_one_followed_until_a_reset() -> None:
+    clock = SlewingClock(FakeClock(100.0))
+    first, second = Timebase(1.0, 0.0, 0.0), Timebase(1.001, 0.0, 0.0)
+    clock.follow(first)
+    assert clock.timebase == first
+    clock.follow(second)
+    assert clock.timebase == second  # while still slewing to it
+    clock.reset()
+    assert clock.timebase is None
+
+
+def test_to_base_inverts_now_while_slewing_and_after() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base, max_slew=SLEW)
+    clock.follow(Timebase(0.0, 0.0, 100.0))
+    clock.follow(Timebase(0.001, 0.0, 100.0))  # 1 ms behind: 2 s of slewing
+    now = clock.now()
+    assert clock.to_base(now) == pytest.approx(100.0, abs=1e-12)
+    assert clock.to_base(now + 1.0) == pytest.approx(100.0 + 1.0 / (1 - SLEW), abs=1e-9)
+    # Past the slew's end the estimate's own mapping holds: 3 s on, 1 ms behind the base.
+    assert clock.to_base(now + 3.0) == pytest.approx(103.001, abs=1e-9)
+
+
+def test_to_base_of_a_time_before_the_first_estimate_uses_its_mapping() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base)
+    tb = Timebase(5.0, 1e-4, 50.0)
+    clock.follow(tb)
+    earlier = clock.now() - 10.0
+    assert clock.to_base(earlier) == pytest.approx(tb.to_relay(earlier), abs=1e-12)
+
+
+def test_after_a_reset_the_clock_runs_at_the_base_rate_with_nothing_to_correct() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base)
+    clock.follow(Timebase(5.0, 200e-6, 0.0))
+    clock.reset()
+    now = clock.now()
+    assert clock.error() == pytest.approx(0.0, abs=1e-12)
+    assert clock.to_base(now + 2.0) == pytest.approx(102.0, abs=1e-9)
+    base.advance(2.0)
+    assert clock.now() == pytest.approx(now + 2.0, abs=1e-12)
+
+
+def test_a_long_wait_hops_a_quarter_second_at_a_time_and_ends_in_one_short_wait() -> None:
+    base = FakeClock(100.0)
+    clock = SlewingClock(base)
+    clock.follow(Timebase(0.0, 0.0, 0.0))
+    assert clock.sleep_until(101.0)
+    # 250 ms hops while more than 50 ms is left; one hop to 25 ms before; then the deadline.
+    assert base.waits == pytest.approx([100.25, 100.5, 100.75, 100.975, 101.0], abs=1e-9)
+    base.waits.clear()
+    assert clock.sleep_until(101.05)  # 50 ms left: one wait
+    assert base.waits == [pytest.approx(101.05, abs=1e-12)]
+
+
+def test_a_short_wait_can_be_interrupted_too() -> None:
+    clock = SlewingClock(FakeClock(100.0))
+    stop = threading.Event()
+    stop.set()
+    assert not clock.sleep_until(100.01, stop)
+
+
+class _CorrectedDuringAWait(FakeClock):
+    """A base clock on which a new estimate arrives during the third hop of a wait."""
+
+    def __init__(self) -> None:
+        super().__init__(100.0)
+        self.clock: SlewingClock | None = None
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        if len(self.waits) == 2 and self.clock is not None:
+            self.clock.follow(Timebase(-0.0004, 0.0, 0.0))  # the conductor is 400 us ahead
+        return super().sleep_until(deadline, interrupt)
+
+
+def test_a_correction_during_a_long_wait_moves_its_wake_up() -> None:
+    base = _CorrectedDuringAWait()
+    clock = SlewingClock(base)
+    base.clock = clock
+    clock.follow(Timebase(0.0, 0.0, 0.0))
+    assert clock.sleep_until(102.0)
+    assert clock.now() == pytest.approx(102.0, abs=1e-9)  # on the show clock as it now runs
+    assert base.now() < 102.0 - 0.0003  # the base clock woke earlier, as the show clock ran fast

@@ -22,45 +22,7 @@ from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.show_runner import ShowRunner
 
 from .conftest import upload_text, walk_schedule
-
-ALICE = msg.Conductor("a1", "alice")
-BOB = msg.Conductor("b2", "bob")
-
-
-def request(op: str, who: msg.Conductor = ALICE, seq: int = 1, **fields: Any) -> msg.Request:
-    """A request as the relay receives it: encoded, then decoded and checked."""
-    raw = {"v": msg.PROTOCOL_VERSION, "op": op, "seq": seq, "conductor": who.to_json(),
-           "sent": 1.0, **fields}
-    return msg.decode_request(msg.encode(raw))
-
-
-class Query:
-    """What the relay's queryable callback gets: a payload, and where the reply goes."""
-
-    class _Payload:
-        def __init__(self, data: bytes) -> None:
-            self.data = data
-
-        def to_bytes(self) -> bytes:
-            return self.data
-
-    def __init__(self, data: bytes | None) -> None:
-        self.payload = None if data is None else self._Payload(data)
-        self.key_expr = "ns/relay/hall/cmd"
-        self.replies: list[tuple[str, bytes]] = []
-        self.dropped = False
-
-    def reply(self, key: str, data: bytes) -> None:
-        self.replies.append((key, data))
-
-    def drop(self) -> None:
-        self.dropped = True
-
-    def answer(self) -> dict[str, Any]:
-        assert self.dropped and len(self.replies) == 1
-        key, data = self.replies[0]
-        assert key == self.key_expr
-        return msg.decode_reply(data).__dict__ | {}
+from .handling import ALICE, BOB, Query, request, start, upload
 
 
 @pytest.fixture
@@ -75,13 +37,6 @@ def relay(robots: dict[str, OwnedRobot]) -> Iterator[Relay]:
     r = Relay(None, "hall", robots)  # type: ignore[arg-type]  # no Zenoh: never started
     yield r
     r.close()
-
-
-def upload(relay: Relay, seconds: float = 0.3, **extra: Any) -> dict[str, Any]:
-    text, sha = upload_text(walk_schedule(seconds, rex="mini"))
-    fields = {"schedule": text, "sha256": sha, "link_loss": "stop", "watchdog_ms": 500,
-              **extra}
-    return relay.handle(request("upload", **fields))
 
 
 # --- who may command it ----------------------------------------------------------------------
@@ -234,10 +189,6 @@ def test_an_upload_is_checked_and_loaded(relay: Relay) -> None:
     assert relay.describe()["state"] == RelayState.LOADED
     assert relay._show is not None and relay._show.battery_floor == 15.0
     assert relay._show.link_loss == "stop"
-
-
-def start(relay: Relay, sha: str, **fields: Any) -> dict[str, Any]:
-    return relay.handle(request("start", sha256=sha, **fields))
 
 
 def test_a_start_is_refused_unless_its_time_leaves_the_robots_their_lead(relay: Relay

@@ -1,0 +1,358 @@
+"""A relay's Zenoh side (relay/server.py's ``start``, its queryables, the command worker, the
+time-sync hook, ``finish`` and ``close``) and a remote behaviour's stage commands, in this
+process: the relay runs its own code over a recording double of the session and the queries
+(tests/relay/handling.py), the lowest layer only. What keys it serves and withdraws, who
+answers a command (the worker, in order; a heartbeat at once), that a wildcard listing gets
+each relay's own key, that only the holder's timebase is followed (and counts as hearing it),
+and what ``finish`` waits for. test_relay_server.py covers the same over real Zenoh sessions
+with relays in their own processes; mutmut's forked tests cannot use those (contributing.md).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from tests.conftest import wait_until
+from xgo_show.errors import RelayRefused
+from xgo_show.net import messages as msg
+from xgo_show.net.testhooks import DelayInjector, SkewedClock
+from xgo_show.relay.robots import OwnedRobot, close_robots, open_robots
+from xgo_show.relay.server import Relay, RelayState
+from xgo_show.runtime.clock import MonotonicClock
+from xgo_show.runtime.runlog import RunLog
+
+from .conftest import upload_text, walk_schedule
+from .handling import ALICE, BOB, Query, Session, encoded, request, start, upload
+
+KEY = {part: f"ns/relay/hall/{part}" for part in ("cmd", "info", "time", "alive")}
+WORKER = "xgo-show relay commands"
+
+
+@pytest.fixture
+def robots() -> Iterator[dict[str, OwnedRobot]]:
+    owned = open_robots({"rex": "sim:mini", "lola": "sim:lite"}, {})
+    yield owned
+    close_robots(owned)
+
+
+def served(robots: dict[str, OwnedRobot], **options: Any) -> tuple[Relay, Session, RunLog]:
+    """A relay named hall in namespace ns, started over a recording session."""
+    session, log = Session(), RunLog(None, keep=True)
+    relay = Relay(session, "hall", robots, namespace="ns", log=log, **options)  # type: ignore[arg-type]
+    return relay.start(), session, log
+
+
+@pytest.fixture
+def relay(robots: dict[str, OwnedRobot]) -> Iterator[tuple[Relay, Session, RunLog]]:
+    got = served(robots)
+    yield got
+    got[0].close()
+
+
+def events(log: RunLog, name: str) -> list[dict[str, Any]]:
+    """The log's ``name`` events without their kind, name and clock time."""
+    return [{k: v for k, v in r.items() if k not in ("kind", "mono", "event")}
+            for r in log.events(name)]
+
+
+def worker() -> threading.Thread:
+    (th,) = [t for t in threading.enumerate() if t.name == WORKER]
+    return th
+
+
+# --- what it declares, and withdraws ---------------------------------------------------------
+
+def test_start_serves_the_relays_keys_and_close_withdraws_them(
+    robots: dict[str, OwnedRobot],
+) -> None:
+    relay, session, log = served(robots)
+    assert session.declared == [("queryable", KEY["time"]), ("queryable", KEY["cmd"]),
+                                ("queryable", KEY["info"]), ("token", KEY["alive"])]
+    assert events(log, "relay_start") == [{"relay": "hall", "robots": ["rex", "lola"],
+                                           "instance": relay.instance}]
+    th = worker()
+    assert th.daemon and th.is_alive()
+    relay.close("bye")
+    # The token first: a conductor stops seeing the relay before its queries go unanswered.
+    assert session.undeclared == [("token", KEY["alive"]), ("queryable", KEY["info"]),
+                                  ("queryable", KEY["cmd"]), ("queryable", KEY["time"])]
+    assert not th.is_alive()  # the worker was told to end, and was waited for
+    assert events(log, "safe_stop") == [{"relay": "hall", "reason": "bye",
+                                         "ok": {"rex": True, "lola": True}}]
+    assert events(log, "relay_stop") == [{"relay": "hall", "reason": "bye"}]
+    relay.close("again")  # once closed, closing does nothing
+    assert len(session.undeclared) == 4 and len(events(log, "relay_stop")) == 1
+
+
+def test_a_relay_that_cannot_be_undeclared_still_closes(robots: dict[str, OwnedRobot]) -> None:
+    relay, _, log = served(robots)
+
+    def closed_session() -> None:
+        raise RuntimeError("session closed")
+
+    for entity in relay._declared:
+        entity.undeclare = closed_session  # type: ignore[method-assign]
+    relay.close("bye")
+    assert events(log, "relay_stop") == [{"relay": "hall", "reason": "bye"}]
+
+
+# --- info and commands -----------------------------------------------------------------------
+
+def test_info_answers_a_wildcard_listing_on_the_relays_own_key(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, session, _ = relay
+    q = Query(None, "ns/relay/*/info")  # a listing: every relay answers the same query
+    session.queryables[KEY["info"]](q)
+    ((key, data),) = q.replies
+    assert key == KEY["info"]
+    got = json.loads(data)
+    want = r.describe()
+    assert abs(got.pop("relay_time") - want.pop("relay_time")) < 1.0
+    assert got == want and got["relay"] == "hall" and got["state"] == RelayState.IDLE
+
+
+def test_commands_are_answered_by_the_worker_one_at_a_time_in_order(
+    relay: tuple[Relay, Session, RunLog], monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    _, session, _ = relay
+    order = itertools.count()
+    answered: list[tuple[int, int]] = []  # (seq, order of the answer)
+    ran: list[str] = []
+    real_reply = Query.reply
+
+    def reply(self: Query, key: str, data: bytes, *, express: bool = False) -> None:
+        answered.append((msg.decode_reply(data).seq, next(order)))
+        ran.append(threading.current_thread().name)
+        real_reply(self, key, data, express=express)
+
+    monkeypatch.setattr(Query, "reply", reply)
+    cmd = session.queryables[KEY["cmd"]]
+    queries = [Query(encoded("hello", seq=1)), Query(encoded("probe", seq=2, performer="rex")),
+               Query(encoded("stop", seq=3, reason="x")), Query(None)]
+    for q in queries:
+        cmd(q)
+    for q in queries:
+        assert q.done.wait(10.0)
+    assert [seq for seq, _ in answered] == [1, 2, 3, -1]
+    assert ran == [WORKER] * 4
+    assert [q.answer()["ok"] for q in queries] == [True, True, True, False]
+    assert queries[2].answer()["fields"] == {"stops": {"rex": True, "lola": True}}
+
+
+def test_a_heartbeat_is_answered_at_once_in_the_callers_thread(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, session, _ = relay
+    r.handle(request("hello"))
+    beat = Query(encoded("heartbeat", seq=5))
+    session.queryables[KEY["cmd"]](beat)
+    assert beat.replies and beat.threads == [threading.current_thread().name]
+    assert beat.answer()["seq"] == 5 and beat.answer()["fields"]["show"]["state"] == "idle"
+
+
+# --- time sync -------------------------------------------------------------------------------
+
+def timebase(who: msg.Conductor = ALICE, offset: float = -50.0, **fields: float) -> bytes:
+    tb = {"offset": offset, "rate": 0.0, "ref": 0.0, "bound": 1e-4, "rate_bound": 1e-6, **fields}
+    return json.dumps({"v": 1, "op": "timebase", "conductor": who.id, **tb}).encode()
+
+
+def test_only_the_holders_timebase_is_followed(relay: tuple[Relay, Session, RunLog]) -> None:
+    r, session, _ = relay
+    refused = "relay hall: timebase from a conductor that does not hold it"
+    q = session.query(KEY["time"], timebase())  # nobody holds the relay yet
+    assert [json.loads(e) for e in q.errors] == [{"v": 1, "error": refused}]
+    r.handle(request("hello"))
+    q = session.query(KEY["time"], timebase(BOB))
+    assert [json.loads(e) for e in q.errors] == [{"v": 1, "error": refused}]
+    assert r.clock.timebase is None and q.replies == []
+    q = session.query(KEY["time"], timebase())
+    assert q.errors == [] and [json.loads(d) for _, d in q.replies] == [
+        {"v": 1, "ok": True, "correction": 0.0}]  # the first is set at once
+    assert r.clock.timebase is not None and r.clock.timebase.offset == -50.0
+    assert abs(r.clock.now() - (r.base.now() + 50.0)) < 0.5
+    q = session.query(KEY["time"], timebase(offset=-50.002))
+    (correction,) = [json.loads(d)["correction"] for _, d in q.replies]
+    assert correction == pytest.approx(0.002, abs=1e-5)  # the next one is slewed to
+
+
+def test_a_holders_timebase_counts_as_hearing_from_it(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, session, _ = relay
+    r.handle(request("hello"))
+    assert r._holder is not None
+    heard = r._holder.watchdog.last_heard
+    time.sleep(0.02)
+    session.query(KEY["time"], timebase())
+    assert r._holder.watchdog.last_heard >= heard + 0.02
+
+
+def test_pings_are_stamped_with_this_hosts_clock_not_the_show_clock(
+    robots: dict[str, OwnedRobot],
+) -> None:
+    base = SkewedClock(MonotonicClock(), offset=1000.0)
+    r, session, _ = served(robots, clock=base)
+    try:
+        r.handle(request("hello"))
+        session.query(KEY["time"], timebase(offset=-400.0))  # the show clock: base - 400 s
+        before = base.now()
+        q = session.query(KEY["time"], json.dumps({"v": 1, "op": "ping", "seq": 3}).encode())
+        after = base.now()
+        ((key, data),) = q.replies
+        got = json.loads(data)
+        assert key == KEY["time"] and got["seq"] == 3 and q.express == [True]
+        assert before <= got["t1"] <= got["t2"] <= after
+        assert abs(r.clock.now() - (base.now() + 400.0)) < 0.5
+    finally:
+        r.close()
+
+
+def test_a_sync_delay_holds_ping_replies_back(robots: dict[str, OwnedRobot]) -> None:
+    r, session, _ = served(robots, sync_delay=DelayInjector(0.05))
+    try:
+        q = Query(json.dumps({"v": 1, "op": "ping", "seq": 1}).encode(), KEY["time"])
+        sent = time.monotonic()
+        session.queryables[KEY["time"]](q)
+        assert q.replies == []  # not from the callback
+        assert q.done.wait(5.0)
+        assert time.monotonic() - sent >= 0.05
+        assert q.threads == ["xgo-show time-sync delay"] and q.dropped
+    finally:
+        r.close()
+
+
+# --- finish: the conductor is gone for good --------------------------------------------------
+
+def upload_for(r: Relay, link_loss: str, seconds: float) -> str:
+    text, sha = upload_text(walk_schedule(seconds, rex="mini"))
+    r.handle(request("upload", schedule=text, sha256=sha, link_loss=link_loss,
+                     watchdog_ms=5000))
+    return sha
+
+
+def test_finish_between_shows_leaves_the_robots_as_they_are(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, session, log = relay
+    r.finish("conductor gone")
+    assert events(log, "safe_stop") == [] and events(log, "finishing") == []
+    assert events(log, "relay_stop") == [{"relay": "hall", "reason": "conductor gone"}]
+    assert len(session.undeclared) == 4
+
+
+def test_finish_plays_a_continue_show_to_its_end_first(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, _, log = relay
+    r.handle(request("hello"))
+    sha = upload_for(r, "continue", 0.6)
+    start(r, sha, offset=0.0, start_in=0.2)
+    r.finish("conductor gone")
+    assert events(log, "finishing") == [{"relay": "hall", "reason": "conductor gone"}]
+    last = r.describe()["last"]
+    assert last is not None and last["completed"] is True and last["sha256"] == sha
+    assert events(log, "safe_stop") == []
+
+
+def test_finish_stops_a_stop_show_at_once(relay: tuple[Relay, Session, RunLog]) -> None:
+    r, _, log = relay
+    r.handle(request("hello"))
+    sha = upload_for(r, "stop", 3.0)
+    start(r, sha, offset=0.0, start_in=0.2)
+    began = time.monotonic()
+    r.finish("conductor gone")
+    assert time.monotonic() - began < 2.5  # not played to its end
+    assert events(log, "finishing") == []
+    last = r.describe()["last"]
+    assert last is not None and last["completed"] is False
+    assert last["reason"] == "conductor gone" and last["stops"] == {"rex": True}
+
+
+def played(r: Relay) -> None:
+    """Hold ``r``, play a 0.3 s show on it and wait for its end."""
+    r.handle(request("hello"))
+    sha = upload_for(r, "stop", 0.3)
+    start(r, sha, offset=0.0, start_in=0.2)
+    wait_until(lambda: r.describe()["state"] == RelayState.ENDED, timeout=5.0)
+
+
+def test_a_trace_logs_each_robots_first_frame(robots: dict[str, OwnedRobot]) -> None:
+    for trace in (True, False):
+        r, _, log = served(robots, trace=trace)
+        try:
+            played(r)
+        finally:
+            r.close()
+        assert [e["performer"] for e in events(log, "first_frame")] == (["rex"] if trace
+                                                                        else [])
+
+
+# --- a remote behaviour's stage --------------------------------------------------------------
+
+def test_a_stage_opens_for_the_holder_and_keeps_shows_out(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, _, _ = relay
+    r.handle(request("hello"))
+    got = r.handle(request("stage_open", robots=["rex"], telemetry=0.25, watchdog_ms=900))
+    assert got == {"robots": ["rex"]}
+    stage = r._stage
+    assert stage is not None and stage.open
+    assert stage.clock is r.clock and stage.events is r.events and stage.allow_unsafe is False
+    assert r._holder is not None and r._holder.watchdog.timeout == 0.9
+    status = r.handle(request("heartbeat"))["show"]
+    assert status["stage"] == {"open": True, "ended": []}
+    for op, fields in (("upload", {"schedule": "x", "sha256": "0" * 64, "link_loss": "stop",
+                                   "watchdog_ms": 500}),
+                       ("start", {"sha256": "0" * 64, "offset": 0.0, "start_in": 1.0})):
+        with pytest.raises(RelayRefused) as info:
+            r.handle(request(op, **fields))
+        assert str(info.value) == f"{op}: a behaviour's stage is open on this relay"
+    r.handle(request("stage_rest", robots=["rex"]))  # the same stage serves the next command
+    assert r._stage is stage
+
+
+def test_a_release_closes_the_stage(relay: tuple[Relay, Session, RunLog]) -> None:
+    r, _, _ = relay
+    r.handle(request("hello"))
+    r.handle(request("stage_open", robots=["rex"], telemetry=0.25, watchdog_ms=500))
+    stage = r._stage
+    assert stage is not None
+    r.handle(request("release"))
+    assert r._stage is None
+    wait_until(lambda: not stage.open, timeout=5.0)
+
+
+def test_a_stop_closes_the_stage_then_stops_every_robot(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, _, _ = relay
+    r.handle(request("hello"))
+    r.handle(request("stage_open", robots=["rex"], telemetry=0.25, watchdog_ms=500))
+    stage = r._stage
+    assert stage is not None
+    assert r.handle(request("stop", reason="x")) == {"stops": {"rex": True, "lola": True}}
+    assert r._stage is None and not stage.open
+    assert "stage" not in r.handle(request("heartbeat"))["show"]
+
+
+def test_stage_commands_are_refused_while_a_show_runs(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, _, _ = relay
+    r.handle(request("hello"))
+    sha = upload(r, seconds=2.0)["sha256"]
+    start(r, sha, offset=0.0, start_in=0.2)
+    with pytest.raises(RelayRefused) as info:
+        r.handle(request("stage_open", robots=["rex"], telemetry=0.25, watchdog_ms=500))
+    assert str(info.value) == "stage_open: a show is running on this relay"
+    assert r._stage is None
