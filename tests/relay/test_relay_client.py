@@ -2,13 +2,12 @@
 in-process simulators and its clients share one Zenoh session (no network: multicast off, no
 endpoints), so every request is a real Zenoh query, answered by the relay's queryables. The
 sequence numbers, the clock offset from the fastest round trip, refusals and silence in words,
-heartbeats, losing a relay, and listing the relays of a namespace."""
+heartbeats, losing a relay, and listing the relays of a namespace. The same client in this
+process over a recording session, and its parts that need no session at all (the conductor's
+identity, the offset arithmetic): test_client_logic.py."""
 
 from __future__ import annotations
 
-import getpass
-import os
-import socket
 import time
 import uuid
 from collections.abc import Iterator
@@ -21,10 +20,7 @@ from tests.loopback import peer_config
 from xgo_show.errors import NetworkError
 from xgo_show.net import messages as msg
 from xgo_show.relay.client import (
-    RECENT_RTTS,
-    WORKED_ON,
     RelayClient,
-    RelayLink,
     list_relays,
     new_conductor,
 )
@@ -68,30 +64,6 @@ def client(session: zenoh.Session, namespace: str, name: str = "alice",
 
 
 # --- who we are --------------------------------------------------------------------------------
-
-def test_a_conductor_has_a_fresh_id_and_a_name_for_people() -> None:
-    a, b = new_conductor("desk"), new_conductor("desk")
-    assert a.name == "desk" and a.id != b.id and len(a.id) == 32
-    int(a.id, 16)
-    me = new_conductor()
-    assert me.name == f"{getpass.getuser()}@{socket.gethostname()} pid {os.getpid()}"
-
-
-def test_without_a_user_name_the_conductor_is_someone(monkeypatch: pytest.MonkeyPatch) -> None:
-    def nobody() -> str:
-        raise KeyError("no passwd entry")
-
-    monkeypatch.setattr(getpass, "getuser", nobody)
-    assert new_conductor().name.startswith("someone@")
-
-
-def test_a_client_names_a_relay_by_a_key_chunk(session: zenoh.Session) -> None:
-    c = RelayClient(session, "hall")
-    assert (c.namespace, c.timeout, c.key) == ("xgo-show", 3.0, "xgo-show/relay/hall/cmd")
-    assert len(c.conductor.id) == 32
-    with pytest.raises(NetworkError):
-        RelayClient(session, "a/b")
-
 
 # --- requests and replies ------------------------------------------------------------------------
 
@@ -157,32 +129,6 @@ def test_the_offset_comes_from_the_fastest_round_trip(session: zenoh.Session,
     assert abs(link.offset) <= link.best_rtt
     assert link.worst_recent_rtt() == max(link.recent)
     assert abs(link.last_reply - time.monotonic()) < 1.0
-
-
-def test_learning_keeps_the_lowest_round_trip_and_the_recent_network_ones() -> None:
-    c = RelayClient.__new__(RelayClient)
-    c.link = RelayLink()
-    c._learn(10.0, 10.2, 110.1)  # rtt 0.2, midpoint 10.1: offset 100
-    assert (c.link.best_rtt, c.link.offset) == (pytest.approx(0.2), pytest.approx(100.0))
-    c._learn(20.0, 20.1, 120.06)  # faster: taken
-    assert (c.link.best_rtt, c.link.offset) == (pytest.approx(0.1), pytest.approx(100.01))
-    c._learn(30.0, 30.5, 200.0)  # slower: its offset is not taken
-    assert c.link.offset == pytest.approx(100.01)
-    c._learn(40.0, 40.1, 140.0)  # as fast as the best: taken (the newest of equals)
-    assert c.link.offset == pytest.approx(99.95)
-    c._learn(50.0, 50.01, 150.0, network=False)  # the relay worked on it: not recent
-    assert [round(r, 6) for r in c.link.recent] == [0.2, 0.1, 0.5, 0.1]
-    assert c.link.best_rtt == pytest.approx(0.01)  # but the offset it gives is good
-    assert c.link.last_reply == 50.01
-
-
-def test_the_link_keeps_the_last_round_trips_only() -> None:
-    link = RelayLink()
-    for i in range(RECENT_RTTS + 5):
-        link.recent.append(float(i))
-    assert list(link.recent) == [float(i) for i in range(5, RECENT_RTTS + 5)]
-    assert link.worst_recent_rtt() == RECENT_RTTS + 4
-    assert {"upload", "probe", "stop"} == WORKED_ON
 
 
 def test_commands_the_relay_works_on_are_left_out_of_the_recent_round_trips(

@@ -1,0 +1,164 @@
+"""A recording stand-in for the Zenoh session calls the conductor's relay code makes
+(``session.get`` and ``session.liveliness().get``), so the relay client, the relayed performers
+and the conductor's endpoint run in the test process without Zenoh: mutmut forks each mutant's
+tests from a process whose Zenoh runtime does not survive the fork (docs/contributing.md).
+
+Every query is recorded. A responder given by the test answers it, as a relay would, with
+:func:`answer` (a relay's reply to the query) or :class:`Answer` (anything else); a query sent
+with a callback is answered at once, unless the session ``holds`` them: the test then answers
+each held query itself (:meth:`Query.deliver`), at the moment it chooses. Only this lowest
+layer is stood in for: the client, its heartbeat thread and watchdog are the real ones.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import zenoh
+
+from xgo_show.net import messages as msg
+
+
+class Payload:
+    """A sample's payload (``to_bytes`` only)."""
+
+    def __init__(self, data: bytes) -> None:
+        self.data = data
+
+    def to_bytes(self) -> bytes:
+        return self.data
+
+
+class Sample:
+    """A reply's sample: its payload and key."""
+
+    def __init__(self, data: bytes, key_expr: str) -> None:
+        self.payload = Payload(data)
+        self.key_expr = key_expr
+
+
+class Answer:
+    """What a ``zenoh.Reply`` offers: a sample (``ok``) or an error (``err``)."""
+
+    def __init__(self, ok: bytes | None = None, err: bytes | None = None, key: str = "") -> None:
+        self.ok = None if ok is None else Sample(ok, key)
+        self.err = None if err is None else Sample(err, key)
+
+
+class Query:
+    """One ``session.get``: its key, payload and options, and its callback if it had one."""
+
+    def __init__(self, key: str, payload: bytes, timeout: float, congestion_control: Any,
+                 handler: Any) -> None:
+        self.key = key
+        self.payload = payload
+        self.timeout = timeout
+        self.congestion_control = congestion_control
+        self.at = time.monotonic()
+        if isinstance(handler, zenoh.handlers.Callback):
+            self._call, self._drop = handler.callback, handler.drop
+        else:
+            self._call, self._drop = handler, None
+        self.delivered = False
+
+    @property
+    def request(self) -> dict[str, Any]:
+        """The request as sent (decoded JSON)."""
+        decoded: dict[str, Any] = json.loads(self.payload)
+        return decoded
+
+    @property
+    def op(self) -> str:
+        return str(self.request["op"])
+
+    @property
+    def seq(self) -> int:
+        return int(self.request["seq"])
+
+    def deliver(self, answers: Sequence[Answer]) -> None:
+        """Hand ``answers`` to the query's callback, then end the query (its drop)."""
+        assert self._call is not None, "a query without a callback returns its answers"
+        self.delivered = True
+        for a in answers:
+            self._call(a)
+        if self._drop is not None:
+            self._drop()
+
+
+Responder = Callable[[Query], Sequence[Answer]]
+
+
+def answer(query: Query, *, relay: str = "hall", relay_time: float | None = None,
+           seq: int | None = None, error: str | None = None, **fields: Any) -> Answer:
+    """The relay's reply to ``query`` (a refusal if ``error``), with the reply's ``fields``;
+    ``relay_time`` defaults to the test process's monotonic clock (the relay's clock here)."""
+    body = {
+        "v": msg.PROTOCOL_VERSION,
+        "seq": query.seq if seq is None else seq,
+        "ok": error is None,
+        "error": error,
+        "relay": relay,
+        "relay_time": time.monotonic() if relay_time is None else relay_time,
+        **fields,
+    }
+    return Answer(msg.encode(body), key=query.key)
+
+
+def silent(query: Query) -> Sequence[Answer]:
+    """No relay answers."""
+    return []
+
+
+def replying(query: Query) -> Sequence[Answer]:
+    """A relay that accepts every command with an empty reply."""
+    return [answer(query)]
+
+
+class _Liveliness:
+    def __init__(self, session: RecordingSession) -> None:
+        self.session = session
+
+    def get(self, key: str, *, timeout: float = 10.0) -> list[Answer]:
+        self.session.liveliness_gets.append((str(key), timeout))
+        return [Answer(b"", key=k) for k in self.session.alive]
+
+
+class RecordingSession:
+    """Stands in for a ``zenoh.Session``'s queries: records each, answers with ``respond``."""
+
+    def __init__(self, respond: Responder = silent, *, hold: bool = False,
+                 alive: Sequence[str] = ()) -> None:
+        self.respond = respond
+        self.hold = hold
+        self.alive = list(alive)  # liveliness token keys
+        self.queries: list[Query] = []
+        self.liveliness_gets: list[tuple[str, float]] = []
+        self.lock = threading.Lock()
+
+    def get(self, key: Any, handler: Any = None, *, payload: bytes | None = None,
+            timeout: float = 10.0, congestion_control: Any = None) -> list[Answer] | None:
+        query = Query(str(key), b"" if payload is None else bytes(payload), timeout,
+                      congestion_control, handler)
+        with self.lock:
+            self.queries.append(query)
+        if handler is None:
+            return list(self.respond(query))
+        if not self.hold:
+            query.deliver(self.respond(query))
+        return None
+
+    def liveliness(self) -> _Liveliness:
+        return _Liveliness(self)
+
+    def of(self, op: str) -> list[Query]:
+        """The queries of one op, in the order sent."""
+        with self.lock:
+            return [q for q in self.queries if q.payload and q.op == op]
+
+    def held(self, op: str) -> list[Query]:
+        """The queries of ``op`` not answered yet (a holding session)."""
+        return [q for q in self.of(op) if not q.delivered]
