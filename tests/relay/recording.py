@@ -1,13 +1,15 @@
 """A recording stand-in for the Zenoh session calls the conductor's relay code makes
-(``session.get`` and ``session.liveliness().get``), so the relay client, the relayed performers
-and the conductor's endpoint run in the test process without Zenoh: mutmut forks each mutant's
-tests from a process whose Zenoh runtime does not survive the fork (docs/contributing.md).
+(``session.get``, ``session.liveliness().get``, the clock tracker's ``declare_querier``), so
+the relay client, the relayed performers and the conductor's endpoint run in the test process
+without Zenoh: mutmut forks each mutant's tests from a process whose Zenoh runtime does not
+survive the fork (docs/contributing.md).
 
 Every query is recorded. A responder given by the test answers it, as a relay would, with
-:func:`answer` (a relay's reply to the query) or :class:`Answer` (anything else); a query sent
-with a callback is answered at once, unless the session ``holds`` them: the test then answers
-each held query itself (:meth:`Query.deliver`), at the moment it chooses. Only this lowest
-layer is stood in for: the client, its heartbeat thread and watchdog are the real ones.
+:func:`answer` (a relay's reply to the query), :func:`time_server` (its clock) or
+:class:`Answer` (anything else); a query sent with a callback is answered at once, unless the
+session ``holds`` them: the test then answers each held query itself (:meth:`Query.deliver`),
+at the moment it chooses. Only this lowest layer is stood in for: the client, its heartbeat
+thread and watchdog, and the clock tracker are the real ones.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from typing import Any
 import zenoh
 
 from xgo_show.net import messages as msg
+from xgo_show.net.timesync import SYNC_VERSION
 
 
 class Payload:
@@ -118,6 +121,35 @@ def replying(query: Query) -> Sequence[Answer]:
     return [answer(query)]
 
 
+def time_server(query: Query, ahead: float = 0.0) -> Sequence[Answer]:
+    """A relay's time server (net/timesync.py) whose clock is ``ahead`` of this process's:
+    answers pings with its time and takes any timebase."""
+    request = query.request
+    if request.get("op") == "ping":
+        now = time.monotonic() + ahead
+        body = {"v": SYNC_VERSION, "seq": request.get("seq"), "t1": now, "t2": now}
+        return [Answer(json.dumps(body).encode(), key=query.key)]
+    return [Answer(json.dumps({"v": SYNC_VERSION, "ok": True}).encode(), key=query.key)]
+
+
+class Querier:
+    """A declared querier: its queries go to the session's responder like any other."""
+
+    def __init__(self, session: RecordingSession, key: str, timeout: float) -> None:
+        self.session = session
+        self.key = key
+        self.timeout = timeout
+        self.undeclared = False
+
+    def get(self, *, payload: bytes) -> list[Answer]:
+        answers = self.session.get(self.key, payload=payload, timeout=self.timeout)
+        assert answers is not None
+        return answers
+
+    def undeclare(self) -> None:
+        self.undeclared = True
+
+
 class _Liveliness:
     def __init__(self, session: RecordingSession) -> None:
         self.session = session
@@ -138,6 +170,7 @@ class RecordingSession:
         self.queries: list[Query] = []
         self.liveliness_gets: list[tuple[str, float]] = []
         self.lock = threading.Lock()
+        self.closed = False
 
     def get(self, key: Any, handler: Any = None, *, payload: bytes | None = None,
             timeout: float = 10.0, congestion_control: Any = None) -> list[Answer] | None:
@@ -153,6 +186,12 @@ class RecordingSession:
 
     def liveliness(self) -> _Liveliness:
         return _Liveliness(self)
+
+    def declare_querier(self, key: Any, *, timeout: float = 10.0, **options: Any) -> Querier:
+        return Querier(self, str(key), timeout)
+
+    def close(self) -> None:
+        self.closed = True
 
     def of(self, op: str) -> list[Query]:
         """The queries of one op, in the order sent."""
