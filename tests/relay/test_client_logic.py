@@ -335,7 +335,8 @@ def test_send_hands_the_reply_to_its_callback_once() -> None:
     assert len(got) == 1 and isinstance(got[0], msg.Reply)
     assert got[0].fields == {"margin": 0.1} and got[0].seq == 1
     q = s.queries[0]
-    assert q.request["start_at"] == 3.0 and q.congestion_control == zenoh.CongestionControl.BLOCK
+    assert (q.key, q.op, q.request["start_at"]) == ("ns/relay/hall/cmd", "start", 3.0)
+    assert q.congestion_control == zenoh.CongestionControl.BLOCK
     assert q.timeout == 2.0
     c.send("pause", got.append, timeout=0.5, at=1.0)
     assert s.queries[1].timeout == 0.5 and s.queries[1].seq == 2
@@ -407,6 +408,7 @@ def test_heartbeats_go_every_period_and_bring_the_relay_status() -> None:
     assert first is not None and first.name == "xgo-show heartbeat hall" and first.daemon
     wait_until(lambda: len(statuses) >= 5)
     beats = s.of("heartbeat")
+    assert {q.key for q in beats} == {"ns/relay/hall/cmd"}
     assert all(q.timeout == 0.5 and q.congestion_control == zenoh.CongestionControl.BLOCK
                for q in beats)
     assert [q.seq for q in beats] == list(range(1, len(beats) + 1))
@@ -563,6 +565,45 @@ def test_the_watchdog_counts_from_the_start_of_the_heartbeats() -> None:
     c.stop_heartbeat()
 
 
+def test_an_answer_with_neither_a_sample_nor_an_error_is_an_error_reply() -> None:
+    s = RecordingSession(lambda q: [Answer()])
+    with pytest.raises(NetworkError) as info:
+        client(s).request("pause")
+    assert str(info.value) == "relay hall: pause: error reply"
+
+
+def test_heartbeats_by_default_every_tenth_of_a_second_with_half_a_second_to_answer() -> None:
+    s = RecordingSession(replying)
+    c = client(s)
+    c.start_heartbeat()
+    try:
+        wait_until(lambda: len(s.of("heartbeat")) >= 2, timeout=1.0)
+        assert s.of("heartbeat")[0].timeout == 0.5
+        watchdogs = [t.name for t in threading.enumerate() if "watchdog" in t.name]
+        assert "xgo-show watchdog relay hall" in watchdogs
+    finally:
+        c.stop_heartbeat()
+
+
+def test_stopping_the_heartbeats_does_not_hang_on_a_stuck_session() -> None:
+    stuck = threading.Event()
+
+    def frozen(q: Query) -> Sequence[Answer]:
+        stuck.wait(10.0)  # a query blocked in a congested session
+        return []
+
+    s = RecordingSession(frozen)
+    c = client(s)
+    c.start_heartbeat(period=0.02, watchdog=5.0)
+    wait_until(lambda: s.queries)
+    start = time.monotonic()
+    c.stop_heartbeat()
+    try:
+        assert time.monotonic() - start < 3.0 and c._beat is None
+    finally:
+        stuck.set()
+
+
 # --- listing -------------------------------------------------------------------------------------
 
 def info(relay: object, key: str = "ns/relay/x/info") -> Answer:
@@ -583,6 +624,12 @@ def test_list_relays_describes_each_live_relay_by_name_and_flags_the_silent_ones
     ]
     assert s.liveliness_gets == [("ns/relay/*/alive", 0.3)]
     assert [(q.key, q.timeout) for q in s.queries] == [("ns/relay/*/info", 0.3)]
+
+
+def test_list_relays_reads_a_relay_name_in_a_namespace_of_several_levels() -> None:
+    s = RecordingSession(silent, alive=["site/a/relay/amy/alive"])
+    assert list_relays(s, "site/a") == [  # type: ignore[arg-type]
+        {"relay": "amy", "state": "not answering", "robots": [], "holder": None}]
 
 
 def test_list_relays_defaults_to_the_namespace_and_a_second() -> None:
