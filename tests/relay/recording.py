@@ -150,6 +150,79 @@ class Querier:
         self.undeclared = True
 
 
+class Declared:
+    """A queryable or subscriber declared on the session (``handler``: its callback, or for a
+    ring-channel subscriber the ring its samples wait in)."""
+
+    def __init__(self, kind: str, key: str, handler: Any) -> None:
+        self.kind = kind
+        self.key = key
+        if isinstance(handler, zenoh.handlers.Callback):
+            self.callback: Any = handler.callback
+            self.handler: Any = handler
+        elif callable(handler):
+            self.callback, self.handler = handler, handler
+        else:  # a channel: the samples wait in a ring
+            self.callback, self.handler = None, Ring()
+        self.undeclared = False
+
+    def undeclare(self) -> None:
+        self.undeclared = True
+
+
+class Ring:
+    """A ring channel's receiving end (``try_recv``)."""
+
+    def __init__(self) -> None:
+        self.items: list[Any] = []
+        self.lock = threading.Lock()
+
+    def try_recv(self) -> Any:
+        with self.lock:
+            return self.items.pop(0) if self.items else None
+
+
+class Incoming:
+    """A query as a queryable's callback gets it: a key, a payload, and where replies go."""
+
+    def __init__(self, key: str, data: bytes | None) -> None:
+        self.key_expr = key
+        self.payload = None if data is None else Payload(data)
+        self.replies: list[tuple[str, bytes]] = []
+        self.errors: list[bytes] = []
+        self.dropped = threading.Event()
+
+    def reply(self, key: Any, data: bytes) -> None:
+        self.replies.append((str(key), bytes(data)))
+
+    def reply_err(self, data: bytes) -> None:
+        self.errors.append(bytes(data))
+
+    def drop(self) -> None:
+        self.dropped.set()
+
+    def answer(self, timeout: float = 10.0) -> dict[str, Any]:
+        """The one reply or error reply, decoded, once the query is done (dropped)."""
+        assert self.dropped.wait(timeout), "the query was never answered"
+        assert len(self.replies) + len(self.errors) == 1, (self.replies, self.errors)
+        if self.replies:
+            key, data = self.replies[0]
+            assert key == self.key_expr
+        else:
+            data = self.errors[0]
+        decoded: dict[str, Any] = json.loads(data)
+        return decoded
+
+
+def matches(expr: str, key: str) -> bool:
+    """Whether ``key`` is in key expression ``expr`` (``*``: one chunk, ``**``: any)."""
+    e, k = expr.split("/"), key.split("/")
+    if e[-1] == "**":
+        head = e[:-1]
+        return len(k) >= len(head) and all(a in ("*", b) for a, b in zip(head, k, strict=False))
+    return len(e) == len(k) and all(a in ("*", b) for a, b in zip(e, k, strict=True))
+
+
 class _Liveliness:
     def __init__(self, session: RecordingSession) -> None:
         self.session = session
@@ -171,6 +244,8 @@ class RecordingSession:
         self.liveliness_gets: list[tuple[str, float]] = []
         self.lock = threading.Lock()
         self.closed = False
+        self.declared: list[Declared] = []
+        self.puts: list[tuple[str, bytes, Any]] = []
 
     def get(self, key: Any, handler: Any = None, *, payload: bytes | None = None,
             timeout: float = 10.0, congestion_control: Any = None) -> list[Answer] | None:
@@ -192,6 +267,54 @@ class RecordingSession:
 
     def close(self) -> None:
         self.closed = True
+
+    # ------------------------------------------------------------------ a server's side
+
+    def declare_queryable(self, key: Any, handler: Any) -> Declared:
+        return self._declare("queryable", key, handler)
+
+    def declare_subscriber(self, key: Any, handler: Any) -> Declared:
+        return self._declare("subscriber", key, handler)
+
+    def _declare(self, kind: str, key: Any, handler: Any) -> Declared:
+        declared = Declared(kind, str(key), handler)
+        with self.lock:
+            self.declared.append(declared)
+        return declared
+
+    def put(self, key: Any, payload: bytes, *, congestion_control: Any = None) -> None:
+        with self.lock:
+            self.puts.append((str(key), bytes(payload), congestion_control))
+
+    def live(self, kind: str) -> list[Declared]:
+        """The declarations of ``kind`` not undeclared."""
+        with self.lock:
+            return [d for d in self.declared if d.kind == kind and not d.undeclared]
+
+    def query(self, key: str, payload: bytes | None = None) -> Incoming:
+        """A query from a client: handed to the queryable whose key matches (returns it; its
+        reply may come later, from another thread)."""
+        incoming = Incoming(key, payload)
+        (target,) = [d for d in self.live("queryable") if matches(d.key, key)]
+        target.callback(incoming)
+        return incoming
+
+    def publish(self, key: str, payload: bytes = b"") -> int:
+        """A put from a client: to every matching subscriber (a ring keeps it); how many."""
+        targets = [d for d in self.live("subscriber") if matches(d.key, key)]
+        for d in targets:
+            sample = Sample(payload, key)
+            if d.callback is None:
+                with d.handler.lock:
+                    d.handler.items.append(sample)
+            else:
+                d.callback(sample)
+        return len(targets)
+
+    def put_payloads(self, prefix: str = "") -> list[tuple[str, dict[str, Any]]]:
+        """The puts so far (decoded), of keys starting with ``prefix``."""
+        with self.lock:
+            return [(k, json.loads(p)) for k, p, _ in self.puts if k.startswith(prefix)]
 
     def of(self, op: str) -> list[Query]:
         """The queries of one op, in the order sent."""
