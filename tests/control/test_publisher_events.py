@@ -1,6 +1,8 @@
 """What the event publisher (control/publisher.py) puts on Zenoh for each runtime event, in
 this process on a fake clock: the keys and payloads, cues only when they change, progress and
-telemetry at most once an interval, the noisy-trigger windows, and what a failing put costs."""
+telemetry at most once an interval, the noisy-trigger windows, and what a failing put costs.
+Every payload read back is checked against its schema (schemas/zenoh-api.v1.schema.json):
+the fault and robot safe-stop events too, which the tour of test_server.py cannot provoke."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ import time
 from collections.abc import Iterator
 from typing import Any
 
+import jsonschema
 import pytest
 
 from xgo_show.choreo.sections import Section, Wait
@@ -16,6 +19,7 @@ from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFra
 from xgo_show.control.director import TriggerRefused, WaitReleased, WaitStarted
 from xgo_show.control.protocol import PROTOCOL_VERSION
 from xgo_show.control.publisher import EventPublisher
+from xgo_show.control.schemas import definition
 from xgo_show.control.status import robots_status
 from xgo_show.diagnostics import Origin
 from xgo_show.profiles import get_profile
@@ -42,6 +46,10 @@ SCHEDULE = Schedule("demo", "demo.yaml", (PerformerSchedule("rex", "mini", LINK,
                     50.0, sections=SECTIONS, bpm=120.0)  # type: ignore[arg-type]
 
 
+#: The fields of a refused trigger's event beside its name (a noisy event as the server makes it).
+REFUSED = {"accepted": False, "reason": "no section waits for it"}
+
+
 class Sink:
     """What the publisher put, in order; ``fail`` makes the next puts raise."""
 
@@ -58,11 +66,15 @@ class Sink:
             self.sent.append((key, payload))
 
     def events(self) -> list[dict[str, Any]]:
-        """Payloads without their envelope (``v`` and ``time``), keys checked against them."""
+        """Payloads without their envelope (``v`` and ``time``), keys checked against them,
+        each payload against its schema."""
         out = []
         with self.lock:
             for key, payload in self.sent:
                 assert payload["v"] == PROTOCOL_VERSION
+                schema = jsonschema.Draft202012Validator(definition(f"event-{payload['event']}"))
+                errors = [e.message for e in schema.iter_errors(payload)]
+                assert not errors, (payload, errors)
                 body = {k: v for k, v in payload.items() if k not in ("v", "time")}
                 kind = "event/telemetry/" + body["robot"] if body["event"] == "telemetry" else \
                     "event/" + body["event"]
@@ -238,8 +250,8 @@ def test_progress_and_readings_go_out_at_most_once_an_interval(
 
 def test_no_progress_before_a_show_is_listened_to(pub: EventPublisher, sink: Sink) -> None:
     pub._on_event(progress_tick(1.0))
-    pub.publish("marker")
-    assert [e["event"] for e in sent_after(pub, sink, 1)] == ["marker"]
+    pub.publish("warning", message="marker")
+    assert sent_after(pub, sink, 1) == [{"event": "warning", "message": "marker"}]
 
 
 def test_refused_triggers_are_noisy_a_few_a_window_then_one_warning(
@@ -253,7 +265,7 @@ def test_refused_triggers_are_noisy_a_few_a_window_then_one_warning(
     assert refused == [{"event": "trigger", "trigger": f"t{i}", "accepted": False,
                         "reason": "no section waits for it"} for i in range(3)]
     clock.advance(0.999)
-    assert not pub.publish_noisy("trigger", trigger="late")  # the same window
+    assert not pub.publish_noisy("trigger", trigger="late", **REFUSED)  # the same window
     clock.advance(0.001)  # it is over: the publisher thread says what was left out
     events = sent_after(pub, sink, 4)
     assert events[3] == {"event": "warning", "suppressed": 3,
@@ -261,7 +273,7 @@ def test_refused_triggers_are_noisy_a_few_a_window_then_one_warning(
                          "last 1 s"}
     assert pub.suppressed == 3
     # A new window: three more go out; its one left out is said when it ends, alone.
-    assert [pub.publish_noisy("trigger", trigger=f"n{i}") for i in range(4)] == [
+    assert [pub.publish_noisy("trigger", trigger=f"n{i}", **REFUSED) for i in range(4)] == [
         True, True, True, False]
     assert pub.suppressed == 4
     clock.advance(1.0)
@@ -273,9 +285,9 @@ def test_refused_triggers_are_noisy_a_few_a_window_then_one_warning(
 def test_a_window_without_suppressed_events_ends_without_a_warning(
     pub: EventPublisher, sink: Sink, clock: FakeClock
 ) -> None:
-    assert all(pub.publish_noisy("trigger", trigger=f"t{i}") for i in range(3))
+    assert all(pub.publish_noisy("trigger", trigger=f"t{i}", **REFUSED) for i in range(3))
     clock.advance(1.0)
-    assert all(pub.publish_noisy("trigger", trigger=f"u{i}") for i in range(3))
+    assert all(pub.publish_noisy("trigger", trigger=f"u{i}", **REFUSED) for i in range(3))
     time.sleep(0.02)
     assert [e["event"] for e in sent_after(pub, sink, 6)] == ["trigger"] * 6
     assert pub.suppressed == 0
@@ -284,9 +296,10 @@ def test_a_window_without_suppressed_events_ends_without_a_warning(
 def test_the_rate_is_per_second_over_the_window(sink: Sink, clock: FakeClock) -> None:
     pub = EventPublisher("stage", sink.put, clock=clock, noisy_per_second=4, window=0.5)
     try:
-        assert [pub.publish_noisy("trigger") for _ in range(3)] == [True, True, False]
+        assert [pub.publish_noisy("trigger", trigger="t", **REFUSED) for _ in range(3)] == [
+            True, True, False]
         clock.advance(0.5)
-        assert pub.publish_noisy("trigger")
+        assert pub.publish_noisy("trigger", trigger="t", **REFUSED)
         events = sent_after(pub, sink, 4)
         assert events[2]["message"].endswith("in the last 0.5 s")
     finally:
@@ -319,10 +332,9 @@ def test_a_put_that_fails_is_counted_and_the_next_goes_out(
     pub: EventPublisher, sink: Sink
 ) -> None:
     sink.fail = 2
-    pub.publish("first")
-    pub.publish("second")
-    pub.publish("third")
-    assert [e["event"] for e in sent_after(pub, sink, 1)] == ["third"]
+    for word in ("first", "second", "third"):
+        pub.publish("warning", message=word)
+    assert [e["message"] for e in sent_after(pub, sink, 1)] == ["third"]
     assert pub.dropped == 2
 
 
