@@ -233,6 +233,18 @@ def test_plain_ports_log_nothing(capsys: pytest.CaptureFixture[str]) -> None:
     assert capsys.readouterr().err == ""
 
 
+def test_inspect_lists_the_sections_and_the_triggers_they_wait_for(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # issue 10: inspect lists the triggers a routine uses, each wait with its timeout.
+    routine = Path(__file__).resolve().parents[2] / "choreographies" / "curtain_call.yaml"
+    assert main(["inspect", str(routine)]) == 0
+    out = capsys.readouterr().out
+    assert "trigger 'go'" in out
+    assert "trigger 'encore', after 20 s: finale" in out
+    assert out.endswith("triggers: go, encore\n")
+
+
 def test_inspect_reads_a_schedule_by_its_content_whatever_its_name(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -279,7 +279,7 @@ def test_no_operators_pause_while_a_wait_is_armed_or_held(show: Show) -> None:
     show.start()
     show.state(RUNNING, T0, 0.0)  # rex is asked to hold at b: a pause would come on top
     d = show.director
-    d.pause()
+    d.pause()  # about to hold: nothing to do
     assert show.runner.calls == []
     show.state(PAUSED, T0 + 1.0, 1.0)
     d.pause()  # holding at a wait: nothing to pause
@@ -289,7 +289,8 @@ def test_no_operators_pause_while_a_wait_is_armed_or_held(show: Show) -> None:
     assert str(info.value) == ("the show waits for trigger 'go' (section 'b'): fire it, or "
                                "seek")
     d.trigger("go")  # rex told to resume: its RUNNING is still to come
-    d.pause()
+    with pytest.raises(ControlError, match="cannot pause yet"):
+        d.pause()  # told to ask again, not dropped without a word
     assert show.runner.calls == []
 
 
@@ -358,6 +359,7 @@ def test_a_seek_outside_the_show_is_refused(show: Show) -> None:
         with pytest.raises(ControlError) as info:
             show.director.seek(t)
         assert str(info.value) == f"seek to {t:g} s: outside the show (0 to 6 s)"
+        assert info.value.code == "bad_request"  # a value out of range, as a start's
     show.director.seek(0.0)  # its first instant is inside
     show.director.seek(5.999)
 
@@ -397,7 +399,8 @@ def test_a_seek_while_a_performer_is_moving_waits_until_it_runs(show: Show) -> N
     assert show.p().calls[-1] == ("resume", T0 + 1.0)
     show.state(RUNNING, T0 + 1.0, 1.0)
     assert show.p().calls[-1] == ("seek", 0.5, T0)
-    show.director.pause()  # the seek is on its way: no pause on top of it
+    with pytest.raises(ControlError, match="cannot pause yet"):
+        show.director.pause()  # the seek is on its way: no pause on top of it
     assert show.runner.calls == []
     show.state(RUNNING, T0 + 1.0, 0.5)
     assert show.p().calls[-1] == ("pause", T0 + 1.5)  # b's wait again, from 0.5 s
@@ -580,7 +583,8 @@ def test_a_seek_at_a_time_to_come_is_sent_for_that_time(show: Show) -> None:
 def test_after_a_seek_the_next_command_waits_until_the_performer_runs(show: Show) -> None:
     show.start()
     show.director.seek(2.5)  # playing: a seek alone
-    show.director.pause()  # one command at a time: not on top of the seek
+    with pytest.raises(ControlError, match="cannot pause yet"):
+        show.director.pause()  # one command at a time: not on top of the seek
     assert show.runner.calls == []
     show.state(RUNNING, T0, 2.5)  # it runs from 2.5 s: d's wait (3 s) is armed
     assert show.p().calls == [("seek", 2.5, T0), ("pause", T0 + 0.5)]
@@ -590,7 +594,10 @@ def test_a_seek_from_a_held_wait_plays_on_to_the_next_wait(show: Show) -> None:
     hold_at_b(show)
     show.director.seek(2.5)
     assert show.p().calls[-2:] == [("seek", 2.5, T0), ("resume", T0)]
-    show.director.pause()  # moving: refused until it runs
+    with pytest.raises(ControlError, match=r"^cannot pause yet: a release or a seek is still "
+                       r"reaching the robots; pause again in a moment$") as moving:
+        show.director.pause()  # moving: refused until it runs
+    assert moving.value.code == "refused"
     assert show.runner.calls == []
     show.state(RUNNING, T0, 2.5)
     assert show.p().calls[-1] == ("pause", T0 + 0.5)  # held no more, armed again for d

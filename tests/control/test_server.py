@@ -23,10 +23,13 @@ import jsonschema
 import pytest
 import zenoh
 
-from tests.control.conftest import control_session
+from tests.children import first_answer
+from tests.control.conftest import ROUTINE, control_session, status_or_none
 from tests.control.conftest import serve_process as serve_process_of
+from tests.loopback import peer_config
 from xgo_show.control.client import ControlClient, ControlFailed
-from xgo_show.control.keys import control_key, event_key, trigger_key
+from xgo_show.control.keys import control_key, event_key, status_key, trigger_key
+from xgo_show.control.protocol import MAX_PAYLOAD
 from xgo_show.control.schemas import definition
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -164,14 +167,139 @@ def test_bad_requests_get_clear_error_replies(session: zenoh.Session) -> None:
         (control_key(NS, "load"), b'{"path": "/no/such.yaml"}', "failed", "no such file"),
         (control_key(NS, "stop"), b'{"reason": 5}', "bad_request", "reason"),
         (control_key(NS, "resume"), b"{}", "refused", "no show is running"),
-        (control_key(NS, "start"), b" " * (4 * 1024 * 1024 + 1), "too_large", "over the limit"),
+        (control_key(NS, "start"), b" " * (MAX_PAYLOAD + 1), "too_large", "over the limit"),
         (trigger_key(NS, "go"), b'{"data": 1, "x": 2}', "bad_request", "x"),
+        (trigger_key(NS, "go"), b" " * (MAX_PAYLOAD + 1), "too_large", "over the limit"),
+        (trigger_key(NS, "go"), b'{"v": 1, "data": [1,', "bad_request", "payload is not JSON"),
+        (control_key(NS, "start"), b'{"bar": 2}', "bad_request", "this show has no tempo"),
     ]
     for key, payload, code, message in cases:
         body = _get_err(session, key, payload)
         check("error", body)
         assert body["error"] == code, (key, body)
         assert message in body["message"], (key, body)
+
+
+def test_an_oversized_or_malformed_put_is_dropped_and_counted(
+    client: ControlClient, session: zenoh.Session
+) -> None:
+    warnings: list[dict[str, Any]] = []
+    sub = session.declare_subscriber(
+        event_key(NS, "warning"), lambda s: warnings.append(json.loads(s.payload.to_bytes())))
+    try:
+        client.status()  # the subscriber is in place
+        before = _counters(client)
+        for payload in (b" " * (MAX_PAYLOAD + 1), b"{not json"):
+            session.put(trigger_key(NS, "go"), payload,
+                        congestion_control=zenoh.CongestionControl.BLOCK)
+        _until(lambda: _counters(client)["malformed"] == before["malformed"] + 2)
+        _until(lambda: len(warnings) == 2)
+    finally:
+        sub.undeclare()
+    assert _counters(client)["triggers"] == before["triggers"]  # neither reached the director
+    assert f"trigger 'go' dropped: payload of {MAX_PAYLOAD + 1} bytes is over the limit" in \
+        warnings[0]["message"]
+    assert warnings[1]["message"].startswith("trigger 'go' dropped: payload is not JSON: ")
+    for warning in warnings:
+        check("event-warning", warning)
+
+
+def test_start_at_a_wall_clock_time_never_in_the_past(client: ControlClient) -> None:
+    with pytest.raises(ControlFailed, match=r"start time is 5\.\d+ s in the past") as past:
+        client.command("start", at=time.time() - 5.0)
+    assert past.value.code == "bad_request"
+    assert client.status()["state"] == "loaded"  # nothing moved
+    at = time.time() + 1.0
+    reply = client.command("start", at=at)
+    assert reply["start_time"] == pytest.approx(at, abs=0.005)
+    counting = client.status()  # armed, the start still to come
+    assert counting["state"] == "starting", counting
+    assert -1.0 < counting["show_time"] <= 0.0  # the count-down
+    _until(lambda: client.status()["state"] == "waiting")  # at b, 0.6 s into the show
+    assert time.time() >= at + 0.6
+
+
+def test_start_and_seek_by_bar_and_beat(client: ControlClient, triggered_path: Path) -> None:
+    # The curtain call: 120 bpm, 4 beats a bar; its sections 'bow' (4 s, bar 3) and
+    # 'encore' (8 s, bar 5) wait for triggers.
+    client.command("load", path=str(ROOT / "choreographies" / "curtain_call.yaml"))
+    try:
+        started = client.command("start", bar=2, beat=3)
+        assert started["offset"] == 3.0
+        _until(lambda: client.status()["state"] == "waiting")  # at bow, bar 3
+        status = client.status()
+        assert (status["bar"], status["beat"], status["section"]) == (3, 1.0, "bow")
+        sought = client.command("seek", bar=5)
+        assert sought == {**sought, "show_time": 8.0, "bar": 5, "beat": 1.0, "section": "encore"}
+        with pytest.raises(ControlFailed, match=r"seek to 196 s: outside the show \(0 to 16 s\)"
+                           ) as beyond:
+            client.command("seek", bar=99)
+        assert beyond.value.code == "bad_request"
+    finally:
+        client.command("stop", reason="test over")
+        client.command("load", path=str(triggered_path))
+
+
+def test_a_full_command_queue_answers_busy(
+    client: ControlClient, session: zenoh.Session, triggered_path: Path
+) -> None:
+    before = _counters(client)["busy"]
+    patient = CheckedClient(session, NS, timeout=60.0)  # the load's compile takes seconds
+    loaded: list[dict[str, Any]] = []
+    load = threading.Thread(target=lambda: loaded.append(patient.command("load", routine=SLOW)))
+    load.start()
+    time.sleep(0.3)  # the control thread compiles it (or is about to): the queue fills behind
+    sent = 66  # 64 fit in the queue (63 while the load still waits in it)
+    pending = [session.get(control_key(NS, "resume"), payload=b"{}", timeout=60.0,
+                           congestion_control=zenoh.CongestionControl.BLOCK)
+               for _ in range(sent)]
+    answers = []
+    for replies in pending:
+        reply = next(iter(replies))
+        assert reply.err is not None
+        answers.append(json.loads(reply.err.payload.to_bytes()))
+    load.join(60.0)
+    try:
+        assert loaded and loaded[0]["ok"]
+        codes = [a["error"] for a in answers]
+        busy = codes.count("busy")
+        assert busy in (2, 3), codes
+        assert codes.count("refused") == sent - busy  # each queued one carried out in turn
+        assert codes[-busy:] == ["busy"] * busy  # the last ones found the queue full
+        assert next(a for a in answers if a["error"] == "busy")["message"] == \
+            "64 commands are already waiting; try again"
+        assert _counters(client)["busy"] == before + busy
+    finally:
+        client.command("load", path=str(triggered_path))
+
+
+def test_two_shows_share_a_network_in_two_namespaces(
+    serve_process: tuple[subprocess.Popen[str], str]
+) -> None:
+    other = f"{NS}-other"
+    curtain = ROOT / "choreographies" / "curtain_call.yaml"
+    with serve_process_of(curtain, other) as (proc, endpoint, _):
+        config = peer_config(listen=["tcp/127.0.0.1:0"], connect=[serve_process[1], endpoint])
+        with zenoh.open(config) as both:
+            first_answer(lambda: status_or_none(ControlClient(both, other, timeout=1.0)), proc)
+
+            def answers(key: str) -> list[dict[str, Any]]:
+                out = []
+                for reply in both.get(key, payload=b"{}", timeout=1.0):
+                    sample = reply.ok if reply.ok is not None else reply.err
+                    assert sample is not None
+                    out.append(json.loads(sample.payload.to_bytes()))
+                return out
+
+            ours, theirs = answers(status_key(NS)), answers(status_key(other))
+            assert [(s["namespace"], s["show"]["name"]) for s in ours] == [
+                (NS, "Triggered test")]
+            assert [(s["namespace"], s["show"]["name"]) for s in theirs] == [
+                (other, "Curtain call")]
+            refused = answers(trigger_key(other, "bow"))  # a section's name, not a trigger
+            assert [r["message"] for r in refused] == [
+                "trigger 'bow' refused: no section of this show waits for 'bow' (its "
+                "triggers: encore, go)"]
 
 
 def test_panic_is_always_accepted_and_stops_every_robot(client: ControlClient) -> None:
@@ -370,6 +498,14 @@ def test_panic_cancels_the_commands_still_queued(
     client.command("load", path=str(triggered_path))
 
 
+# The short triggered show with room for the tour's steps on a loaded machine: c waits 30 s
+# for 'encore' (not 0.3: the tour must see it hold), and d plays 20 s (the pause after the seek
+# must come before the show's end).
+TOUR = ROUTINE.replace("timeout: 0.3", "timeout: 30").replace(
+    "{at: 1.8, move: {pitch: 0}, duration: 0.5}", "{at: 1.8, move: {pitch: 0}, duration: 20}")
+assert TOUR.count("duration: 20}") == 2
+
+
 def test_every_payload_the_server_sends_matches_its_schema(
     client: ControlClient, session: zenoh.Session, triggered_path: Path
 ) -> None:
@@ -380,7 +516,7 @@ def test_every_payload_the_server_sends_matches_its_schema(
     )
     try:
         assert client.command("panic")["state"] == "idle"
-        loaded = client.command("load", path=str(triggered_path))
+        loaded = client.command("load", routine=TOUR)
         assert loaded["show"]["triggers"] == ["go", "encore"]
         client.command("start")
         _until(lambda: client.status()["state"] == "waiting")
@@ -390,7 +526,16 @@ def test_every_payload_the_server_sends_matches_its_schema(
         client.trigger("go", source="tour", data={"desk": 1})
         _until(lambda: client.status()["state"] == "waiting")  # at c, for 'encore'
         client.command("seek", section="d")  # (a section that waits would hold again)
-        client.command("pause")
+
+        def pause_taken() -> bool:
+            try:
+                client.command("pause")
+            except ControlFailed as exc:  # the seek still reaches a robot: said, not lost
+                assert exc.code == "refused" and "cannot pause yet" in str(exc), exc.reply
+                return False
+            return True
+
+        _until(pause_taken)
         _until(lambda: client.status()["state"] == "paused")
         time.sleep(1.1)  # a progress event (and the robots' telemetry) at least once a second
         client.command("resume")
@@ -398,6 +543,7 @@ def test_every_payload_the_server_sends_matches_its_schema(
         _until(lambda: any(e["event"] == "state" and e.get("state") == "ended" for _, e in events))
     finally:
         sub.undeclare()
+        client.command("load", path=str(triggered_path))
     kinds = set()
     for key, event in events:
         kind = "telemetry" if "/event/telemetry/" in key else key.rsplit("/", 1)[-1]

@@ -290,15 +290,20 @@ class Director(WorkerClosing):
 
     def pause(self, *, at: float | None = None) -> None:
         """Pause the show (robots at rest) at clock time ``at`` (default: as soon as it can
-        take effect). A no-op while it holds at a wait, when a wait is due within
-        ``arm_margin`` (the robots are about to hold there anyway) and for the instant a
-        release takes to reach every robot (one command at a time)."""
+        take effect). A no-op while it holds at a wait and when a wait is due within
+        ``arm_margin`` (the robots are about to hold there anyway). Refused (ControlError)
+        for the instant a release or a seek takes to reach every robot (one command at a
+        time): the caller is told, and asks again, instead of a pause lost without a word."""
         with self._cond:
             if self._s.phase == "waiting":
                 return
             self._need_running("pause")
-            if any(tr.armed or tr.moving for tr in self._s.tracks.values()):
+            tracks = self._s.tracks.values()
+            if any(tr.armed for tr in tracks):
                 return
+            if any(tr.moving for tr in tracks):
+                raise ControlError("cannot pause yet: a release or a seek is still reaching "
+                                   "the robots; pause again in a moment")
             self.runner.pause(at=at)
 
     def resume(self, *, at: float | None = None) -> None:
@@ -322,7 +327,7 @@ class Director(WorkerClosing):
             self._need_running("seek")
             if not 0.0 <= show_time < self.schedule.duration:
                 raise ControlError(f"seek to {show_time:g} s: outside the show (0 to "
-                                   f"{self.schedule.duration:g} s)")
+                                   f"{self.schedule.duration:g} s)", code="bad_request")
             s = self._s
             v = s.ahead
             if s.phase == "waiting" and v is not None:

@@ -164,6 +164,7 @@ class _Run:
     thread: threading.Thread | None = None
     result: ShowResult | None = None
     faults: dict[str, str] = field(default_factory=dict)
+    start_at: float | None = None  # clock time of a start given a time (``at``, ``in``)
 
 
 class ShowServer:
@@ -487,7 +488,7 @@ class ShowServer:
             )
         thread = threading.Thread(target=self._play, args=(run, offset, start_at),
                                   name="xgo-show show", daemon=True)
-        run.thread = thread
+        run.thread, run.start_at = thread, start_at
         with self._lock:  # a panic now finds the run (and stops it), or came before: cancel
             cancelled = self._panics != panics
             if not cancelled:
@@ -706,6 +707,9 @@ class ShowServer:
             director = run.director
             progress = run.runner.snapshot()
             phase = director.phase
+            if phase == "playing" and run.start_at is not None \
+                    and self.clock.now() < run.start_at:
+                phase = "idle"  # armed, its start time still to come
             out["state"] = "starting" if phase == "idle" else phase
             out.update(place(run.schedule, progress.show_time))
             out["duration"] = round(run.schedule.duration, 6)
