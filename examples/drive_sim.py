@@ -33,6 +33,7 @@ def main(model: str = "mini", *, hex_log: bool = False, pace: float = 1.0) -> in
         with open_transport(url, baudrate=profile.link.baud, **options) as link:
             client = XgoClient(link, profile)
             drive(client, pace=pace)
+            server.settle()  # the robot has read every byte written (on a busy machine too)
         with server.lock:
             received = list(robot.received)
     print(f"\nthe robot received {len(received)} frames:")
