@@ -1,7 +1,5 @@
 """``python -m xgo_show`` runs the CLI."""
 
-import sys
+from xgo_show.cli.main import program
 
-from xgo_show.cli.main import main
-
-sys.exit(main())
+program()

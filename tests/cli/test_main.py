@@ -6,11 +6,12 @@ import argparse
 import os
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
 
-from xgo_show.cli.main import COMMANDS, build_parser, main
+from xgo_show.cli.main import COMMANDS, build_parser, main, program
 from xgo_show.sim import PtyServer, create_robot
 
 
@@ -286,3 +287,70 @@ def test_without_a_command_every_command_is_registered(argv: list[str]) -> None:
 def test_a_named_command_parses_as_with_every_command_registered() -> None:
     argv = ["dry-run", "choreographies/hello_mini.yaml", "--fast"]
     assert vars(build_parser(argv).parse_args(argv)) == vars(build_parser().parse_args(argv))
+
+
+class _Exited(Exception):
+    """os._exit, recorded instead of ending the test run."""
+
+
+def _program(monkeypatch: pytest.MonkeyPatch, argv: list[str]) -> tuple[str, int]:
+    """Run :func:`program` on ``argv``: how it ended ('os._exit' or 'sys.exit') and the status."""
+    def _exit(code: int) -> None:
+        raise _Exited(code)
+
+    monkeypatch.setattr(os, "_exit", _exit)
+    monkeypatch.setattr(sys, "argv", ["xgo-show", *argv])
+    try:
+        program()
+    except _Exited as done:
+        return "os._exit", int(done.args[0])
+    except SystemExit as done:
+        return "sys.exit", int(done.code or 0)
+    raise AssertionError("program() returned")
+
+
+def test_validate_and_compile_end_the_process_at_once_with_their_status(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(_BAD_SHOW, encoding="utf-8")
+    good = tmp_path / "good.yaml"
+    good.write_text("show: S\nperformers:\n  rex: {model: mini}\ntracks:\n  rex:\n"
+                    "    - {action: stand_up}\n", encoding="utf-8")
+    assert _program(monkeypatch, ["validate", str(bad)]) == ("os._exit", 1)
+    assert capsys.readouterr().out.splitlines()[-1] == f"{bad}: FAILED: 4 error(s), 0 warning(s)"
+    assert _program(monkeypatch, ["compile", "-q", str(good), "-o", str(tmp_path / "o")]) == (
+        "os._exit", 0)
+    assert (tmp_path / "o").stat().st_size > 0
+    assert _program(monkeypatch, ["compile", str(bad)]) == ("os._exit", 2)
+    # Every other command exits as Python does (its threads, children and files finish).
+    assert _program(monkeypatch, ["schema"]) == ("sys.exit", 0)
+
+
+def test_a_thread_still_running_gets_the_usual_exit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    good = tmp_path / "good.yaml"
+    good.write_text("show: S\nperformers:\n  rex: {model: mini}\ntracks:\n  rex:\n"
+                    "    - {action: stand_up}\n", encoding="utf-8")
+    release = threading.Event()
+    other = threading.Thread(target=release.wait)  # not a daemon: Python's exit joins it
+    other.start()
+    try:
+        assert _program(monkeypatch, ["validate", str(good)]) == ("sys.exit", 0)
+    finally:
+        release.set()
+        other.join()
+    assert "good.yaml: ok" in capsys.readouterr().out
+
+
+def test_python_m_xgo_show_validate_writes_everything_before_it_exits(tmp_path: Path) -> None:
+    # A real process, its output a pipe: the quick exit flushes what validate printed.
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(_BAD_SHOW, encoding="utf-8")
+    proc = subprocess.run([sys.executable, "-m", "xgo_show", "validate", str(bad)],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 1
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 5 and lines[0].startswith(f"{bad}:7:37: error: ")
+    assert lines[-1] == f"{bad}: FAILED: 4 error(s), 0 warning(s)"

@@ -41,7 +41,7 @@ def add_parser(sub: Any) -> None:
         "each cue and its line)",
     )
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing on success")
-    parser.set_defaults(func=run)
+    parser.set_defaults(func=run, quick_exit=True)
 
 
 def default_output(show: Path) -> Path:

@@ -40,7 +40,7 @@ def add_parser(sub: Any) -> None:
         "-q", "--quiet", action="store_true", help="print only errors and the summaries"
     )
     add_watch_option(parser, "files")
-    parser.set_defaults(func=run)
+    parser.set_defaults(func=run, quick_exit=True)
 
 
 def report(path: str, diags: list[Diagnostic], out: TextIO, *, quiet: bool = False) -> bool:
