@@ -168,3 +168,48 @@ def test_an_explicit_key_beside_a_merge_keeps_its_own_place() -> None:
     assert doc.marks[("c", "x")] == (1, 14)  # merged: where the anchor wrote it
     assert doc.marks[("d", "y")] == (6, 6)  # order of '<<' and the key does not matter
     assert doc.data["d"] == {"y": 7, "x": 1}
+
+
+def test_the_cap_bounds_a_file_at_the_limit_without_aliases(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # libyaml's node count stands for the walk there: 7 values pass, 8 do not (list + 7).
+    import xgo_show.choreo.source as source
+
+    monkeypatch.setattr(source, "MAX_NODES", 8)
+    assert parse_yaml("[1, 2, 3, 4, 5, 6, 7]\n", "f.yaml")[1] == []
+    _, errors = parse_yaml("[1, 2, 3, 4, 5, 6, 7, 8]\n", "f.yaml")
+    assert len(errors) == 1 and errors[0].message.startswith("the file makes")
+
+
+def test_a_value_read_before_is_still_refused_at_each_place() -> None:
+    # Scalars are read once per text; a problem is not a value and is reported every time.
+    text = "a: [0500, 1.5, 0500]\nb: {x: 1.5, true: 1}\nc: {true: 2}\n"
+    doc, errors = parse_yaml(text, "f.yaml")
+    assert [(e.origin.line, e.origin.column) for e in errors if e.origin] == [
+        (1, 5), (1, 16), (2, 13), (3, 5)]
+    assert isinstance(doc.data, dict) and doc.data["b"] == {"x": 1.5}
+
+
+def test_a_key_read_before_is_still_a_duplicate_in_one_mapping() -> None:
+    _, errors = parse_yaml("- {at: 1, move: {z: 1}}\n- {at: 2, at: 3}\n", "f.yaml")
+    assert [(e.origin.line, e.origin.column, e.message) for e in errors if e.origin] == [
+        (2, 11, "duplicate key 'at' (first at line 2)")]
+
+
+def _files() -> list[Path]:
+    root = Path(__file__).parents[2]
+    found = [*root.glob("choreographies/**/*.yaml"), *root.glob("tests/choreo/invalid/**/*")]
+    return sorted(p for p in found if p.is_file())
+
+
+@pytest.mark.parametrize("path", _files(), ids=lambda p: p.name)
+def test_with_and_without_the_walk_the_same_document(path: Path) -> None:
+    # A '*' anywhere (an alias, or here a comment) makes the reader walk the nodes for their
+    # depth and count and watch for recursive aliases; without one, libyaml's counts stand in.
+    text = path.read_text(encoding="utf-8")
+    fast, fast_errors = parse_yaml(text, "f.yaml")
+    walked, walked_errors = parse_yaml(text + "\n# *\n", "f.yaml")
+    assert fast.data == walked.data
+    assert fast.marks == walked.marks and fast.key_marks == walked.key_marks
+    assert fast_errors == walked_errors

@@ -13,6 +13,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import yaml
 from yaml.constructor import SafeConstructor
@@ -192,11 +193,18 @@ REFUSED = Refused()
 
 
 class _Builder:
-    def __init__(self, doc: Document) -> None:
+    def __init__(self, doc: Document, *, aliases: bool = True) -> None:
         self.doc = doc
+        self.marks = doc.marks
+        self.key_marks = doc.key_marks
         self.constructor = SafeConstructor()
         self.errors: list[Diagnostic] = []
-        self._active: set[int] = set()
+        # Without aliases no node is reached twice: no recursive alias to look out for.
+        self._active: set[int] | None = set() if aliases else None
+        # What each (tag, text) of a scalar read as, when it read without a problem: a
+        # routine repeats its keys and many of its numbers, each read once (a problem is
+        # reported at every place it occurs, so only values are kept).
+        self._plain: dict[tuple[str, str], object] = {}
 
     def error(self, node: Node, loc: Loc, message: str) -> None:
         mark = node.start_mark
@@ -204,22 +212,30 @@ class _Builder:
         self.errors.append(Diagnostic("error", message, origin, format_path(loc)))
 
     def build(self, node: Node, loc: Loc) -> object:
-        self.doc.marks[loc] = (node.start_mark.line + 1, node.start_mark.column + 1)
-        if id(node) in self._active:  # an alias that contains itself
-            self.error(node, loc, "recursive YAML alias")
-            return REFUSED
+        mark = node.start_mark
+        self.marks[loc] = (mark.line + 1, mark.column + 1)
         if isinstance(node, ScalarNode):
             return self.scalar(node, loc)
-        if isinstance(node, SequenceNode) and node.tag != _SEQ_TAG:
-            self.error(node, loc, f"unsupported YAML tag {node.tag}")
-        self._active.add(id(node))
+        active = self._active
+        if active is None:  # no aliases: no node is inside itself
+            return self.collection(node, loc)
+        if id(node) in active:  # an alias that contains itself
+            self.error(node, loc, "recursive YAML alias")
+            return REFUSED
+        active.add(id(node))
         try:
-            if isinstance(node, SequenceNode):
-                return [self.build(item, (*loc, i)) for i, item in enumerate(node.value)]
-            if isinstance(node, MappingNode):
-                return self.build_mapping(node, loc)
+            return self.collection(node, loc)
         finally:
-            self._active.discard(id(node))
+            active.discard(id(node))
+
+    def collection(self, node: Node, loc: Loc) -> object:
+        if isinstance(node, SequenceNode):
+            if node.tag != _SEQ_TAG:
+                self.error(node, loc, f"unsupported YAML tag {node.tag}")
+            build = self.build
+            return [build(item, (*loc, i)) for i, item in enumerate(node.value)]
+        if isinstance(node, MappingNode):
+            return self.build_mapping(node, loc)
         self.error(node, loc, f"unsupported YAML node {node.tag}")
         return REFUSED
 
@@ -241,26 +257,28 @@ class _Builder:
                     for name, value in self.build_mapping(src, loc).items():
                         merged.setdefault(name, value)
         out: dict[str | int, object] = {}
+        key_marks, build, plain = self.key_marks, self.build, self._plain
         for key_node, value_node in node.value:
-            if key_node.tag == _MERGE_TAG:
+            tag = key_node.tag
+            if tag == _MERGE_TAG:
                 continue
             if not isinstance(key_node, ScalarNode):
                 self.error(key_node, loc, "a mapping key must be a plain value, not a list or map")
                 continue
-            key = self.build_key(key_node, loc)
-            if key is None:
-                continue
+            key = plain.get((tag, key_node.value))  # a key read before
+            if key.__class__ is not str and key.__class__ is not int:  # or not a name
+                key = self.build_key(key_node, loc)
+                if key is None:
+                    continue
             here: Loc = (*loc, key)
             if key in out:
-                first = self.doc.key_marks.get(here)
+                first = key_marks.get(here)
                 where = f" (first at line {first[0]})" if first else ""
                 self.error(key_node, here, f"duplicate key {key!r}{where}")
                 continue
-            self.doc.key_marks[here] = (
-                key_node.start_mark.line + 1,
-                key_node.start_mark.column + 1,
-            )
-            out[key] = self.build(value_node, here)
+            mark = key_node.start_mark
+            key_marks[here] = (mark.line + 1, mark.column + 1)
+            out[key] = build(value_node, here)
         for name, value in merged.items():
             out.setdefault(name, value)
         return out
@@ -268,6 +286,17 @@ class _Builder:
     def scalar(self, node: ScalarNode, loc: Loc) -> object:
         """A plain value: numbers as YAML 1.2 (and within range), text without control
         characters; an error (and :data:`REFUSED`) otherwise."""
+        tag = node.tag
+        text = node.value
+        value: object = self._plain.get((tag, text), REFUSED)
+        if value is not REFUSED:
+            return value
+        value = self.read_scalar(node, loc)
+        if value is not REFUSED:
+            self._plain[tag, text] = value
+        return value
+
+    def read_scalar(self, node: ScalarNode, loc: Loc) -> object:
         tag = node.tag
         if tag == _INT_TAG:
             return self.integer(node, loc)
@@ -370,7 +399,7 @@ def parse_yaml(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
 def _parse(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
     doc = Document(file, None)
     try:
-        nodes = _compose(text)
+        composed = _compose(text)
     except RecursionError:
         return doc, [_too_deep(text, file)]
     except yaml.MarkedYAMLError as exc:
@@ -386,21 +415,26 @@ def _parse(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         return doc, [Diagnostic("error", msg, Origin(file, line, col))]
     except yaml.YAMLError as exc:
         return doc, [Diagnostic("error", f"YAML: {printable(str(exc))}", Origin(file, 1, 1))]
-    if isinstance(nodes, int):  # past libyaml's 1000 levels: the 65th comes before
-        return doc, [_too_deep(text[:nodes], file)]
+    if isinstance(composed, int):  # past libyaml's 1000 levels: the 65th comes before
+        return doc, [_too_deep(text[:composed], file)]
+    nodes = composed.nodes
     if not nodes:
         return doc, [Diagnostic("error", "the file is empty", Origin(file, 1, 1))]
     if len(nodes) > 1:
         mark = nodes[1].start_mark
         origin = Origin(file, mark.line + 1, mark.column + 1)
         return doc, [Diagnostic("error", "one YAML document per file, found several", origin)]
-    deep, count, shared = _walk(nodes[0])
-    if deep is not None:
-        return doc, [_too_deep_at(deep, file)]
-    # Without a list or mapping used twice (an alias), the values built are the nodes walked.
-    if (_expanded_size(nodes[0], {}, set()) if shared else count) > MAX_NODES:
-        return doc, [_too_big(text, file)]
-    builder = _Builder(doc)
+    # Without an alias ('*name'), libyaml's counts say all a walk of the nodes would: the
+    # values built are the nodes made, none is reached twice, and none is nested too deep.
+    aliases = "*" in text
+    if aliases or not composed.within_limits():
+        deep, count, shared = _walk(nodes[0])
+        if deep is not None:
+            return doc, [_too_deep_at(deep, file)]
+        # Without a list or mapping used twice (an alias), the values built are the nodes.
+        if (_expanded_size(nodes[0], {}, set()) if shared else count) > MAX_NODES:
+            return doc, [_too_big(text, file)]
+    builder = _Builder(doc, aliases=aliases)
     doc.data = builder.build(nodes[0], ())
     return doc, builder.errors
 
@@ -413,13 +447,17 @@ if _C_LOADER is not None:
     class _CLoader(_C_LOADER):  # type: ignore[valid-type,misc]
         """libyaml's parser with the same YAML 1.2 number resolvers as :class:`_Loader`."""
 
-        # libyaml's composer calls these for every node; they only serve path resolvers,
-        # which no loader here has (PyYAML's own return at once without them too).
+        # libyaml's composer calls these for every node it makes (aliases aside); they only
+        # serve path resolvers, which no loader here has. They count the nodes and how deep
+        # they nest instead, so that a file without aliases need not be walked again for that.
         def descend_resolver(self, current_node: Node | None, current_index: object) -> None:
-            pass
+            self.count += 1
+            self.depth += 1
+            if self.depth > self.deepest:
+                self.deepest = self.depth
 
         def ascend_resolver(self) -> None:
-            pass
+            self.depth -= 1
 
         # The tag of a node depends only on these arguments (no path resolvers here), and a
         # routine repeats its values (keys, durations, the same numbers): each is resolved
@@ -431,15 +469,35 @@ if _C_LOADER is not None:
                 tag = self._tags[key] = super().resolve(kind, value, implicit)
             return tag
 
+        count: int  # nodes made
+        depth: int  # of the node being made
+        deepest: int
+
         def __init__(self, stream: str) -> None:
             super().__init__(stream)
             self._tags: dict[tuple[type[Node], str | None, object], str] = {}
+            self.count = self.depth = self.deepest = 0
 
     _CLoader.yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
     _FAST_LOADER = _CLoader
 
 
-def _compose(text: str) -> list[Node] | int:
+@dataclass
+class _Composed:
+    """The documents' nodes; with libyaml, also how many nodes it made and how deep the
+    deepest is (None: unknown)."""
+
+    nodes: list[Node]
+    count: int | None = None
+    deepest: int | None = None
+
+    def within_limits(self) -> bool:
+        """Whether the counts are known and within :data:`MAX_NODES` and :data:`MAX_DEPTH`."""
+        return (self.count is not None and self.count <= MAX_NODES
+                and self.deepest is not None and self.deepest <= MAX_DEPTH)
+
+
+def _compose(text: str) -> _Composed | int:
     """The documents' nodes; a YAML error is raised by the pure-Python parser, whose messages
     (and marks) the diagnostics are written for, even when libyaml found it first.
 
@@ -448,14 +506,21 @@ def _compose(text: str) -> list[Node] | int:
     of a thousand ``[``)."""
     if _FAST_LOADER is not None:
         try:
-            return list(yaml.compose_all(text, Loader=_FAST_LOADER))
+            loader: Any = _FAST_LOADER(text)  # a _CLoader
+            try:  # yaml.compose_all, keeping the loader's counts
+                nodes: list[Node] = []
+                while loader.check_node():
+                    nodes.append(loader.get_node())
+            finally:
+                loader.dispose()
+            return _Composed(nodes, loader.count, loader.deepest)
         except yaml.MarkedYAMLError as exc:
             mark = exc.problem_mark
             if mark is not None and "maximum nesting depth" in str(exc.problem):
                 return _offset(text, mark.line, mark.column)
         except yaml.YAMLError:
             pass  # said again below, in the pure-Python parser's words
-    return list(yaml.compose_all(text, Loader=_Loader))
+    return _Composed(list(yaml.compose_all(text, Loader=_Loader)))
 
 
 def _offset(text: str, line: int, column: int) -> int:
