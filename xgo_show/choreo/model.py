@@ -139,7 +139,10 @@ _SECONDS = re.compile(r"^\s*(\d+(?:\.\d+)?)\s*s\s*$", re.ASCII)  # "12.5s": seco
 
 
 class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=True)
+    # defer_build: each model's validator is made when it is first used, not when the module
+    # is imported; a routine is validated as a whole (ShowFile's one validator), so most of
+    # the thirty-odd models never need one of their own.
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, defer_build=True)
 
     @field_validator("*", mode="before")
     @classmethod
