@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import re
+import time
 from collections.abc import Iterator, Sequence
 from typing import Any
 
@@ -20,7 +21,7 @@ from tests.relay.conftest import walk_schedule
 from tests.relay.recording import Answer, Query, RecordingSession, answer, time_server
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.errors import NetworkError, UsageError
-from xgo_show.net.offset import Timebase
+from xgo_show.net.offset import OffsetEstimate, Timebase
 from xgo_show.net.session import SessionOptions
 from xgo_show.relay import conductor
 from xgo_show.relay.conductor import (
@@ -51,12 +52,12 @@ class ScriptedRelay:
         self.refuse: dict[str, str] = {}  # op -> refusal
         self.time = True
         self.preflight: list[Any] = [
+            {"performer": "dog9", "opened": True},  # not in this show: left out
             {"performer": "dog1", "opened": True, "firmware": "R-1.2", "detected": "mini",
-             "battery": 81.0, "voltage": None, "low_latency": True, "problems": [],
+             "battery": 81.0, "voltage": None, "low_latency": True,
              "notes": ["port 115200 baud"]},
             {"performer": "dog2", "opened": True, "firmware": None, "detected": 3,
              "battery": None, "voltage": 7.4, "low_latency": 0, "problems": ["battery low"]},
-            {"performer": "dog9", "opened": True},  # not in this show: left out
         ]
 
     def __call__(self, q: Query) -> Sequence[Answer]:
@@ -173,6 +174,7 @@ def test_performers_are_grouped_by_relay(session: RecordingSession) -> None:
     schedule = walk_schedule(1.0, rex="mini", lola="lite", kim="mini")
     urls = {"rex": "zenoh:hall/dog1", "kim": "zenoh:attic", "lola": "zenoh:hall/dog2"}
     eps = conductor._endpoints(schedule, urls)
+    assert all(e.schedule is schedule for e in eps)  # type: ignore[attr-defined]
     assert [(e.relay, e.map, e.urls) for e in eps] == [  # type: ignore[attr-defined]
         ("hall", {"rex": "dog1", "lola": "dog2"},
          {"rex": "zenoh:hall/dog1", "lola": "zenoh:hall/dog2"}),
@@ -326,7 +328,7 @@ def test_the_preflight_uploads_the_part_and_returns_the_relay_rows(
 def test_a_pre_flight_row_the_relay_does_not_send_stays_unopened(
     session: RecordingSession, relay: ScriptedRelay
 ) -> None:
-    relay.preflight = [relay.preflight[1]]
+    relay.preflight = [relay.preflight[2]]
     ep = endpoint()
     try:
         ep.open()
@@ -354,8 +356,11 @@ def test_a_failed_upload_is_a_problem_of_every_opened_row(
 def test_the_sync_note_says_what_is_known() -> None:
     ep = endpoint(options=OPTIONS)
     assert ep._sync_note() == ""
-    ep.timebase = Timebase(0.0012345, 0.0, 0.0, 0.00025, 0.0)
-    assert ep._sync_note() == ", clock offset +0.001234 s +- 0.250 ms"
+    ep.timebase = Timebase(-0.0012345, 0.0, 0.0, 0.5, 0.0)
+    assert ep._sync_note() == ", clock offset -0.001234 s +- 500.000 ms"
+    ep.estimate = OffsetEstimate(0.0, 0.0, 0.25, 0.0, 1)
+    assert ep._sync_note() == (", clock offset -0.001234 s +- 500.000 ms, round trip "
+                               "250.000 ms")
 
 
 # --- the performers and closing ------------------------------------------------------------------
@@ -443,3 +448,78 @@ def test_probe_of_a_relay_without_rows_names_only_the_relay(
     monkeypatch.setattr(conductor, "open_session", lambda opts: rec)
     assert probe_relayed("zenoh:hall/dog2", SessionOptions(), timeout=0.5) == [("relay", "hall")]
     assert rec.queries[1].request["performer"] == "dog2"
+
+
+# --- what the first mutation run showed unchecked ------------------------------------------------
+
+def test_before_opening_an_endpoint_has_no_description_digest_or_rows(
+    session: RecordingSession
+) -> None:
+    ep = endpoint()
+    assert (ep.description, ep.sha256, ep.client, ep.show) == ({}, "", None, None)
+    rows = ep.preflight(battery_floor=0.0)
+    assert [r.problems for r in rows] == [["relay not opened"], ["relay not opened"]]
+    assert session.of("upload") == []
+
+
+def test_the_relays_part_has_no_ports_of_this_host(session: RecordingSession) -> None:
+    ep = endpoint()
+    ep.schedule = dataclasses.replace(ep.schedule, performers=tuple(
+        dataclasses.replace(p, port="/dev/ttyUSB0") for p in ep.schedule.performers))
+    assert [p.port for p in ep.part().performers] == [None, None]
+
+
+def test_a_relay_describing_no_robots_has_none(session: RecordingSession,
+                                               relay: ScriptedRelay) -> None:
+    session.respond = lambda q: ([answer(q, description={"relay": "hall"})] if q.op == "hello"
+                                 else relay(q))
+    ep = endpoint()
+    try:
+        assert ep.open()["lola"] == "relay hall has no robot 'dog2' (it has none)"
+    finally:
+        ep.close()
+
+
+def test_an_upload_reply_without_rows_leaves_every_row_unopened(
+    session: RecordingSession, relay: ScriptedRelay
+) -> None:
+    session.respond = lambda q: [answer(q)] if q.op == "upload" else relay(q)
+    ep = endpoint()
+    try:
+        assert ep.open() == {}
+        rows = ep.preflight(battery_floor=0.0)
+        assert [(r.opened, r.problems, r.notes) for r in rows] == [(False, [], [])] * 2
+    finally:
+        ep.close()
+
+
+def test_performers_of_a_relay_whose_clock_is_not_tracked_convert_times(
+    session: RecordingSession, relay: ScriptedRelay
+) -> None:
+    relay.time = False
+    ep = endpoint()
+    ep.open()  # held, but not synced
+    got = ep.performers(PerformerContext(FakeClock(), EventBus(), False, 0.0, 0.0))
+    assert ep.show is not None and ep.show.synced is False and len(got) == 2
+    ep.close()
+
+
+def test_an_opened_relay_hears_heartbeats_every_fifth_of_the_watchdog(
+    session: RecordingSession
+) -> None:
+    ep = endpoint(options=ConductorOptions(session=OPTIONS.session, watchdog=0.25))
+    start = time.monotonic()
+    try:
+        assert ep.open() == {}
+        time.sleep(1.0)
+    finally:
+        ep.close()
+    slots = (time.monotonic() - start) / 0.05
+    # A slot missed under load is made up: the count follows the clock, not the waits.
+    assert slots * 0.6 <= len(session.of("heartbeat")) <= slots + 1
+
+
+def test_probe_needs_the_robot_named() -> None:
+    with pytest.raises(NetworkError) as info:
+        probe_relayed("zenoh:hall", SessionOptions(), timeout=0.5)
+    assert str(info.value) == "'zenoh:hall': name the robot too, e.g. zenoh:hall/rex"

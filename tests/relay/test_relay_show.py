@@ -8,6 +8,7 @@ test_relayed_timeline.py run the same over Zenoh with relays in their own proces
 
 from __future__ import annotations
 
+import threading
 import time
 from collections.abc import Iterator, Sequence
 from typing import Any
@@ -537,3 +538,104 @@ def test_an_unanswered_send_is_a_network_error_fault(rig: Rig) -> None:
     assert failed is not None and failed.startswith(
         "resume on relay hall: relay hall did not answer resume within 1 s")
     assert isinstance(NetworkError(failed), NetworkError)
+
+
+# --- what the first mutation run showed unchecked ------------------------------------------------
+
+def test_a_relay_show_is_synced_unless_told_otherwise() -> None:
+    r = Rig()
+    show = RelayShow(r.client, NAMES, SHA, clock=r.clock, events=r.bus, watchdog=1.0)
+    r.client.link.offset = 2.5
+    assert show.synced and show.to_relay(10.0) == 10.0
+
+
+def test_the_show_heartbeats_go_every_fifth_of_the_watchdog() -> None:
+    r = Rig(watchdog=0.25)
+    r.session.hold = False  # answered at once: the relay is not lost
+    start = time.monotonic()
+    r.show.begin()
+    time.sleep(1.0)
+    r.close()
+    slots = (time.monotonic() - start) / 0.05
+    # A slot missed under load is made up: the count follows the clock, not the waits.
+    assert slots * 0.6 <= len(r.session.of("heartbeat")) <= slots + 1
+
+
+def test_the_loss_message_gives_the_silence_and_the_watchdog_in_ms() -> None:
+    r = Rig(watchdog=2.0)
+    r.show._on_lost(1.0)  # what the heartbeats' watchdog calls
+    assert r.show.lost() == ("relay hall lost: no answer for 1000 ms (watchdog 2000 ms); it "
+                             "applies the show's link-loss policy")
+
+
+def test_a_repeated_relay_fault_does_not_hide_the_events_after_it(rig: Rig) -> None:
+    rig.beat({"events": [["x", "dog1", "a", 100.0], ["x", "dog1", "b", 100.1],
+                         ["t", "dog1", "battery", 50.0, 100.2]]})
+    assert len(rig.of(FaultRaised)) == 1 and rig.performers["rex"].readings == {"battery": 50.0}
+
+
+def test_a_command_for_now_with_another_value_gets_its_own_time(rig: Rig) -> None:
+    rig.client.link.recent.append(0.125)  # network lead 0.375 s
+    rig.performers["rex"].seek(1.0)
+    rig.clock.advance(0.125)
+    rig.performers["rex"].seek(2.0)  # not the same command: at its own now + lead
+    assert [s["at"] for s in rig.sent("seek")] == [100.375, 100.5]
+
+
+def test_a_stop_reply_without_stops_stops_every_robot() -> None:
+    r = Rig(stop={})
+    got = r.performers["rex"].safe_stop("x")
+    assert got.ok and got.error == "" and got.elapsed > 0
+    assert r.show.stop("again", 0.1) == {"stops": {}}
+
+
+def test_a_safe_stop_waits_half_a_second_by_default() -> None:
+    r = Rig()
+    r.performers["lola"].safe_stop("x")
+    assert 0.4 < r.session.of("stop")[0].timeout <= 0.5
+
+
+def test_a_failed_safe_stop_names_the_performer_and_its_reason() -> None:
+    r = Rig(stop="not held")
+    got = r.performers["lola"].safe_stop("fault")
+    assert (got.performer, got.reason, got.ok) == ("lola", "fault", False)
+    assert isinstance(got.elapsed, float) and got.elapsed > 0
+    ok = Rig().performers["rex"].safe_stop("operator")
+    assert isinstance(ok.elapsed, float) and ok.elapsed > 0
+
+
+def test_the_lead_of_a_mid_show_start_includes_the_catch_up() -> None:
+    r = Rig()
+    rex = r.performers["rex"]
+    assert rex.lead_time(0.5) == pytest.approx(r.show.lead() + executor_lead(rex.schedule, 0.5))
+    assert rex.lead_time(0.5) > rex.lead_time(0.0)
+
+
+def later(r: Rig, status: dict[str, Any], after: float = 0.1) -> threading.Thread:
+    def go() -> None:
+        time.sleep(after)
+        r.beat(status)
+
+    t = threading.Thread(target=go)
+    t.start()
+    return t
+
+
+def test_join_without_a_timeout_waits_for_the_end(rig: Rig) -> None:
+    rex = rig.performers["rex"]
+    rex.start(101.0)
+    t = later(rig, {"state": "ended", "last": {"sha256": SHA, "completed": True}})
+    assert rex.join(None) is True and rex.done
+    t.join()
+
+
+@pytest.mark.parametrize("timeout", [None, 5.0])
+def test_a_performer_finished_on_the_relay_ends_its_join_at_once(rig: Rig,
+                                                                timeout: float | None) -> None:
+    rex = rig.performers["rex"]
+    rex.start(101.0)
+    t = later(rig, {"performers": {"dog1": row("finished")}})  # the show is not over yet
+    start = time.monotonic()
+    assert rex.join(timeout) is True
+    t.join()
+    assert time.monotonic() - start < 0.7  # polled every 20 ms, not every second
