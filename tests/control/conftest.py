@@ -16,9 +16,11 @@ import pytest
 import zenoh
 
 from tests.children import exited, first_answer
+from tests.control.serving import Serve
 from tests.loopback import client_config, free_port
 from xgo_show.choreo import load_show
 from xgo_show.compiler import compile_show
+from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.client import ControlClient
 from xgo_show.control.director import Director
@@ -168,3 +170,19 @@ def directed() -> Callable[..., Any]:
     """:func:`directed_show` as a fixture: ``with directed(schedule) as (director, played,
     go):``."""
     return directed_show
+
+
+@pytest.fixture
+def serve() -> Iterator[Serve]:
+    """``serve``'s server over a recording session, simulated robots (tests/control/serving)."""
+    s = Serve()
+    yield s
+    s.close()
+
+
+@pytest.fixture
+def loaded(serve: Serve, triggered_schedule: Schedule) -> Serve:
+    """:func:`serve` with the triggered show loaded."""
+    got = serve.ask("load", schedule=schedule_to_bytes(triggered_schedule).decode())
+    assert got["ok"], got
+    return serve

@@ -8,82 +8,21 @@ paused, sought and stopped. test_server.py runs ``serve`` in its own process ove
 
 from __future__ import annotations
 
-import json
 import threading
 import time
-from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
-
-import pytest
 
 from tests.conftest import wait_until
-from tests.relay.recording import Incoming, RecordingSession
+from tests.control.serving import NS, Serve, block_the_control_thread, refusal
+from tests.relay.recording import RecordingSession
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.protocol import PROTOCOL_VERSION, LoadRequest
 from xgo_show.control.server import UNKNOWN_REPLIES, ServeOptions, ShowServer
 from xgo_show.timecode.osc import Command
 
-NS = "ns"
 ZERO = {"triggers": 0, "accepted": 0, "refused": 0, "unknown": 0, "malformed": 0, "busy": 0,
         "cancelled": 0, "events_dropped": 0, "events_suppressed": 0}
-
-
-class Serve:
-    """A server on a recording session; ``said``: its lines; ``hold_load``: a load blocks in
-    its "loaded" line until released (the control thread is then busy)."""
-
-    def __init__(self, **opts: Any) -> None:
-        self.session = RecordingSession()
-        self.said: list[str] = []
-        self.block = threading.Event()
-        self.blocked = threading.Event()
-        self.hold_load = False
-        options = ServeOptions(namespace=NS, **{"sim": True, "telemetry": False, **opts})
-        self.server = ShowServer(self.session, options, say=self._say)
-
-    def _say(self, line: str) -> None:
-        self.said.append(line)
-        if self.hold_load and line.startswith("loaded"):
-            self.blocked.set()
-            self.block.wait(10.0)
-
-    def query(self, command: str, raw: bytes | None = None, **fields: Any) -> Incoming:
-        data = raw if raw is not None else (json.dumps(fields).encode() if fields else None)
-        return self.session.query(f"{NS}/control/{command}", data)
-
-    def ask(self, command: str, raw: bytes | None = None, **fields: Any) -> dict[str, Any]:
-        return self.query(command, raw, **fields).answer()
-
-    def trigger(self, name: str, raw: bytes | None = None) -> Incoming:
-        return self.session.query(f"{NS}/trigger/{name}", raw)
-
-    def events(self, kind: str) -> list[dict[str, Any]]:
-        return [p for _, p in self.session.put_payloads(f"{NS}/event/{kind}")]
-
-    def close(self) -> None:
-        self.block.set()
-        self.server.close()
-
-
-@pytest.fixture
-def serve() -> Iterator[Serve]:
-    s = Serve()
-    yield s
-    s.close()
-
-
-@pytest.fixture
-def loaded(serve: Serve, triggered_schedule: Schedule) -> Serve:
-    got = serve.ask("load", schedule=schedule_to_bytes(triggered_schedule).decode())
-    assert got["ok"], got
-    return serve
-
-
-def refusal(got: dict[str, Any], command: str, code: str, message: str) -> None:
-    assert got == {"v": PROTOCOL_VERSION, "ok": False, "command": command, "error": code,
-                   "message": message}
 
 
 # --- what it serves ------------------------------------------------------------------------------
@@ -200,13 +139,6 @@ def test_a_start_in_the_past_is_refused_and_nothing_is_left_armed(loaded: Serve)
 
 
 # --- the control thread: busy, panic, closing ----------------------------------------------------
-
-def block_the_control_thread(s: Serve, schedule: Schedule) -> Incoming:
-    s.hold_load = True
-    q = s.query("load", schedule=schedule_to_bytes(schedule).decode())
-    assert s.blocked.wait(10.0)
-    return q
-
 
 def test_a_full_queue_answers_busy(serve: Serve, triggered_schedule: Schedule) -> None:
     first = block_the_control_thread(serve, triggered_schedule)

@@ -1,0 +1,152 @@
+"""``serve``'s server (control/server.py) in this process with a show running, over the
+recording session: OSC cues while a show plays (seek, bar, stop, go, busy), a trigger released
+by a put, what the run log keeps of a trigger's release, and the unknown-trigger reply rate
+to the reply. The server's refusals, queue and idle triggers: test_server_logic.py."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.conftest import wait_until
+from tests.control.serving import Serve, block_the_control_thread, refusal
+from xgo_show.compiler.artifact import schedule_to_bytes
+from xgo_show.compiler.schedule import Schedule
+from xgo_show.control.server import UNKNOWN_REPLIES
+from xgo_show.timecode.osc import Command
+
+
+@pytest.fixture
+def playing(triggered_schedule: Schedule) -> Iterator[Serve]:
+    """A show without waits, playing."""
+    s = Serve()
+    plain = dataclasses.replace(triggered_schedule, sections=())
+    s.ask("load", schedule=schedule_to_bytes(plain).decode())
+    assert s.ask("start")["ok"]
+    wait_until(lambda: s.server.status()["state"] == "playing", timeout=10)
+    yield s
+    s.close()
+
+
+def said_after(s: Serve, n: int, prefix: str) -> str:
+    wait_until(lambda: any(line.startswith(prefix) for line in s.said[n:]), timeout=10)
+    return next(line for line in s.said[n:] if line.startswith(prefix))
+
+
+def test_osc_seek_and_bar_while_a_show_plays(playing: Serve) -> None:
+    n = len(playing.said)
+    playing.server._on_osc(Command("seek", 0.5))
+    assert said_after(playing, n, "osc: seek") == "osc: seek: done"
+    n = len(playing.said)
+    playing.server._on_osc(Command("bar", 2.0))
+    assert said_after(playing, n, "osc: seek") == (
+        "osc: seek refused (bad_request): this show has no tempo: give time, not bar")
+    n = len(playing.said)
+    playing.server._on_osc(Command("bar"))
+    assert said_after(playing, n, "osc: seek").endswith("give time, not bar")
+    refusal(playing.ask("seek", bar=2), "seek", "bad_request",
+            "this show has no tempo: give time, not bar")
+
+
+def test_an_osc_stop_stops_the_show_saying_so(playing: Serve) -> None:
+    n = len(playing.said)
+    playing.server._on_osc(Command("stop"))
+    assert said_after(playing, n, "osc: stop") == "osc: stop: ended"
+    last = playing.server.status()["last_result"]
+    assert last is not None and "OSC /stop" in last["reason"]
+
+
+def test_an_osc_go_without_a_time_starts_at_the_beginning(loaded: Serve) -> None:
+    loaded.server._on_osc(Command("go"))
+    said_after(loaded, 0, "osc: start")
+    assert "starting 'Triggered test' from 0 s (<schedule>)" in loaded.said
+    loaded.ask("stop")
+
+
+def test_osc_cues_are_refused_when_the_queue_is_full(serve: Serve,
+                                                   triggered_schedule: Schedule) -> None:
+    first = block_the_control_thread(serve, triggered_schedule)
+    waiting = [serve.query("pause") for _ in range(63)]
+    serve.server._on_osc(Command("pause"))  # the 64th: still queued
+    serve.server._on_osc(Command("resume"))
+    assert serve.said[-1] == "osc: /resume refused: 64 commands are already waiting"
+    assert serve.server.counters["busy"] == 1
+    serve.block.set()
+    assert first.answer()["ok"] and all(q.answer()["ok"] is False for q in waiting)
+
+
+def test_an_osc_trigger_releases_a_held_wait(loaded: Serve) -> None:
+    loaded.ask("start")
+    wait_until(lambda: loaded.server.status()["state"] == "waiting", timeout=10)
+    loaded.server._on_osc(Command("trigger", name="go"))
+    wait_until(lambda: any(e.get("accepted") for e in loaded.events("trigger")))
+    event = next(e for e in loaded.events("trigger") if e.get("accepted"))
+    assert (event["trigger"], event["section"], event["held"], event["source"]) == (
+        "go", "b", True, "osc")
+    loaded.ask("stop")
+
+
+def records(path: Path, kind: str) -> list[dict[str, Any]]:
+    lines = path.read_text(encoding="utf-8").splitlines()
+    return [r for r in map(json.loads, lines) if r["kind"] == kind]
+
+
+def test_a_put_releases_a_held_wait_and_the_log_keeps_its_times(
+    tmp_path: Path, triggered_schedule: Schedule
+) -> None:
+    log = tmp_path / "run.jsonl"
+    s = Serve(log=log)
+    try:
+        s.ask("load", schedule=schedule_to_bytes(triggered_schedule).decode())
+        s.ask("start")
+        wait_until(lambda: s.server.status()["state"] == "waiting", timeout=10)
+        s.session.publish("ns/trigger/go", b'{"source": "desk", "data": 7}')
+        wait_until(lambda: any(e.get("accepted") for e in s.events("trigger")))
+        event = next(e for e in s.events("trigger") if e.get("accepted"))
+        assert (event["trigger"], event["section"], event["held"], event["source"],
+                event["data"]) == ("go", "b", True, "desk", 7)
+        assert s.server.counters["accepted"] == 1
+        wait_until(lambda: s.server._trace is None, timeout=10)  # the section's first frame
+        s.ask("stop")
+    finally:
+        s.close()
+    (trace,) = records(log, "trigger")
+    assert (trace["trigger"], trace["section"]) == ("go", "b")
+    times = [trace[k] for k in ("received", "parsed", "decided", "woke", "released",
+                                "first_frame")]
+    assert all(isinstance(t, float) for t in times), trace
+    assert times == sorted(times) and times[-1] - times[0] < 5.0
+    assert trace["received"] <= trace["first_write"] <= trace["first_frame"]
+
+
+def test_a_trigger_given_before_its_wait_is_not_timed(tmp_path: Path,
+                                                      triggered_schedule: Schedule) -> None:
+    log = tmp_path / "run.jsonl"
+    s = Serve(log=log)
+    try:
+        s.ask("load", schedule=schedule_to_bytes(triggered_schedule).decode())
+        s.ask("start")
+        wait_until(lambda: s.server.status()["state"] in ("playing", "waiting"), timeout=10)
+        got = s.trigger("go").answer()
+        if got["held"]:  # the show reached its wait first (a loaded machine)
+            pytest.skip("the show held before the trigger came")
+        assert s.server._trace is None
+        s.ask("stop")
+    finally:
+        s.close()
+    assert records(log, "trigger") == []
+
+
+def test_unknown_trigger_queries_in_one_second_get_exactly_their_rate(serve: Serve) -> None:
+    start = time.monotonic()
+    queries = [serve.trigger(f"t{i}") for i in range(UNKNOWN_REPLIES + 3)]
+    if time.monotonic() - start >= 0.9:
+        pytest.skip("the queries took most of a second: the window may have moved")
+    assert sum(1 for q in queries if q.errors) == UNKNOWN_REPLIES
+    assert all(q.errors for q in queries[:UNKNOWN_REPLIES])
