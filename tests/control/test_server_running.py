@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -16,9 +17,13 @@ import pytest
 
 from tests.conftest import wait_until
 from tests.control.serving import Serve, block_the_control_thread, refusal
+from tests.relay.recording import Answer, Query, ScriptedRelay
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.server import UNKNOWN_REPLIES
+from xgo_show.net.session import SessionOptions
+from xgo_show.relay import conductor
+from xgo_show.relay.options import ConductorOptions
 from xgo_show.timecode.osc import Command
 
 
@@ -150,3 +155,47 @@ def test_unknown_trigger_queries_in_one_second_get_exactly_their_rate(serve: Ser
         pytest.skip("the queries took most of a second: the window may have moved")
     assert sum(1 for q in queries if q.errors) == UNKNOWN_REPLIES
     assert all(q.errors for q in queries[:UNKNOWN_REPLIES])
+
+
+# --- a start armed across a panic ----------------------------------------------------------------
+
+@pytest.fixture
+def relayed(monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[Serve, ScriptedRelay]]:
+    """A server whose performer rex plays on robot dog1 of relay hall (a scripted relay that
+    answers through the server's own recording session), ivy on a simulator."""
+    for name in ("_options", "_session", "_conductor"):  # the conductor's, restored after
+        monkeypatch.setattr(conductor, name, getattr(conductor, name))
+    relay = ScriptedRelay()
+    options = ConductorOptions(session=SessionOptions(namespace="ns"), watchdog=2.0,
+                               timeout=2.0)
+    s = Serve(maps={"rex": "zenoh:hall/dog1"}, conductor=options)
+    s.session.respond = relay
+    yield s, relay
+    s.close()
+
+
+def test_a_panic_during_a_starts_pre_flight_cancels_the_start(
+    relayed: tuple[Serve, ScriptedRelay], triggered_schedule: Schedule
+) -> None:
+    s, relay = relayed
+    s.ask("load", schedule=schedule_to_bytes(triggered_schedule).decode())
+    assert s.ask("panic")["state"] == "idle"  # an earlier panic counts for nothing later
+    uploading, go_on = threading.Event(), threading.Event()
+    script = relay.__call__
+
+    def slow_upload(q: Query) -> Sequence[Answer]:
+        if q.op == "upload":
+            uploading.set()
+            go_on.wait(10.0)
+        return script(q)
+
+    s.session.respond = slow_upload
+    start = s.query("start")
+    assert uploading.wait(10.0)  # the start is in its pre-flight
+    got = s.ask("panic")
+    assert got["ok"] and got["state"] == "idle"  # nothing was moving yet
+    go_on.set()
+    refusal(start.answer(), "start", "cancelled",
+            "start cancelled by a panic during its pre-flight")
+    assert s.server.counters["cancelled"] == 1 and s.server.status()["state"] == "loaded"
+    assert s.session.of("release")  # the relay given up: nothing left armed

@@ -11,14 +11,14 @@ import dataclasses
 import itertools
 import re
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from typing import Any
 
 import pytest
 
 from tests.conftest import wait_until
 from tests.relay.conftest import walk_schedule
-from tests.relay.recording import Answer, Query, RecordingSession, answer, time_server
+from tests.relay.recording import ROBOTS, RecordingSession, ScriptedRelay, answer
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.errors import NetworkError, UsageError
 from xgo_show.net.offset import OffsetEstimate, Timebase
@@ -40,41 +40,6 @@ from xgo_show.runtime.launch import PerformerContext, endpoints_for
 
 OPTIONS = ConductorOptions(session=SessionOptions(namespace="ns"), link_loss="continue",
                            watchdog=2.0, timeout=1.0, name="desk")
-ROBOTS = [{"name": "dog1", "model": "mini", "port": "/dev/pts/7"},
-          {"name": "dog2", "model": "lite"}]
-
-
-class ScriptedRelay:
-    """Answers as relay ``hall`` would: its description, its pre-flight rows, its time."""
-
-    def __init__(self) -> None:
-        self.robots: list[dict[str, Any]] = list(ROBOTS)
-        self.refuse: dict[str, str] = {}  # op -> refusal
-        self.time = True
-        self.preflight: list[Any] = [
-            {"performer": "dog9", "opened": True},  # not in this show: left out
-            {"performer": "dog1", "opened": True, "firmware": "R-1.2", "detected": "mini",
-             "battery": 81.0, "voltage": None, "low_latency": True,
-             "notes": ["port 115200 baud"]},
-            {"performer": "dog2", "opened": True, "firmware": None, "detected": 3,
-             "battery": None, "voltage": 7.4, "low_latency": 0, "problems": ["battery low"]},
-        ]
-
-    def __call__(self, q: Query) -> Sequence[Answer]:
-        op = q.op
-        if op in ("ping", "timebase"):
-            return time_server(q) if self.time else []
-        if op in self.refuse:
-            return [answer(q, error=self.refuse[op])]
-        if op == "hello":
-            return [answer(q, description={"relay": "hall", "robots": self.robots})]
-        if op == "upload":
-            return [answer(q, sha256=q.request["sha256"], preflight=self.preflight)]
-        if op == "probe":
-            return [answer(q, rows=[["port", "/dev/pts/7"], ["firmware", 12]])]
-        return [answer(q)]
-
-
 @pytest.fixture
 def relay() -> ScriptedRelay:
     return ScriptedRelay()
