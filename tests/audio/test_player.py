@@ -4,6 +4,7 @@ start, a pause, a resume, a seek, a per-output latency and a safe stop."""
 
 from __future__ import annotations
 
+import itertools
 import time
 from pathlib import Path
 
@@ -42,6 +43,16 @@ class Recorder:
                 t = at + i / rate
                 if not out or t - out[-1] > 0.1:
                     out.append(t)
+        return out
+
+    def gaps(self, rate: int) -> list[tuple[float, float]]:
+        """Clock intervals no buffer covered: underruns, where the device thread was starved
+        longer than its queue and the player re-anchored the next buffer on the clock."""
+        out: list[tuple[float, float]] = []
+        for (at, block), (nxt, _) in itertools.pairwise(self.blocks):
+            end = at + len(block) / rate
+            if nxt - end > 1e-4:
+                out.append((end, nxt))
         return out
 
     def loud_between(self, start: float, end: float, rate: int) -> bool:
@@ -101,8 +112,14 @@ def test_music_follows_start_pause_resume_and_seek_on_the_clock(song: Path) -> N
     expected += [t0 + 2.0 + (s - 6.0) for s in _expected_clicks(6.0, 6.0 + asked - t0 - 2.0)]
     heard = [t for t in recorder.clicks(rate) if t < asked]
     assert len(heard) == len(expected), (heard, expected)
-    errors = np.abs(np.array(heard) - np.array(expected))
-    assert errors.max() < 0.003, f"worst click {errors.max() * 1000:.1f} ms off"
+    # A click whose onset fell in an underrun's gap (a machine so busy that the device thread
+    # missed its queue) is heard when sound resumes, at the gap's end: the device's silence,
+    # not the player's error. Every other click sounds within 3 ms of its time.
+    gaps = recorder.gaps(rate)
+    for want, got in zip(expected, heard, strict=True):
+        late = next((end - want for start, end in gaps if start <= want < end), 0.0)
+        assert abs(got - want - late) < 0.003, f"click due at {want - t0:.4f} s after t0 is " \
+            f"{(got - want) * 1000:.1f} ms off ({late * 1000:.1f} ms of it in an underrun)"
     assert not recorder.loud_between(t0 + 0.9 + 0.04, t0 + 1.4, rate), "sound while paused"
     assert not recorder.loud_between(stopped + 0.05, stopped + 10, rate), "sound after the stop"
 
