@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import subprocess
 import sys
@@ -296,16 +297,21 @@ class _Exited(Exception):
 def _program(monkeypatch: pytest.MonkeyPatch, argv: list[str]) -> tuple[str, int]:
     """Run :func:`program` on ``argv``: how it ended ('os._exit' or 'sys.exit') and the status."""
     def _exit(code: int) -> None:
-        raise _Exited(code)
+        raise _Exited(code, gc.isenabled())
 
     monkeypatch.setattr(os, "_exit", _exit)
     monkeypatch.setattr(sys, "argv", ["xgo-show", *argv])
+    assert gc.isenabled()
     try:
         program()
     except _Exited as done:
+        assert not done.args[1]  # a quick command runs without the cyclic collector
         return "os._exit", int(done.args[0])
     except SystemExit as done:
+        assert gc.isenabled()
         return "sys.exit", int(done.code or 0)
+    finally:
+        gc.enable()
     raise AssertionError("program() returned")
 
 

@@ -9,6 +9,7 @@ load or compile) prints every one of them as ``file:line:col``, then that line.
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import logging
 import os
@@ -136,9 +137,10 @@ def program() -> None:
     nothing (for benchmarks/compile_cli.py's routine, validate ran 4.54 G instructions with
     it and 4.36 G without, by callgrind).
     """
-    code, args = _main(None)
+    code, args = _main(None, program=True)
     if getattr(args, "quick_exit", False):
         _exit_now(code)
+        gc.enable()  # not ended at once: the usual exit, with the collector as usual
     sys.exit(code)
 
 
@@ -157,9 +159,15 @@ def _exit_now(code: int) -> None:
     os._exit(code)
 
 
-def _main(argv: Sequence[str] | None) -> tuple[int, argparse.Namespace]:
+def _main(argv: Sequence[str] | None, *, program: bool = False
+          ) -> tuple[int, argparse.Namespace]:
     parser = build_parser(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
+    if program and getattr(args, "quick_exit", False) and not getattr(args, "watch", False):
+        # A process that ends when the command returns: its imports (pydantic's thousands of
+        # objects) make no garbage worth the collector's passes over them, and the loader and
+        # the compiler pause it anyway.
+        gc.disable()
     _log_traffic()
     if getattr(args, "watch", False):
         from xgo_show.cli.watch import watch
