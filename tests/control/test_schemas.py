@@ -73,3 +73,9 @@ def test_a_reply_with_a_field_the_schema_does_not_know_is_invalid() -> None:
     validator = jsonschema.Draft202012Validator(definition("reply-trigger"))
     assert not list(validator.iter_errors(good))
     assert list(validator.iter_errors({**good, "surprise": 1}))
+
+
+def test_a_definition_is_a_schema_of_its_own_draft_for_one_payload() -> None:
+    whole = api_schema()
+    assert definition("reply-start") == {"$schema": whole["$schema"], "$defs": whole["$defs"],
+                                         "$ref": "#/$defs/reply-start"}
