@@ -18,10 +18,17 @@ CLOCK_MONOTONIC time base the runner and the simulators use). Each frame's deliv
 It also records the kernel stack of every writer that goes to sleep uninterruptibly (state
 D) and, for the latest issues, which of this process's threads were preempted meanwhile.
 
+With ``--relays`` the same four robots are played, in the same run after the local runner,
+by four ``xgo-show relay`` processes (one robot each, as ``benchmarks/relay_sync.py`` runs
+them), with this process as their conductor (clock tracker, heartbeats); their writes' times
+come from the relays' ``frames_host`` trace (``XGO_SHOW_TEST_TRACE``). For both it prints what
+ran on the machine's CPUs between each write and its receipt, per frame: what a relayed
+robot's delivery waits for that a local one's does not.
+
 Needs root (or tracefs access). Prints figures only. Usage::
 
     python benchmarks/delivery_trace.py [--seconds 20] [--busy] [--sim fifo|nice|normal]
-                                        [--no-realtime] [--worst 5]
+                                        [--no-realtime] [--worst 5] [--relays]
 """
 
 from __future__ import annotations
@@ -29,8 +36,11 @@ from __future__ import annotations
 import argparse
 import bisect
 import contextlib
+import dataclasses
+import json
 import os
 import re
+import signal
 import subprocess
 import sys
 import tempfile
@@ -44,6 +54,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import runtime_timing as rt
 
+from xgo_show.compiler.schedule import Schedule
 from xgo_show.runtime import realtime
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import Event, FrameSent
@@ -160,8 +171,10 @@ def first_at(times: list[float], t: float) -> int:
     return bisect.bisect_left(times, t)
 
 
-def who_ran(tr: Trace, cpu: int, a: float, b: float) -> dict[str, float]:
-    """ms each task (comm/prio) ran on ``cpu`` between ``a`` and ``b``."""
+def who_ran(tr: Trace, cpu: int, a: float, b: float,
+            roles: dict[int, str] | None = None) -> dict[str, float]:
+    """ms each task (comm/prio; its name in ``roles`` if there) ran on ``cpu`` between ``a``
+    and ``b``."""
     sw = tr.switches[cpu]
     times = [s[0] for s in sw]
     i = max(0, bisect.bisect_right(times, a) - 1)
@@ -169,7 +182,9 @@ def who_ran(tr: Trace, cpu: int, a: float, b: float) -> dict[str, float]:
     while i < len(sw) and sw[i][0] < b:
         start = max(a, sw[i][0])
         end = min(b, sw[i + 1][0]) if i + 1 < len(sw) else b
-        _, comm, _pid, prio = sw[i]
+        _, comm, pid, prio = sw[i]
+        if roles is not None and pid in roles:
+            comm = roles[pid]
         # kernel prio: < 100 real-time (99 - rt priority), 120 = nice 0
         out[f"{comm}({'rt' + str(99 - prio) if prio < 100 else 'n' + str(prio - 120)})"] += (
             (end - start) * 1000.0)
@@ -235,93 +250,265 @@ def breakdown(tr: Trace, issued: list[tuple[float, str, int]],
     return frames
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=20.0)
-    parser.add_argument("--busy", action="store_true", help="one more process keeps a CPU busy")
-    parser.add_argument("--sim", choices=["fifo", "nice", "normal"], default="fifo",
-                        help="the simulators' priority (default: SCHED_FIFO 20)")
-    parser.add_argument("--no-realtime", action="store_true", help="normal-priority writers")
-    parser.add_argument("--worst", type=int, default=6, help="frames to show in detail")
-    parser.add_argument("--busy-cpu", type=int, help="pin the busy process to this CPU")
-    parser.add_argument("--raise-kworkers", action="store_true",
-                        help="an intervention, not a fix: the unbound kernel workers run under "
-                        "SCHED_FIFO 5 for the run (root; set back to normal after)")
-    args = parser.parse_args()
-    schedule = rt.make_schedule(args.seconds, 50.0)
-    print(f"load average {os.getloadavg()[0]:.2f}; sims {args.sim}; writers "
-          f"{'normal' if args.no_realtime else 'SCHED_FIFO 10'}; "
-          f"{'one CPU busy' if args.busy else 'no extra load'}; {args.seconds:g} s")
-    with tempfile.TemporaryDirectory() as tmpdir:
-        sims = rt.start_sims(Path(tmpdir), args.sim)
-        links: dict[str, Transport] = {}
-        busy = None
-        stack = contextlib.ExitStack()
-        tracer = Tracer(sims.tids)
+@dataclass
+class Played:
+    """One traced play of the schedule: the trace, every frame's write, and who is who."""
+
+    label: str
+    lines: list[str]
+    issued: list[tuple[float, str, int]]  # (write time, performer, writer thread)
+    late: list[tuple[float, float, int]]  # (planned, issued, writer) of writes > 1 ms late
+    names: dict[int, str]  # the writers' process's threads (in this process only)
+    roles: dict[int, str]  # thread id -> a name for the tables of what ran
+    window: tuple[float, float]  # the simulators' receive times that belong to this play
+
+
+def play_local(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
+               tracer: Tracer) -> Played:
+    """The schedule played by a local runner in this process (``xgo-show run``'s way)."""
+    links: dict[str, Transport] = {}
+    busy = None
+    stack = contextlib.ExitStack()
+    try:
+        for perf, path in zip(schedule.performers, sims.paths, strict=True):
+            links[perf.name] = open_transport(path, baudrate=perf.link.baud)
+            links[perf.name].open()
+        if args.busy:
+            busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+            if args.busy_cpu is not None:
+                os.sched_setaffinity(busy.pid, {args.busy_cpu})
+        if args.raise_kworkers:
+            workers = rt.RaisedWorkers()
+            stack.enter_context(workers)
+        issued: list[tuple[float, str, int]] = []
+        late: list[tuple[float, float, int]] = []  # (planned, issued, writer) > 1 ms late
+
+        def on_frame(event: Event) -> None:
+            if isinstance(event, FrameSent) and event.kind == "frame":
+                issued.append((event.t, event.performer, threading.get_native_id()))
+                if event.error is not None and event.error > 0.001:
+                    late.append((event.t - event.error, event.t, threading.get_native_id()))
+
+        names: dict[int, str] = {}  # this process's threads: native id -> name
+        sampling = threading.Event()
+
+        def sample() -> None:  # rarely: this thread holds Python's lock meanwhile
+            while not sampling.wait(2.0):
+                names.update({th.native_id: th.name for th in threading.enumerate()
+                              if th.native_id is not None})
+
+        sampler = threading.Thread(target=sample, daemon=True)
+        sampler.start()
+
+        runner = local_runner(schedule, links, clock=MonotonicClock())
+        runner.events.subscribe(on_frame, FrameSent)
+        saved = realtime.policy()
+        realtime.configure("off" if args.no_realtime else "required")
+        begin = time.monotonic()
+        tracer.start()
         try:
-            for perf, path in zip(schedule.performers, sims.paths, strict=True):
-                links[perf.name] = open_transport(path, baudrate=perf.link.baud)
-                links[perf.name].open()
-            if args.busy:
-                busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
-                if args.busy_cpu is not None:
-                    os.sched_setaffinity(busy.pid, {args.busy_cpu})
-            if args.raise_kworkers:
-                workers = rt.RaisedWorkers()
-                stack.enter_context(workers)
-            issued: list[tuple[float, str, int]] = []
-            late: list[tuple[float, float, int]] = []  # (planned, issued, writer) > 1 ms late
-
-            def on_frame(event: Event) -> None:
-                if isinstance(event, FrameSent) and event.kind == "frame":
-                    issued.append((event.t, event.performer, threading.get_native_id()))
-                    if event.error is not None and event.error > 0.001:
-                        late.append((event.t - event.error, event.t,
-                                     threading.get_native_id()))
-
-            names: dict[int, str] = {}  # this process's threads: native id -> name
-            sampling = threading.Event()
-
-            def sample() -> None:  # rarely: this thread holds Python's lock meanwhile
-                while not sampling.wait(2.0):
-                    names.update({th.native_id: th.name for th in threading.enumerate()
-                                  if th.native_id is not None})
-
-            sampler = threading.Thread(target=sample, daemon=True)
-            sampler.start()
-
-            runner = local_runner(schedule, links, clock=MonotonicClock())
-            runner.events.subscribe(on_frame, FrameSent)
-            saved = realtime.policy()
-            realtime.configure("off" if args.no_realtime else "required")
-            tracer.start()
-            try:
-                result = runner.run(lead=0.3, handle_signals=False)
-                time.sleep(0.3)
-            finally:
-                lines = tracer.stop()
-                realtime.restore(saved)
-                sampling.set()
-            if not result.completed:
-                raise SystemExit(f"the run did not complete: {result.reason}")
-            if args.raise_kworkers:
-                stack.close()
-                print(f"  {workers.raised} unbound kernel workers ran under SCHED_FIFO 5")
+            result = runner.run(lead=0.3, handle_signals=False)
+            time.sleep(0.3)
         finally:
+            lines = tracer.stop()
+            realtime.restore(saved)
+            sampling.set()
+        if not result.completed:
+            raise SystemExit(f"the run did not complete: {result.reason}")
+        if args.raise_kworkers:
             stack.close()
-            if busy is not None:
-                busy.kill()
-                busy.wait()
-            tracer.close()
-            for link in links.values():
-                link.close()
-            rt.stop_sims(sims)
-        received = {}
-        wanted = {bytes(f.data) for p in schedule.performers for f in p.frames}
-        for perf, record in zip(schedule.performers, sims.records, strict=True):
-            received[perf.name] = [t for t, data in rt.read_records(record)
-                                   if data[3] != TYPE_READ and data in wanted]
-    print(f"load average {os.getloadavg()[0]:.2f} at the end; {len(lines)} trace lines")
+            print(f"  {workers.raised} unbound kernel workers ran under SCHED_FIFO 5")
+    finally:
+        stack.close()
+        if busy is not None:
+            busy.kill()
+            busy.wait()
+        for link in links.values():
+            link.close()
+    roles = {tid: f"local:{name[:18]}" for tid, name in names.items()}
+    return Played("local runner, one process, 4 robots", lines, issued, late, names, roles,
+                  (begin, time.monotonic()))
+
+
+def _tasks(pid: int) -> dict[int, str]:
+    """A process's threads: id -> its name (comm), {} once it has gone."""
+    out = {}
+    with contextlib.suppress(OSError):
+        for task in os.listdir(f"/proc/{pid}/task"):
+            with contextlib.suppress(OSError):
+                out[int(task)] = Path(f"/proc/{pid}/task/{task}/comm").read_text().strip()
+    return out
+
+
+def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tracer: Tracer,
+                tmp: Path) -> Played:
+    """The schedule played by one ``xgo-show relay`` process per robot, this process their
+    conductor (heartbeats every 0.1 s, a clock tracker each, as ``run`` does)."""
+    import socket
+
+    from xgo_show.compiler.artifact import schedule_to_bytes
+    from xgo_show.net.keys import relay_key
+    from xgo_show.net.session import SessionOptions, open_session
+    from xgo_show.net.testhooks import TRACE_ENV
+    from xgo_show.net.timesync import ClockTracker
+    from xgo_show.relay.client import RelayClient
+    from xgo_show.relay.validate import schedule_digest
+
+    procs: list[subprocess.Popen[str]] = []
+    ports, logs = [], []
+    for i, (perf, path) in enumerate(zip(schedule.performers, sims.paths, strict=True)):
+        with socket.socket() as sock:
+            sock.bind(("127.0.0.1", 0))
+            ports.append(int(sock.getsockname()[1]))
+        logs.append(tmp / f"relay{i}.jsonl")
+        procs.append(subprocess.Popen(
+            [sys.executable, "-m", "xgo_show", "relay", "--name", f"trace{i}",
+             "--map", f"{perf.name}={path}", "--listen", f"tcp/127.0.0.1:{ports[-1]}",
+             "--no-telemetry", "--log", str(logs[-1]),
+             *(["--no-realtime"] if args.no_realtime else [])],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            env={**os.environ, TRACE_ENV: "1"}))
+    roles: dict[int, str] = {}
+    sampling = threading.Event()
+
+    def sample() -> None:  # the relays' threads, with their names (Zenoh's: rx-0, tx-0...)
+        while True:
+            for i, proc in enumerate(procs):
+                roles.update({t: f"relay{i}:{c}" for t, c in _tasks(proc.pid).items()})
+            roles.update({t: f"conductor:{c}" for t, c in _tasks(os.getpid()).items()})
+            if sampling.wait(0.5):
+                return
+
+    session = None
+    clients: list[RelayClient] = []
+    trackers: list[ClockTracker] = []
+    try:
+        for proc in procs:
+            assert proc.stdout is not None
+            if "ready" not in proc.stdout.readline():
+                err = proc.stderr.read() if proc.stderr else ""
+                raise SystemExit(f"a relay did not start: {err}")
+        session = open_session(SessionOptions(
+            connect=tuple(f"tcp/127.0.0.1:{p}" for p in ports), listen=("tcp/127.0.0.1:0",)))
+        shas = []
+        for i, perf in enumerate(schedule.performers):
+            client = RelayClient(session, f"trace{i}")
+            client.request("hello", timeout=10.0)  # resent until the session has a route
+            client.start_heartbeat(period=0.1, watchdog=0.5)
+            clients.append(client)
+            tracker = ClockTracker(session, relay_key("xgo-show", f"trace{i}", "time"),
+                                   conductor=client.conductor.id, interval=1.0)
+            tracker.start()
+            trackers.append(tracker)
+            text = schedule_to_bytes(dataclasses.replace(schedule, performers=(perf,))).decode(
+                "ascii")
+            shas.append(schedule_digest(text))
+            if not client.upload(text, shas[-1], watchdog_ms=3000)["preflight_ok"]:
+                raise SystemExit(f"relay trace{i}: the pre-flight failed")
+        sampler = threading.Thread(target=sample, daemon=True)
+        sampler.start()
+        begin = time.monotonic()
+        tracer.start()
+        try:
+            start_at = time.monotonic() + 1.0
+            for client, sha in zip(clients, shas, strict=True):
+                client.request("start", sha256=sha, start_at=start_at, offset=0.0)
+            deadline = start_at + schedule.duration + 15.0
+            for client in clients:
+                while client.command("heartbeat")["show"]["state"] not in ("ended", "idle"):
+                    if time.monotonic() > deadline:
+                        raise SystemExit(f"relay {client.relay}: the show did not end")
+                    time.sleep(0.1)
+            time.sleep(0.3)
+        finally:
+            lines = tracer.stop()
+            sampling.set()
+    finally:
+        for client in clients:
+            client.stop_heartbeat()
+        for tracker in trackers:
+            tracker.close()
+        if session is not None:
+            session.close()  # type: ignore[no-untyped-call]
+        for proc in procs:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        for proc in procs:
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(5)
+    issued: list[tuple[float, str, int]] = []
+    late: list[tuple[float, float, int]] = []
+    queued = parse([ln for ln in lines if "workqueue_queue_work" in ln]).queued
+    for i, (perf, log) in enumerate(zip(schedule.performers, logs, strict=True)):
+        mine = [t for t, role in roles.items() if role.startswith(f"relay{i}:")]
+        writer = max(mine, key=lambda t: len(queued.get(t, [])))  # the one that writes
+        for line in log.read_text(encoding="utf-8").splitlines():
+            rec = json.loads(line)
+            if rec.get("event") != "frames_host":
+                continue
+            for _index, planned, actual, _seen in rec["frames"][perf.name]:
+                issued.append((float(actual), perf.name, writer))
+                if actual - planned > 0.001:
+                    late.append((float(planned), float(actual), writer))
+    issued.sort()
+    return Played("relays, one process per robot", lines, issued, late, {}, roles,
+                  (begin, time.monotonic()))
+
+
+def _kind(label: str) -> str:
+    """A task's kind: its name without the numbers that tell one relay, robot or worker from
+    another (relay2:rx-1(n0) -> relay:rx-N(n0))."""
+    return re.sub(r"(relay|sim|rx-|tx-|acc-|app-|net-|kworker/u\d+:)\d+", r"\1N", label)
+
+
+def during_delivery(tr: Trace, frames: list[Frame], roles: dict[int, str]) -> None:
+    """What ran on every CPU between each frame's write and its receipt (ms per frame), and
+    how long the frame's own writer ran in that time (its hand-off's wake-up, its listeners)."""
+    cpus = sorted(tr.switches)
+    total: dict[str, float] = defaultdict(float)
+    present: dict[str, int] = defaultdict(int)
+    own: list[float] = []
+    for f in frames:
+        seen = set()
+        mine = 0.0
+        for cpu in cpus:
+            sw = tr.switches[cpu]
+            times = [x[0] for x in sw]
+            i = max(0, bisect.bisect_right(times, f.issue) - 1)
+            while i < len(sw) and sw[i][0] < f.receive:
+                if sw[i][2] == f.tid:
+                    end = min(f.receive, sw[i + 1][0]) if i + 1 < len(sw) else f.receive
+                    mine += (end - max(f.issue, sw[i][0])) * 1000
+                i += 1
+            for k, v in who_ran(tr, cpu, f.issue, f.receive, roles).items():
+                total[_kind(k)] += v
+                seen.add(_kind(k))
+        own.append(mine)
+        for k in seen:
+            present[k] += 1
+    n = max(1, len(frames))
+    print(f"the frame's own writer on a CPU between its write and the receipt: p50 "
+          f"{percentile(own, .5):.3f} / p99 {percentile(own, .99):.3f} / mean "
+          f"{sum(own) / n:.3f} ms")
+    print(f"what ran between a frame's write and its receipt, on the {len(cpus)} CPUs, by kind "
+          "(ms per frame; share of frames it ran in):")
+    for k, v in sorted(total.items(), key=lambda kv: -kv[1])[:16]:
+        print(f"  {k:<40}{v / n:8.3f}{present[k] / n * 100:7.1f} %")
+
+
+def report(played: Played, schedule: Schedule, sims: rt.Sims, worst: int) -> None:
+    """The figures of one play."""
+    lines = played.lines
+    received = {}
+    wanted = {bytes(f.data) for p in schedule.performers for f in p.frames}
+    for perf, record in zip(schedule.performers, sims.records, strict=True):
+        received[perf.name] = [t for t, data in rt.read_records(record)
+                               if data[3] != TYPE_READ and data in wanted
+                               and played.window[0] <= t <= played.window[1]]
+    print(f"\n== {played.label}: {len(lines)} trace lines")
     stacks: dict[str, int] = defaultdict(int)
     for i, line in enumerate(lines):
         if "<stack trace>" in line:
@@ -337,9 +524,12 @@ def main() -> None:
             print(f"  {n:4d}  {stack}")
     tr = parse(lines)
     sim_tid = {p.name: tid for p, tid in zip(schedule.performers, sims.tids, strict=True)}
-    frames = breakdown(tr, issued, received, sim_tid)
+    frames = breakdown(tr, played.issued, received, sim_tid)
+    if not frames:
+        print("no frame followed through the trace")
+        return
     delivery = [(f.receive - f.issue) * 1000 for f in frames]
-    print(f"{len(frames)} of {len(issued)} frames followed through the trace")
+    print(f"{len(frames)} of {len(played.issued)} frames followed through the trace")
     print(f"{'ms':<10}{'p50':>8}{'p99':>8}{'p99.9':>8}{'max':>8}{'n':>7}   "
           f"(among the 1 % slowest deliveries: share of their time)")
     slow = sorted(frames, key=lambda f: f.receive - f.issue)[-max(1, len(frames) // 100):]
@@ -353,11 +543,12 @@ def main() -> None:
         share = sum(f.parts.get(part, 0.0) for f in slow) / slow_total * 100
         print(f"{part:<10}{percentile(vals, .5):>8.3f}{percentile(vals, .99):>8.3f}"
               f"{percentile(vals, .999):>8.3f}{max(vals):>8.2f}{len(vals):>7}   {share:5.1f} %")
-    late_issues(tr, late, names, args.worst)
-    slowest = sorted(frames, key=lambda f: f.receive - f.issue)[-args.worst:]
-    slow_writes = [f for f in sorted(frames, key=lambda f: f.parts["write"])[-args.worst:]
+    during_delivery(tr, frames, played.roles)
+    late_issues(tr, played.late, played.names, worst)
+    slowest = sorted(frames, key=lambda f: f.receive - f.issue)[-worst:]
+    slow_writes = [f for f in sorted(frames, key=lambda f: f.parts["write"])[-worst:]
                    if f.parts["write"] > 0.5 and f not in slowest]
-    print(f"\nthe {args.worst} slowest deliveries, and the slowest writes over 0.5 ms:")
+    print(f"\nthe {worst} slowest deliveries, and the slowest writes over 0.5 ms:")
     for f in slowest + slow_writes:
         parts = ", ".join(f"{k} {v:.2f}" for k, v in f.parts.items())
         print(f"  {f.perf} at {f.issue:.4f}: {(f.receive - f.issue) * 1000:.2f} ms = {parts}")
@@ -367,15 +558,55 @@ def main() -> None:
             for t, state, cpu in outs:
                 ins = [i for i in tr.switched_in.get(f.tid, []) if i >= t]
                 back = ins[0] if ins else q
-                ran = who_ran(tr, cpu, t, back)
+                ran = who_ran(tr, cpu, t, back, played.roles)
                 top = sorted(ran.items(), key=lambda kv: -kv[1])[:4]
                 print(f"    writer off its CPU {cpu} ({state}) for {(back - t) * 1000:.2f} ms: "
                       + ", ".join(f"{k} {v:.2f}" for k, v in top))
         if f.kw_window is not None and f.kw_cpu is not None and f.parts["kw wait"] > 0.5:
-            ran = who_ran(tr, f.kw_cpu, *f.kw_window)
+            ran = who_ran(tr, f.kw_cpu, *f.kw_window, played.roles)
             top = sorted(ran.items(), key=lambda kv: -kv[1])[:5]
             print(f"    while the worker waited on CPU {f.kw_cpu}: "
                   + ", ".join(f"{k} {v:.2f}" for k, v in top))
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--busy", action="store_true", help="one more process keeps a CPU busy")
+    parser.add_argument("--sim", choices=["fifo", "nice", "normal"], default="fifo",
+                        help="the simulators' priority (default: SCHED_FIFO 20)")
+    parser.add_argument("--no-realtime", action="store_true", help="normal-priority writers")
+    parser.add_argument("--worst", type=int, default=6, help="frames to show in detail")
+    parser.add_argument("--busy-cpu", type=int, help="pin the busy process to this CPU")
+    parser.add_argument("--raise-kworkers", action="store_true",
+                        help="an intervention, not a fix: the unbound kernel workers run under "
+                        "SCHED_FIFO 5 for the run (root; set back to normal after)")
+    parser.add_argument("--relays", action="store_true",
+                        help="then play the same robots through 4 relay processes, one robot each")
+    parser.add_argument("--only-relays", action="store_true", help="the relays alone")
+    args = parser.parse_args()
+    schedule = rt.make_schedule(args.seconds, 50.0)
+    print(f"load average {os.getloadavg()[0]:.2f}; sims {args.sim}; writers "
+          f"{'normal' if args.no_realtime else 'SCHED_FIFO 10'}; "
+          f"{'one CPU busy' if args.busy else 'no extra load'}; {args.seconds:g} s")
+    played: list[Played] = []
+    with tempfile.TemporaryDirectory() as tmpdir:
+        sims = rt.start_sims(Path(tmpdir), args.sim)
+        tracer = Tracer(sims.tids)
+        try:
+            if not args.only_relays:
+                played.append(play_local(args, schedule, sims, tracer))
+                print(f"local runner done, load average {os.getloadavg()[0]:.2f}")
+            if args.relays or args.only_relays:
+                played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir)))
+                print(f"relays done, load average {os.getloadavg()[0]:.2f}")
+        finally:
+            tracer.close()
+            rt.stop_sims(sims)
+        for p in played:
+            p.roles.update({tid: f"sim{i}" for i, tid in enumerate(sims.tids)})
+        for p in played:
+            report(p, schedule, sims, args.worst)
 
 def late_issues(tr: Trace, late: list[tuple[float, float, int]], names: dict[int, str],
                 worst: int) -> None:
