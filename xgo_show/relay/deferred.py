@@ -17,10 +17,20 @@ delivered and the next one is still far off. That thread runs just below the wri
 the first event until :data:`IDLE` passes without one), so a busy host's normal processes cannot
 preempt it while it holds Python's lock, which a writer waking for its next frame would then
 wait for.
+
+The thread is woken by a one-shot kernel timer the writer arms when it queues the first event
+(:class:`Alarm`, a Linux ``timerfd``), not by a notification: a notification woke the thread
+at once, right after the write, to go back to sleep for the delay, and that real-time wake-up
+landed on a CPU while the frame was being delivered (measured with
+``benchmarks/delivery_trace.py --relays --sim normal``: in 66 % of a relayed robot's frames,
+0.06 ms per frame on average). Arming a timer wakes nobody.
 """
 
 from __future__ import annotations
 
+import ctypes
+import os
+import sys
 import threading
 import time
 from collections import deque
@@ -29,7 +39,7 @@ from collections.abc import Callable, Sequence
 from xgo_show.runtime.events import Event, EventBus, Subscription
 from xgo_show.runtime.realtime import HELPER_PRIORITY, enter_show_thread, leave_show_thread
 
-__all__ = ["BACKLOG", "DELAY", "IDLE", "DeferredListeners"]
+__all__ = ["BACKLOG", "DELAY", "IDLE", "Alarm", "DeferredListeners"]
 
 #: Seconds from an event to its listeners: past a frame's delivery (about 1 ms on a busy host),
 #: well before the next frame at 20-50 frames a second.
@@ -41,6 +51,89 @@ IDLE = 0.3
 BACKLOG = 100_000
 
 Listener = Callable[[Event], object]
+
+_CLOCK_MONOTONIC = 1
+_TFD_CLOEXEC = 0o2000000
+
+
+class _Timespec(ctypes.Structure):
+    _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
+
+
+class _Itimerspec(ctypes.Structure):
+    _fields_ = [("it_interval", _Timespec), ("it_value", _Timespec)]
+
+
+def _timerfd() -> tuple[int, Callable[..., int]] | None:
+    """A Linux timerfd and its ``timerfd_settime``, or None where there is none."""
+    if not sys.platform.startswith("linux"):
+        return None
+    try:
+        # PyDLL: the call keeps Python's lock, so a writer that arms the timer never hands the
+        # lock to another thread it would then wait for.
+        libc = ctypes.PyDLL(None, use_errno=True)
+        create, settime = libc.timerfd_create, libc.timerfd_settime
+    except (OSError, AttributeError):
+        return None
+    fd = int(create(_CLOCK_MONOTONIC, _TFD_CLOEXEC))
+    if fd < 0:
+        return None
+    settime.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.POINTER(_Itimerspec), ctypes.c_void_p]
+    return fd, settime
+
+
+class Alarm:
+    """A one-shot timer: one thread :meth:`wait` s for it, any thread :meth:`arm` s it.
+
+    On Linux a ``timerfd``: the kernel fires it at the time set, so arming it wakes nobody (a
+    writer arms it right after its write). Elsewhere a condition variable, whose waiter wakes
+    to take each new time. Arming again replaces the time set; every arming ends one wait, at
+    the latest time set before it fired.
+    """
+
+    def __init__(self) -> None:
+        self._kernel = _timerfd()
+        self._cond = threading.Condition()
+        self._at: float | None = None
+
+    def arm(self, delay: float) -> None:
+        """Fire ``delay`` seconds from now (0: at once)."""
+        if self._kernel is not None:
+            fd, settime = self._kernel
+            ns = max(1, round(delay * 1e9))  # 0 would disarm it
+            spec = _Itimerspec(_Timespec(0, 0), _Timespec(ns // 1_000_000_000, ns % 1_000_000_000))
+            if settime(fd, 0, ctypes.byref(spec), None) == 0:
+                return
+            self.close()  # cannot happen with a valid fd; the portable way from here on
+        with self._cond:
+            self._at = time.monotonic() + delay
+            self._cond.notify_all()
+
+    def wait(self) -> None:
+        """Until the timer fires."""
+        if self._kernel is not None:
+            try:
+                os.read(self._kernel[0], 8)
+                return
+            except OSError:
+                if self._kernel is not None:
+                    raise
+        with self._cond:
+            while True:
+                if self._at is not None:
+                    left = self._at - time.monotonic()
+                    if left <= 0:
+                        self._at = None
+                        return
+                    self._cond.wait(left)
+                else:
+                    self._cond.wait()
+
+    def close(self) -> None:
+        """Give the timerfd back (the alarm keeps working, the portable way)."""
+        kernel, self._kernel = self._kernel, None
+        if kernel is not None:
+            os.close(kernel[0])
 
 
 class DeferredListeners:
@@ -65,9 +158,11 @@ class DeferredListeners:
         self.dropped = 0
         self.listener_errors = 0
         self._cond = threading.Condition()
-        self._queue: deque[tuple[float, Event]] = deque()
+        self._alarm = Alarm()
+        self._queue: deque[Event] = deque()
         self._queued = 0  # events ever queued, and handed on (for flush)
         self._done = 0
+        self._last = 0.0  # when the newest event was queued
         self._closed = False
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
@@ -80,34 +175,25 @@ class DeferredListeners:
             if len(self._queue) >= BACKLOG:
                 self.dropped += 1
                 return
-            self._queue.append((time.monotonic(), event))
+            self._queue.append(event)
             self._queued += 1
+            self._last = time.monotonic()
             if len(self._queue) == 1:
-                self._cond.notify_all()
+                self._alarm.arm(self.delay)  # in the kernel: this wakes nobody now
+            elif len(self._queue) == BACKLOG // 2:
+                self._alarm.arm(0.0)  # hand on before the queue fills
 
     def _run(self) -> None:
         raised = False
         try:
             while True:
-                with self._cond:
-                    while not self._queue and not self._closed:
-                        if not self._cond.wait(IDLE if raised else None) and raised:
-                            leave_show_thread()  # no show: nothing real-time between shows
-                            raised = False
-                    if not self._queue:
-                        return  # closed and drained
-                    oldest = self._queue[0][0]
-                    hurry = self._closed or self._queued > self._done + BACKLOG // 2
-                if self.realtime and not raised:
-                    raised = enter_show_thread(HELPER_PRIORITY)
-                wait = oldest + self.delay - time.monotonic()
-                if wait > 0 and not hurry:
-                    with self._cond:  # flush() and close() wake it to hand on at once
-                        self._cond.wait(wait)
+                self._alarm.wait()
                 with self._cond:
                     batch = list(self._queue)
                     self._queue.clear()
-                for _, event in batch:
+                if batch and self.realtime and not raised:
+                    raised = enter_show_thread(HELPER_PRIORITY)
+                for event in batch:
                     for listener in self.listeners:
                         try:
                             listener(event)
@@ -116,22 +202,38 @@ class DeferredListeners:
                 with self._cond:
                     self._done += len(batch)
                     self._cond.notify_all()
+                    if self._queue:
+                        continue  # its first event armed the alarm
+                    if self._closed:
+                        return  # closed and drained
+                    if raised:  # no show: nothing real-time between shows
+                        quiet = time.monotonic() - self._last
+                        if quiet < IDLE:
+                            self._alarm.arm(IDLE - quiet)
+                            continue
+                if raised:
+                    leave_show_thread()
+                    raised = False
         finally:
             if raised:
                 leave_show_thread()
+            with self._cond:  # arming happens under this lock: no arming of a closed fd
+                self._alarm.close()
 
     def flush(self, timeout: float = 2.0) -> bool:
         """Hand on every event published so far now; False if that took over ``timeout``."""
         deadline = time.monotonic() + timeout
         with self._cond:
             target = self._queued
-            self._cond.notify_all()  # cut the thread's wait short
+            if self._done < target:
+                self._alarm.arm(0.0)  # cut the thread's wait short
             while self._done < target:
                 left = deadline - time.monotonic()
                 if left <= 0 or not self._thread.is_alive():
                     return False
-                self._cond.notify_all()
                 self._cond.wait(min(left, 0.01))
+                if self._queue and self._done < target:
+                    self._alarm.arm(0.0)  # a writer's arming replaced ours
             return True
 
     def close(self) -> None:
@@ -139,5 +241,5 @@ class DeferredListeners:
         self._sub.close()
         with self._cond:
             self._closed = True
-            self._cond.notify_all()
+            self._alarm.arm(0.0)
         self._thread.join(2.0)
