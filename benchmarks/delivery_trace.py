@@ -465,38 +465,46 @@ def _kind(label: str) -> str:
 
 
 def during_delivery(tr: Trace, frames: list[Frame], roles: dict[int, str]) -> None:
-    """What ran on every CPU between each frame's write and its receipt (ms per frame), and
-    how long the frame's own writer ran in that time (its hand-off's wake-up, its listeners)."""
+    """What ran on every CPU between each frame's write and its receipt (ms per frame, and
+    when it first ran after the write), and how long the frame's own writer ran in that time
+    (its hand-off's wake-up, its listeners)."""
     cpus = sorted(tr.switches)
     total: dict[str, float] = defaultdict(float)
-    present: dict[str, int] = defaultdict(int)
+    first: dict[str, list[float]] = defaultdict(list)
     own: list[float] = []
     for f in frames:
-        seen = set()
         mine = 0.0
+        began: dict[str, float] = {}
         for cpu in cpus:
             sw = tr.switches[cpu]
             times = [x[0] for x in sw]
             i = max(0, bisect.bisect_right(times, f.issue) - 1)
             while i < len(sw) and sw[i][0] < f.receive:
-                if sw[i][2] == f.tid:
-                    end = min(f.receive, sw[i + 1][0]) if i + 1 < len(sw) else f.receive
-                    mine += (end - max(f.issue, sw[i][0])) * 1000
+                t, comm, pid, prio = sw[i]
+                end = min(f.receive, sw[i + 1][0]) if i + 1 < len(sw) else f.receive
+                start = max(f.issue, t)
+                if pid == f.tid:
+                    mine += (end - start) * 1000
+                name = roles.get(pid, comm) if roles else comm
+                level = f"rt{99 - prio}" if prio < 100 else f"n{prio - 120}"
+                kind = _kind(f"{name}({level})")
+                total[kind] += (end - start) * 1000
+                if end > start:
+                    began[kind] = min(began.get(kind, end), start)
                 i += 1
-            for k, v in who_ran(tr, cpu, f.issue, f.receive, roles).items():
-                total[_kind(k)] += v
-                seen.add(_kind(k))
         own.append(mine)
-        for k in seen:
-            present[k] += 1
+        for k, t in began.items():
+            first[k].append((t - f.issue) * 1000)
     n = max(1, len(frames))
     print(f"the frame's own writer on a CPU between its write and the receipt: p50 "
           f"{percentile(own, .5):.3f} / p99 {percentile(own, .99):.3f} / mean "
           f"{sum(own) / n:.3f} ms")
-    print(f"what ran between a frame's write and its receipt, on the {len(cpus)} CPUs, by kind "
-          "(ms per frame; share of frames it ran in):")
+    print(f"what ran between a frame's write and its receipt, on the {len(cpus)} CPUs, by kind: "
+          "ms per frame, share of frames it ran in, and p50 of when it first ran (ms after the "
+          "write)")
     for k, v in sorted(total.items(), key=lambda kv: -kv[1])[:16]:
-        print(f"  {k:<40}{v / n:8.3f}{present[k] / n * 100:7.1f} %")
+        print(f"  {k:<40}{v / n:8.3f}{len(first[k]) / n * 100:7.1f} %"
+              f"{percentile(first[k], .5) if first[k] else 0.0:9.3f}")
 
 
 def report(played: Played, schedule: Schedule, sims: rt.Sims, worst: int) -> None:
