@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from tests.relay.conftest import claim, upload_text
+from tests.relay.processes import READY_TIMEOUT
 from xgo_show.compiler.artifact import save_schedule
 from xgo_show.net.testhooks import CLOCK_ENV, TRACE_ENV
 
@@ -237,7 +238,14 @@ def test_eight_relays_start_together_on_a_lead_from_measured_round_trips(
     # Start commands go out together (one round trip for all), so the lead is the slowest
     # relay's, not the sum: sent one after another, eight starts on a busy machine miss it.
     names = [f"r{i}" for i in range(8)]
-    started = relays.start_many({f"host{i}": {n: "mini"} for i, n in enumerate(names)})
+    # Each relay logs its first frame's write on this machine's clock (XGO_SHOW_TEST_TRACE).
+    logs = [tmp_path / f"host{i}.jsonl" for i in range(8)]
+    started = [
+        relays.spawn(f"host{i}", {n: "mini"}, "--log", str(logs[i]), env={TRACE_ENV: "1"})
+        for i, n in enumerate(names)
+    ]
+    for relay in started:  # they share the CPUs while starting: give each its share
+        relays.ready(relay, READY_TIMEOUT * 4)
     show = walk(0.4, **dict.fromkeys(names, "mini"))
     save_schedule(show, tmp_path / "s.xshow.json")
     log = tmp_path / "run.jsonl"
@@ -256,9 +264,15 @@ def test_eight_relays_start_together_on_a_lead_from_measured_round_trips(
     # an idle machine, 0.59 s seen with 8 relays on 2 CPUs at load 8; sent one after another,
     # eight starts would need eight relays' worth, which would not fit.
     assert lead < 1.0, f"lead {lead:.3f} s"
-    firsts = []
-    for relay, name in zip(started, names, strict=True):
+    writes = []
+    for relay, name, relay_log in zip(started, names, logs, strict=True):
         sent = [f.data for f in show.performer(name).frames]
         assert [d for d in relay.received(name) if d in sent] == sent
-        firsts.append(relay.time_of(name, sent[0]))
-    assert max(firsts) - min(firsts) < 0.020  # 8 processes on a shared, busy 2-CPU machine
+        first = next(r for r in read_log(relay_log) if r.get("event") == "first_frame")
+        writes.append(first["actual_host"])
+    # The relays wrote their first frames together: 8 relay processes with SCHED_FIFO writers
+    # on a shared, busy 2-CPU machine. (Not the receive times: the simulators are threads of
+    # this test process, which a busy machine stalls for tens of ms, some of them behind the
+    # others: seen 20.6 ms for 2 of 8 in a full suite at load 10-17. benchmarks/relay_sync.py
+    # measures the receive times with a simulator process per robot.)
+    assert max(writes) - min(writes) < 0.020, writes
