@@ -294,7 +294,10 @@ def claim(session: object, relay: Relay, *, sync: bool = True) -> None:
     for attempt in range(3):
         client = RelayClient(session, relay.name)  # type: ignore[arg-type]
         client.request("hello", timeout=10.0)  # resent until the session has a route
-        client.start_heartbeat(period=0.1, watchdog=0.5)
+        # 3 s, as the relays' watchdog in upload(): a conductor that hears no answer for its
+        # watchdog gives the relay up and stops heartbeating it (seen at load 15: a drift
+        # show's relay then let its holder go, and the run ended with a traceback).
+        client.start_heartbeat(period=0.1, watchdog=3.0)
         relay.client = client
         if not sync:
             return
