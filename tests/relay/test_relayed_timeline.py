@@ -93,7 +93,11 @@ def test_pauses_and_resumes_are_on_the_timeline_at_the_relays_times(
     assert abs(paused.t - pause_at) < EXACT, paused.t - pause_at
     assert abs(paused.show_time - (pause_at - start_at)) < 1e-3
     assert abs(resumed.t - resume_at) < EXACT, resumed.t - resume_at
-    assert abs(resumed.show_time - paused.show_time) < 1e-3  # it goes on where it stopped
+    # It goes on where it stopped: its show time when it said so is the paused one plus how
+    # late after the resume time it said so (a loaded machine wakes it a few ms late: seen
+    # 2.0 ms in a full suite at load 10-15, which a bare "< 1 ms" took for a jump).
+    lateness = resumed.t - resume_at
+    assert abs(resumed.show_time - paused.show_time - lateness) < 1e-3, lateness
     logged = [(r["state"], r["t"]) for r in records]
     assert ("paused", round(paused.t, 6)) in logged and ("running", round(resumed.t, 6)) in logged
     assert [r["state"] for r in records][-1] == "finished"
