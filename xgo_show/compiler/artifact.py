@@ -66,6 +66,7 @@ from xgo_show.compiler.schedule import (
     PerformerSchedule,
     Schedule,
     ScheduledFrame,
+    frame_columns,
 )
 from xgo_show.compiler.state import frame_labels
 from xgo_show.diagnostics import Origin
@@ -109,7 +110,7 @@ if (array(_U16).itemsize, array(_U32).itemsize, array(_U64).itemsize) != (2, 4, 
 _BIG_ENDIAN = sys.byteorder == "big"
 
 
-def _column(code: str, values: list[int]) -> bytes:
+def _column(code: str, values: Sequence[int]) -> bytes:
     col = array(code, values)
     if _BIG_ENDIAN:
         col.byteswap()
@@ -117,28 +118,28 @@ def _column(code: str, values: list[int]) -> bytes:
 
 
 def _performer_columns(p: PerformerSchedule, ref: OriginRef) -> bytes:
-    frames = p.frames
-    # to_us (round(seconds * 1e6)) inlined, C-level maps where they do, and the last origin's
-    # index reused: these run once per frame, and a cue's frames mostly follow one another.
-    times = [round(f.t * 1_000_000) for f in frames]
+    # The columns as the compiler made them (frame_columns: no frame objects made), C-level
+    # maps where they do, and the last origin's index reused: these run once per frame, and a
+    # cue's frames mostly follow one another.
+    times, data, frame_origins, durations, _ = frame_columns(p.frames)
     deltas = list(map(sub, times, itertools.chain((0,), times)))
     if min(deltas, default=0) < 0:
         raise ScheduleError(f"performer {p.name}: frames are not in time order")
     origins: list[int] = []
     last: object = None
     index = 0
-    for f in frames:
-        if f.origin is not last:
-            last = f.origin
-            found = ref(f.origin)
+    for origin in frame_origins:
+        if origin is not last:
+            last = origin
+            found = ref(origin)
             index = 0 if found is None else found + 1
         origins.append(index)
-    data = [f.data for f in frames]
     return b"".join((
         _column(_U64, deltas),
         _column(_U16, list(map(len, data))),
         _column(_U32, origins),
-        _column(_U64, [round(f.duration * 1_000_000) if f.duration else 0 for f in frames]),
+        _column(_U64, [round(d * 1_000_000) if d else 0 for d in durations]
+                if any(durations) else [0] * len(durations)),
         *data,
     ))
 

@@ -6,10 +6,12 @@ for frame and byte for byte. Errors are collected over the whole show and raised
 
 from __future__ import annotations
 
+from operator import attrgetter
+
 from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
 from xgo_show.compiler.frames import cue_label, to_us
 from xgo_show.compiler.pacing import PaceResult, pace
-from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
+from xgo_show.compiler.schedule import FrameColumns, Frames, PerformerSchedule, Schedule
 from xgo_show.compiler.state import frame_labels
 from xgo_show.diagnostics import Diagnostic, once_each
 from xgo_show.errors import CompileError, ProfileError
@@ -19,6 +21,9 @@ from xgo_show.profiles.model import Link, Profile
 from xgo_show.profiles.registry import get_profile
 
 __all__ = ["compile_diagnostics", "compile_show"]
+
+# A planned frame's fields, read at C level (once per frame of the show)
+_DATA, _ORIGIN, _DURATION = attrgetter("data"), attrgetter("origin"), attrgetter("duration")
 
 
 def compile_show(show: ResolvedShow) -> Schedule:
@@ -146,17 +151,18 @@ def _compile_track(
             "went out with later frames",
             paced.first_drop_origin, path,
         ))
-    # Labels are derived from the bytes when read (see ScheduledFrame.label): most never are.
-    labels = frame_labels(profile)
-    frames = [
-        ScheduledFrame(start_us / 1_000_000, f.data, f.origin, f.duration, labels)
-        for start_us, f in zip(paced.starts, paced.sent, strict=True)
-    ] if keep else []
+    # Columns, made into frames when read (see Frames); labels are derived from the bytes
+    # when read (see ScheduledFrame.label): most never are.
+    sent = paced.sent if keep else []
+    frames = Frames(FrameColumns(
+        paced.starts if keep else [], list(map(_DATA, sent)), list(map(_ORIGIN, sent)),
+        list(map(_DURATION, sent)), frame_labels(profile),
+    ))
     end = plan.end if show.end is None else show.end
     if paced.starts:
         end = max(end, paced.starts[-1] / 1_000_000)
     performer = PerformerSchedule(
-        name=track.performer, model=profile.model, link=link, frames=tuple(frames), end=end,
+        name=track.performer, model=profile.model, link=link, frames=frames, end=end,
         port=track.port,
     )
     return performer, errors, warnings

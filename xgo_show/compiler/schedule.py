@@ -6,9 +6,9 @@ first byte goes out (seconds from show start), already paced to the performer's 
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Final
+from typing import Final, NamedTuple, overload
 
 from xgo_show.choreo.music import Music
 from xgo_show.choreo.sections import Section
@@ -16,7 +16,16 @@ from xgo_show.choreo.timebase import Segment, TempoMap
 from xgo_show.diagnostics import Diagnostic, Origin
 from xgo_show.profiles.model import Link
 
-__all__ = ["SCHEDULE_VERSION", "PerformerSchedule", "Schedule", "ScheduledFrame", "to_us"]
+__all__ = [
+    "SCHEDULE_VERSION",
+    "FrameColumns",
+    "Frames",
+    "PerformerSchedule",
+    "Schedule",
+    "ScheduledFrame",
+    "frame_columns",
+    "to_us",
+]
 
 SCHEDULE_VERSION = 2  # of the schedule file (xgo_show.compiler.artifact)
 
@@ -79,20 +88,103 @@ class ScheduledFrame:
                 f"duration={self.duration!r})")
 
 
+class FrameColumns(NamedTuple):
+    """A performer's frames as parallel columns, one entry a frame: what the compiler makes
+    and the schedule file stores (see :class:`Frames`)."""
+
+    starts_us: Sequence[int]  # planned send time, integer microseconds from show start
+    data: Sequence[bytes]  # exact wire bytes
+    origins: Sequence[Origin | None]
+    durations: Sequence[float]  # seconds (ScheduledFrame.duration)
+    labels: Callable[[bytes], str] | None  # shared by the frames (ScheduledFrame.labels)
+
+
+class Frames(Sequence[ScheduledFrame]):
+    """A performer's frames, kept as :class:`FrameColumns` until one is read.
+
+    ``compile`` hands a schedule straight to the file writer, which reads the columns
+    (:func:`frame_columns`): the 325,551 :class:`ScheduledFrame` objects of the compile_speed
+    show would cost a tenth of a second to make for nothing. The first read of a frame (an
+    index, an iteration) makes them all, once; equal to, and hashed like, the tuple of them.
+    """
+
+    __slots__ = ("_frames", "columns")
+
+    def __init__(self, columns: FrameColumns) -> None:
+        if not (len(columns.starts_us) == len(columns.data) == len(columns.origins)
+                == len(columns.durations)):
+            raise ValueError("frame columns of different lengths")
+        self.columns: Final = columns
+        self._frames: tuple[ScheduledFrame, ...] | None = None
+
+    def frames(self) -> tuple[ScheduledFrame, ...]:
+        """Every frame as a :class:`ScheduledFrame` (made on the first call)."""
+        frames = self._frames
+        if frames is None:
+            starts, data, origins, durations, labels = self.columns
+            frames = self._frames = tuple([
+                ScheduledFrame(start / 1_000_000, d, origin, duration, labels)
+                for start, d, origin, duration in zip(starts, data, origins, durations,
+                                                      strict=True)
+            ])
+        return frames
+
+    def __len__(self) -> int:
+        return len(self.columns.data)
+
+    @overload
+    def __getitem__(self, index: int) -> ScheduledFrame: ...
+    @overload
+    def __getitem__(self, index: slice) -> tuple[ScheduledFrame, ...]: ...
+    def __getitem__(self, index: int | slice) -> ScheduledFrame | tuple[ScheduledFrame, ...]:
+        return self.frames()[index]
+
+    def __iter__(self) -> Iterator[ScheduledFrame]:
+        return iter(self.frames())
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Frames):
+            return self is other or self.frames() == other.frames()
+        if isinstance(other, tuple):
+            return self.frames() == other
+        return NotImplemented
+
+    def __hash__(self) -> int:
+        return hash(self.frames())
+
+    def __repr__(self) -> str:
+        return repr(self.frames())
+
+
+def frame_columns(frames: Sequence[ScheduledFrame]) -> FrameColumns:
+    """``frames`` as columns: a :class:`Frames`' own (no frame made), else read off the frames
+    (``labels`` then the first frame's)."""
+    if isinstance(frames, Frames):
+        return frames.columns
+    return FrameColumns(
+        [round(f.t * 1_000_000) for f in frames], [f.data for f in frames],
+        [f.origin for f in frames], [f.duration for f in frames],
+        frames[0].labels if frames else None,
+    )
+
+
 @dataclass(frozen=True)
 class PerformerSchedule:
-    """One performer's paced frames."""
+    """One performer's paced frames (a tuple, or :class:`Frames` made from columns)."""
 
     name: str
     model: str
     link: Link
-    frames: tuple[ScheduledFrame, ...]
+    frames: Sequence[ScheduledFrame]
     end: float  # seconds: when this performer's part is over (last cue end)
     port: str | None = None
 
     @property
     def total_bytes(self) -> int:
-        return sum(len(f.data) for f in self.frames)
+        frames = self.frames
+        if isinstance(frames, Frames):
+            return sum(map(len, frames.columns.data))
+        return sum(len(f.data) for f in frames)
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 
 from xgo_show.compiler.layout import ACTION_REGISTER, Layout
-from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+from xgo_show.compiler.schedule import Frames, PerformerSchedule, ScheduledFrame
 from xgo_show.errors import ProtocolError
 from xgo_show.families import get_family
 from xgo_show.profiles.model import Link, Profile, Register
@@ -308,4 +308,5 @@ def link_use(link: Link, frames: Sequence[ScheduledFrame], duration: float) -> f
     """Fraction of ``duration`` the link spends carrying ``frames`` (wire time only)."""
     if duration <= 0:
         return 0.0
-    return sum(link.wire_time(len(f.data)) for f in frames) / duration
+    data = frames.columns.data if isinstance(frames, Frames) else [f.data for f in frames]
+    return sum(map(link.wire_time, map(len, data))) / duration
