@@ -187,6 +187,7 @@ class XgoPlanner:
         self.ticks: dict[int, Entry] = {}
         self.mixed: set[int] = set()  # ticks that more than one cue writes (see _emit)
         self.action_reg = layout.by_name.get(ACTION_REGISTER)
+        self.action_ticks: list[int] = []  # when each preset action goes out (see _fade_group)
         self.end = 0.0
 
     # -- cues -------------------------------------------------------------------------------
@@ -210,8 +211,14 @@ class XgoPlanner:
                 self.diag.error(cue.origin, f"{cue_label(cue.origin)}: {exc}")
         for run in self.runs:
             self._sample_run(run)
-        for fade in self.fades:
-            self._sample_fade(fade)
+        i = 0
+        while i < len(self.fades):
+            group = self._fade_group(i)
+            if len(group) > 1:
+                self._sample_fades(group)
+            else:
+                self._sample_fade(self.fades[i])
+            i += len(group)
 
     def _emit(self, t_us: int, writes: list[Write]) -> None:
         """File one cue's writes at ``t_us`` (one per register, in address order).
@@ -309,6 +316,7 @@ class XgoPlanner:
         self._emit(t_us, [
             Write(self.action_reg.address, data, cue.origin, order, False, cue.duration)
         ])
+        self.action_ticks.append(t_us)
         # The reset action restores the default posture: later moves start from there.
         self.commanded.update(posture_after(self.profile, cue.action_id))
         self.end = max(self.end, cue.start + cue.duration)
@@ -340,6 +348,76 @@ class XgoPlanner:
         fade.cut = t
         return fade.colour_at(t)
 
+    def _fade_ticks(self, cue: FadeCue, stop_us: int) -> tuple[int, int]:
+        """A fade's first tick and the first tick at or after ``stop_us``, by galloping."""
+        rate = self.rate
+        k = first_tick(cue.start, rate)
+        end = k
+        step = 1
+        while cue.duration > 0 and round(end * 1_000_000 / rate) < stop_us:
+            end += step
+            step *= 2
+        while step > 1:  # back to the first tick at or after the stop
+            step //= 2
+            if round((end - step) * 1_000_000 / rate) >= stop_us and end - step >= k:
+                end -= step
+        return k, end
+
+    def _fade_group(self, i: int) -> list[_Fade]:
+        """The fades from ``self.fades[i]`` that one source can sample together: the fades of
+        one ``led:`` cue (the resolver's consecutive FadeCues of one origin, start and length,
+        in address order), none cut, each changing colour about every tick (see
+        _sample_fade), with no preset action from their start to their end. Their ticks then
+        make the same frames as the fades' own: a register whose colour holds at a tick where
+        another's changes is compared with what it was last sent, which is its colour the tick
+        before (only a preset action, or a cue cutting the fade, would make these differ)."""
+        fades = self.fades
+        first = fades[i]
+        group = [first]
+        cue = first.cue
+        for fade in fades[i + 1:]:
+            last = group[-1]
+            if (fade.order != last.order + 1 or fade.cue.start != cue.start
+                    or fade.cue.duration != cue.duration or fade.cue.origin != cue.origin
+                    or fade.cut is not None or last.cut is not None
+                    or fade.reg.address <= last.reg.address):
+                break
+            group.append(fade)
+        if len(group) == 1 or cue.duration <= 0:
+            return group[:1]
+        stop_us = to_us(cue.start + cue.duration)
+        k, end = self._fade_ticks(cue, stop_us)
+        start_us = round(k * 1_000_000 / self.rate)
+        if any(start_us <= t <= stop_us for t in self.action_ticks):
+            return group[:1]
+        for fade in group:
+            (r0, g0, b0), (r1, g1, b1) = fade.start, fade.cue.to
+            if (abs(r1 - r0) + abs(g1 - g0) + abs(b1 - b0)) * 2 < end - k:
+                return group[:1]  # a slow fade: galloping over its runs costs less
+        return group
+
+    def _sample_fades(self, group: list[_Fade]) -> None:
+        """:meth:`_sample_fade` of a :meth:`_fade_group`'s fades as one source: a tick's
+        sample is every fade's colour, in address order."""
+        first = group[0]
+        cue, rate = first.cue, self.rate
+        stop_us = to_us(cue.start + cue.duration)
+        src = Source(tuple(f.reg for f in group), cue.origin, first.order)
+        k, end = self._fade_ticks(cue, stop_us)
+        columns = []
+        for fade in group:
+            (r0, g0, b0), (r1, g1, b1) = fade.start, fade.cue.to
+            columns.append(_fade_colours(k, end, rate, cue.start, cue.duration, fade.start,
+                                         (r1 - r0, g1 - g0, b1 - b0)))
+        colours = list(map(b"".join, zip(*columns, strict=True)))
+        # Only the ticks whose colours differ from the tick before's.
+        self._emit_samples(src, [
+            (round(j * 1_000_000 / rate), sample)  # tick_us(j, rate)
+            for j, sample, before in zip(range(k, end), colours, [b"", *colours], strict=False)
+            if sample != before
+        ])
+        self._emit_sample(stop_us, src, b"".join([bytes(f.cue.to) for f in group]))
+
     def _sample_fade(self, fade: _Fade) -> None:
         """Steps on the tick grid strictly before the end, then the exact colour at the end
         itself (as a move's last sample: never after it, over a cue starting there). A fade
@@ -361,16 +439,7 @@ class XgoPlanner:
         # ticks holding one colour are a run; its end is found by galloping then bisection,
         # which costs one colour per tick when the colour changes every tick (a short fade)
         # and a logarithm of the run when it holds for long (a slow one).
-        k = first_tick(t0, rate)
-        end = k  # the first tick at or after the stop
-        step = 1
-        while duration > 0 and round(end * 1_000_000 / rate) < stop_us:
-            end += step
-            step *= 2
-        while step > 1:  # back to the first tick at or after the stop
-            step //= 2
-            if round((end - step) * 1_000_000 / rate) >= stop_us and end - step >= k:
-                end -= step
+        k, end = self._fade_ticks(cue, stop_us)  # end: the first tick at or after the stop
         if (abs(dr) + abs(dg) + abs(db)) * 2 >= end - k:
             # The colour changes about every tick (a short fade, or a wide one): every tick's
             # colour at once, list by list, is cheaper than galloping over runs of one.
