@@ -159,3 +159,14 @@ def test_an_action_during_led_fades_keeps_their_frames() -> None:
         with fades_one_by_one():
             alone = _frames(track, details)
         assert _frames(track, details) == alone
+
+
+def test_validate_walks_a_group_of_fades_without_sampling_it() -> None:
+    from xgo_show.compiler.linkfit import _CueWalk
+
+    o = origin("glow", 3)
+    track = ResolvedTrack("p", "rider", (
+        FadeCue(0.0, o, "led1", (250, 10, 0), 1.0), FadeCue(0.0, o, "led2", (0, 10, 250), 1.0)))
+    walk = _CueWalk(layout_of(get_profile("rider")), track, 50.0)
+    walk.plan()
+    assert len(walk._fade_group(0)) == 2 and not walk.ticks

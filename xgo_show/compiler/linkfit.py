@@ -64,6 +64,9 @@ class _CueWalk(XgoPlanner):
     def _sample_fade(self, fade: object) -> None:
         return None
 
+    def _sample_fades(self, group: object) -> None:
+        return None
+
 
 def quick_track_diagnostics(
     track: ResolvedTrack, profile: Profile, *, rate: float, link: Link, gap_us: int,
