@@ -116,6 +116,10 @@ def plan_motion(
         result = Ruckig(dofs).calculate(inp, traj)
     except RuckigError as exc:  # its message is a multi-line dump of the input: not for users
         raise TrajectoryError(_NO_TRAJECTORY) from exc
+    except ValueError as exc:
+        # A result code the binding's Result lacks (ruckig 0.19: -101, the trajectory's
+        # duration past its numerical limits, e.g. starting far above a lower limit).
+        raise TrajectoryError(f"{_NO_TRAJECTORY} ({exc})") from exc
     if result not in (Result.Working, Result.Finished):
         raise TrajectoryError(f"{_NO_TRAJECTORY} ({result.name})")
     if duration is not None and traj.duration > duration + DURATION_TOLERANCE:
