@@ -16,6 +16,7 @@ from xgo_show.compiler.schedule import (
     PerformerSchedule,
     ScheduledFrame,
     frame_columns,
+    ready_frames,
 )
 from xgo_show.compiler.state import link_use
 from xgo_show.diagnostics import Origin
@@ -91,3 +92,19 @@ def test_frames_compare_with_tuples_only() -> None:
     none = Frames(FrameColumns([], [], [], [], None))
     empty = PerformerSchedule("rex", "mini", get_profile("mini").link, none, 0.0)
     assert empty.frames == () and empty.total_bytes == 0
+
+
+def test_an_executor_makes_the_frames_while_it_sets_up(compiled) -> None:  # type: ignore[no-untyped-def]
+    from xgo_show.runtime.clock import FakeClock
+    from xgo_show.runtime.executor import PerformerExecutor
+    from xgo_show.sim import create_robot
+    from xgo_show.transports.sim import SimTransport
+
+    rex = compiled.performer("rex")
+    assert isinstance(rex.frames, Frames) and rex.frames._frames is None
+    clock = FakeClock()
+    link = SimTransport(create_robot("mini"), clock=clock.now, sleep=clock.advance)
+    PerformerExecutor(rex, link, clock=clock, profile=get_profile("mini"))
+    assert rex.frames._frames is not None  # made: the show thread will not make them
+    ready_frames(rex.frames)
+    ready_frames(())  # a tuple: nothing to make

@@ -24,6 +24,7 @@ __all__ = [
     "Schedule",
     "ScheduledFrame",
     "frame_columns",
+    "ready_frames",
     "to_us",
 ]
 
@@ -154,6 +155,13 @@ class Frames(Sequence[ScheduledFrame]):
 
     def __repr__(self) -> str:
         return repr(self.frames())
+
+
+def ready_frames(frames: Sequence[ScheduledFrame]) -> None:
+    """Make a :class:`Frames`' frame objects now (nothing to do for a tuple): a runtime calls
+    it while it sets up, so that a show thread never stalls making them once started."""
+    if isinstance(frames, Frames):
+        frames.frames()
 
 
 def frame_columns(frames: Sequence[ScheduledFrame]) -> FrameColumns:

@@ -30,7 +30,7 @@ import threading
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
-from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame
+from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame, ready_frames
 from xgo_show.errors import TransportError, XgoShowError
 from xgo_show.profiles.model import Profile
 from xgo_show.runtime.clock import Clock, FakeClock, hand_off_cpu, tighten_timer_slack
@@ -162,6 +162,8 @@ class PerformerExecutor:
 
             profile = get_profile(schedule.model)
         self.schedule = schedule
+        # A compiled schedule's frames are made when first read: here, not in the show thread.
+        ready_frames(schedule.frames)
         self.transport = transport
         self.clock = clock
         self.profile = profile
