@@ -14,7 +14,14 @@ import pytest
 from xgo_show.compiler.schedule import ScheduledFrame
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
-from xgo_show.runtime.events import EventRecorder, FaultRaised, SafeStopped, StateChanged
+from xgo_show.errors import TransportError, XgoShowError
+from xgo_show.runtime.events import (
+    EventRecorder,
+    FaultRaised,
+    SafeStopped,
+    StateChanged,
+    TelemetryRead,
+)
 from xgo_show.runtime.executor import ExecutorState, PerformerExecutor, Progress, SafeStopResult
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.runtime.telemetry import TelemetryPoller
@@ -28,13 +35,17 @@ MIN_SPACING = MINI.link.wire_time(9) + MINI.link.gap
 
 
 class HookClock(FakeClock):
-    """A fake clock that runs ``hook(deadline)`` on each wait (to oversleep, pause, …)."""
+    """A fake clock that runs ``hook(deadline)`` on each wait (to oversleep, pause, …), and
+    ``before(deadline)`` as each wait begins (a request arriving while the writer waits)."""
 
     def __init__(self) -> None:
         super().__init__()
         self.hook: Callable[[float], None] | None = None
+        self.before: Callable[[float], None] | None = None
 
     def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        if self.before is not None:
+            self.before(deadline)
         ok = super().sleep_until(deadline, interrupt)
         if ok and self.hook is not None:
             self.hook(deadline)
@@ -714,3 +725,578 @@ def test_the_writer_runs_on_a_named_daemon_thread_and_join_waits_for_it(perf) ->
     assert ex.join(0.05) is False  # held at its first deadline
     gate.set()
     assert ex.join(5) is True and ex.state is ExecutorState.FINISHED
+
+
+# ---------------------------------------------------------------- pause, hold, resume, seek
+
+
+ROLL_BACK = write_frame(MINI.register("roll").address, b"\x90")
+UNDO_REST = write_frame(MINI.register("vx").address, b"\xa0")
+
+
+class RestAwareReach:
+    """A reach that knows what the rest frames change, as the compiler's does: ``at_rest``
+    says whether the show has the robot at rest at a show time, ``after_rest`` gives only the
+    frames that undo the rest frames there. Every call is kept, with the executor's state."""
+
+    def __init__(self, rested: bool) -> None:
+        self.rested = rested
+        self.calls: list[tuple[str, float]] = []
+
+    def __call__(self, t: float) -> list[tuple[bytes, str]]:
+        self.calls.append(("reach", t))
+        return [(ROLL_BACK, f"state at {t:g}")]
+
+    def at_rest(self, t: float) -> bool:
+        self.calls.append(("at_rest", t))
+        return self.rested
+
+    def after_rest(self, t: float) -> list[tuple[bytes, str]]:
+        self.calls.append(("after_rest", t))
+        return [(UNDO_REST, f"undo rest at {t:g}")]
+
+
+def _states(rec: EventRecorder) -> list[ExecutorState]:
+    return [e.state for e in rec.events if isinstance(e, StateChanged)]
+
+
+def test_a_pause_not_at_rest_rests_and_makes_the_catch_up_while_holding(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    reach = RestAwareReach(rested=False)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI, reach=reach)
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    ex.pause(at=start + 0.35)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    # Made at the pause, while the robot holds: a resume then writes at once.
+    assert reach.calls == [("at_rest", pytest.approx(0.35)), ("after_rest", pytest.approx(0.35))]
+    n_rest = len(rest_frames(MINI))
+    assert [r.kind for r in rec.sent()] == ["frame"] * 4 + ["rest"] * n_rest
+    ex.resume()
+    assert ex.join(5)
+    sent = rec.sent()[4 + n_rest:]
+    # Only what the rest frames changed goes back; the reach is never asked for the whole state.
+    assert [(r.kind, r.note) for r in sent[:2]] == [("reach", "undo rest at 0.35"), ("frame", "")]
+    assert [r.data for r in sent if r.kind == "reach"] == [UNDO_REST]
+    assert [r.index for r in sent if r.kind == "frame"] == list(range(4, 10))
+    assert len(reach.calls) == 2
+    assert _states(rec) == [ExecutorState.RUNNING, ExecutorState.PAUSED, ExecutorState.REACHING,
+                            ExecutorState.RUNNING, ExecutorState.FINISHED]
+
+
+def test_a_pause_where_the_show_is_at_rest_sends_nothing_and_goes_on_at_once(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    reach = RestAwareReach(rested=True)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI, reach=reach)
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    ex.pause(at=start + 0.35)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    assert [r.kind for r in rec.sent()] == ["frame"] * 4  # the link stays free
+    ex.resume()
+    assert ex.join(5)
+    assert reach.calls == [("at_rest", pytest.approx(0.35))]
+    kinds = [r.kind for r in rec.sent()]
+    assert kinds == ["frame"] * 10 + ["rest"] * len(rest_frames(MINI))  # rest only at the end
+    assert _states(rec) == [ExecutorState.RUNNING, ExecutorState.PAUSED, ExecutorState.RUNNING,
+                            ExecutorState.FINISHED]
+
+
+def test_a_seek_while_paused_catches_up_with_the_whole_state_there(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    reach = RestAwareReach(rested=False)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI, reach=reach)
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    ex.pause(at=start + 0.35)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    ex.seek(0.7)
+    ex.resume()
+    assert ex.join(5)
+    assert reach.calls[2:] == [("reach", pytest.approx(0.7))]
+    assert [r.note for r in rec.sent() if r.kind == "reach"] == ["state at 0.7"]
+    assert [r.index for r in rec.sent() if r.kind == "frame"] == [0, 1, 2, 3, 7, 8, 9]
+
+
+@pytest.mark.parametrize("back_to", [0.0, 0.2])
+def test_a_seek_back_while_paused_plays_again_from_there(perf, back_to: float) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    reached: list[float] = []
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI,
+                           reach=_reaching(reached))
+    rec = EventRecorder(ex.events)
+    sent_when: list[tuple[ExecutorState, int]] = []
+    ex.events.subscribe(lambda e: sent_when.append((e.state, ex.progress.sent)), StateChanged)
+    start = clock.now() + 0.1
+    ex.pause(at=start + 0.65)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    ex.seek(back_to)
+    ex.resume()
+    assert ex.join(5)
+    first = round(back_to / 0.1)
+    assert [r.index for r in rec.sent() if r.kind == "frame"] == [*range(7), *range(first, 10)]
+    # Progress counts the frames before the new place while catching up and going on.
+    assert sent_when[2:4] == [(ExecutorState.REACHING, first), (ExecutorState.RUNNING, first)]
+    assert ex.progress.sent == 10
+
+
+def test_a_pause_woken_late_still_holds_at_the_show_time_asked(perf) -> None:
+    """Every host given the same pause time holds at the same show time, even one whose wait
+    for it ended late; no frame planned at that time or after goes out."""
+    clock = HookClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    reached: list[float] = []
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI,
+                           reach=_reaching(reached))
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    pause_at = start + schedule.frames[4].t  # exactly frame 4's time
+
+    def oversleep(deadline: float) -> None:
+        if deadline == pause_at:
+            clock.advance(0.010)
+
+    clock.hook = oversleep
+    ex.pause(at=pause_at)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    assert ex.progress.sent == 4 and ex.progress.cue == "cue0"
+    assert ex.progress.show_time == pytest.approx(0.4, abs=1e-9)
+    clock.advance(3.0)  # a long hold: show time stands still, through the catch-up too
+    ex.resume(at=clock.now() + 1.0)
+    assert ex.join(5)
+    assert reached == [pytest.approx(0.4, abs=1e-9)]
+    changes = [(e.state, e.show_time) for e in rec.events if isinstance(e, StateChanged)]
+    assert [s for s, _ in changes] == [ExecutorState.RUNNING, ExecutorState.PAUSED,
+                                       ExecutorState.REACHING, ExecutorState.RUNNING,
+                                       ExecutorState.FINISHED]
+    assert [t for _, t in changes[1:4]] == pytest.approx([0.4] * 3, abs=1e-9)
+    assert [r.index for r in rec.sent() if r.kind == "frame"] == list(range(10))
+    assert ex.progress.cue == "cue2"
+
+
+def test_a_show_can_be_paused_and_resumed_twice(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    ex.events.subscribe(lambda e: e.index in (2, 5) and e.kind == "frame" and ex.pause())
+
+    def held_after(sent: int) -> None:
+        deadline = time.monotonic() + 5
+        while not (ex.state is ExecutorState.PAUSED and ex.progress.sent == sent):
+            assert time.monotonic() < deadline, (ex.state, ex.progress.sent)
+            time.sleep(0.001)
+        time.sleep(0.05)
+        assert ex.state is ExecutorState.PAUSED and ex.progress.sent == sent  # it holds
+
+    ex.start(clock.now() + 0.1)
+    held_after(3)
+    ex.resume()
+    held_after(6)
+    ex.resume()
+    assert ex.join(5)
+    assert [r.index for r in rec.sent() if r.kind == "frame"] == list(range(10))
+    assert _states(rec) == [ExecutorState.RUNNING, ExecutorState.PAUSED, ExecutorState.RUNNING,
+                            ExecutorState.PAUSED, ExecutorState.RUNNING, ExecutorState.FINISHED]
+
+
+def test_a_pause_after_the_last_frame_holds_until_resumed_then_lingers_on(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=3, spacing=0.1)  # ends at show time 0.3
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI,
+                           linger_until=1.0)
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    ex.events.subscribe(lambda e: e.index == 2 and ex.pause(at=start + 0.6))
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    assert ex.progress.show_time == pytest.approx(0.6)
+    n_rest = len(rest_frames(MINI))
+    assert [r.kind for r in rec.sent()] == ["frame"] * 3 + ["rest"] * n_rest
+    clock.advance(2.0)
+    ex.resume()
+    assert ex.join(5) and ex.state is ExecutorState.FINISHED
+    last = rec.sent()[3 + n_rest:]
+    # The part ends (its rest frames) when the lingering is over: show time 1.0.
+    assert [r.kind for r in last] == ["rest"] * n_rest
+    assert last[0].actual_show == pytest.approx(1.0)
+
+
+def test_a_part_without_lingering_ends_at_its_schedules_end(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=3, spacing=0.1)  # ends at show time 0.3
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    ex.run(clock.now() + 0.1)
+    rests = [r for r in rec.sent() if r.kind == "rest"]
+    assert rests[0].actual_show == pytest.approx(schedule.end)
+    assert ex.linger_until == schedule.end
+
+
+def test_a_mid_show_start_says_it_is_reaching_then_running(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    asked: list[float] = []
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI,
+                           reach=_reaching(asked))
+    rec = EventRecorder(ex.events)
+    ex.run(clock.now() + 0.2, offset=0.45)
+    assert asked == [0.45]
+    sent = rec.sent()
+    assert [(r.kind, r.note) for r in sent[:2]] == [("reach", "state at 0.45"), ("frame", "")]
+    assert [r.index for r in sent if r.kind == "frame"] == list(range(5, 10))
+    assert _states(rec) == [ExecutorState.REACHING, ExecutorState.RUNNING,
+                            ExecutorState.FINISHED]
+    assert ex.progress.cue == "cue2" and ex.progress.sent == 10
+
+
+# ---------------------------------------------------------------- aborts
+
+
+def _abort_scenario(clock: HookClock, perf) -> tuple[PerformerExecutor, EventRecorder]:
+    """A show that waits in every way the writer can: a catch-up for a mid-show start, frames
+    given beside the schedule, telemetry-free waits for frames, a pause at a time with its rest
+    frames, a resume at a time with its catch-up, and the rest frames at the end."""
+    schedule = perf("rex", count=8, spacing=0.1)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI,
+                           reach=_reaching([]))
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    ex.send([(UNDO_REST, "led")])
+    ex.pause(at=start + 0.25)
+    ex.resume(at=start + 1.0)
+    return ex, rec
+
+
+def test_an_abort_during_any_wait_ends_the_part_there_and_sends_nothing_more(perf) -> None:
+    clock = HookClock()
+    ex, rec = _abort_scenario(clock, perf)
+    ex.run(clock.now() + 0.1, offset=0.05)
+    assert ex.state is ExecutorState.FINISHED
+    waits = len(clock.waits)
+    kinds = {r.kind for r in rec.sent()}
+    assert {"reach", "set", "frame", "rest"} <= kinds and waits > 10
+    for k in range(waits):
+        clock = HookClock()
+        ex, rec = _abort_scenario(clock, perf)
+        at_abort: list[tuple[float, int, int]] = []
+
+        def abort_kth(deadline: float, k: int = k, ex: PerformerExecutor = ex,
+                      rec: EventRecorder = rec, clock: HookClock = clock) -> None:
+            if len(clock.waits) == k and not at_abort:
+                at_abort.append((clock.now(), len(rec.sent()), len(rec.events)))
+                ex.abort()
+
+        clock.before = abort_kth
+        ex.run(clock.now() + 0.1, offset=0.05)
+        assert at_abort, k
+        now, sent, events = at_abort[0]
+        # No time passes after the abort, no byte goes out, the state does not change.
+        assert (clock.now(), len(rec.sent()), len(rec.events)) == (now, sent, events), k
+
+
+def test_a_frame_the_abort_refused_is_not_counted_as_sent(perf) -> None:
+    clock = HookClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    # The abort arrives after frame 3's wait, as its write begins.
+    clock.hook = lambda deadline: deadline == start + schedule.frames[3].t and ex.abort()
+    ex.run(start)
+    assert [r.index for r in rec.sent()] == [0, 1, 2]
+    assert ex.progress.sent == 3 and ex.progress.label == schedule.frames[2].label
+
+
+# ---------------------------------------------------------------- telemetry and the reader
+
+
+class Unreadable(TelemetryPoller):
+    """A poller with nothing to read (telemetry off for this performer)."""
+
+    @property
+    def enabled(self) -> bool:
+        return False
+
+
+def test_a_poller_with_nothing_to_read_is_no_telemetry(perf) -> None:
+    clock = FakeClock()
+    rider = get_profile("rider")
+    link = PollingSim(create_robot("rider"), clock=clock.now)
+    link.open()
+    ex = PerformerExecutor(perf("rita", "rider", count=3), link, clock=clock, profile=rider,
+                           telemetry=Unreadable(rider))
+    assert ex.telemetry is None and ex.readings == {}
+    ex.run(clock.now() + 0.1)
+    assert [f for f in link.robot.received if f.data[3] == TYPE_READ] == []
+
+
+def test_the_executor_publishes_on_the_bus_it_is_given(perf) -> None:
+    from xgo_show.runtime.events import EventBus
+
+    clock = FakeClock()
+    bus = EventBus()
+    rec = EventRecorder(bus, StateChanged)
+    ex = PerformerExecutor(perf("rex", count=2), sim_link(clock), clock=clock, profile=MINI,
+                           events=bus)
+    assert ex.events is bus
+    ex.run(clock.now() + 0.1)
+    assert [e.state for e in rec.events] == [ExecutorState.RUNNING, ExecutorState.FINISHED]
+
+
+def test_sent_frames_name_their_performer_and_their_planned_show_time(perf) -> None:
+    clock = FakeClock()
+    rider = get_profile("rider")
+    link = PollingSim(create_robot("rider"), clock=clock.now)
+    link.open()
+    schedule = perf("rita", "rider", count=5, spacing=0.1, end=1.0)
+    poller = TelemetryPoller(rider, interval=0.05)
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=rider, telemetry=poller)
+    rec = EventRecorder(ex.events)
+    ex.run(clock.now() + 0.1, offset=0.1)
+    sent = rec.sent()
+    assert {r.performer for r in sent} == {"rita"}
+    frames = [r for r in sent if r.kind == "frame"]
+    assert [r.planned_show for r in frames] == pytest.approx([f.t for f in schedule.frames[1:]])
+    reads = [r for r in sent if r.kind == "read"]
+    names = {i.name: i.request for i in poller.items}
+    assert reads and all(r.planned_show is None and r.data == names[r.note] for r in reads)
+
+
+def test_the_hold_keeps_polling_telemetry_while_the_robot_is_paused(perf) -> None:
+    clock = FakeClock()
+    rider = get_profile("rider")
+    link = PollingSim(create_robot("rider"), clock=clock.now)
+    link.open()
+    poller = TelemetryPoller(rider, interval=0.05)
+    ex = PerformerExecutor(perf("rita", "rider", count=10, spacing=0.1), link, clock=clock,
+                           profile=rider, telemetry=poller)
+    rec = EventRecorder(ex.events)
+    readings = EventRecorder(ex.events, TelemetryRead)
+    start = clock.now() + 0.1
+    ex.pause(at=start + 0.35)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    reads = len([r for r in rec.sent() if r.kind == "read"])
+    # The hold looks for a due reading every 20 ms: five in a row take well under 3 s.
+    began = time.monotonic()
+    for _ in range(5):
+        clock.advance(0.05)
+        while len([r for r in rec.sent() if r.kind == "read"]) == reads:
+            assert time.monotonic() - began < 3.0
+            time.sleep(0.001)
+        reads += 1
+    assert ex.state is ExecutorState.PAUSED
+    ex.resume()
+    assert ex.join(5)
+    while not any(e.t > start + 0.35 for e in readings.events):
+        assert time.monotonic() - began < 5.0
+        time.sleep(0.001)
+    assert ex.fault is None
+    ex.close()
+
+
+def test_the_reader_turns_each_chunk_into_readings_at_the_time_it_came(perf) -> None:
+    clock = HookClock()
+    rider = get_profile("rider")
+    battery = rider.register("battery").address
+
+    class Replies(PollingSim):
+        """Two battery replies, a chunk each, then nothing."""
+
+        chunks = [reply_frame(battery, b"\x50"), reply_frame(battery, b"\x4b")]
+
+        def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+            if self.chunks:
+                return self.chunks.pop(0)
+            time.sleep(0.001)
+            return b""
+
+    link = Replies(create_robot("rider"), clock=clock.now)
+    link.open()
+    ex = PerformerExecutor(perf("rita", "rider", count=3), link, clock=clock, profile=rider,
+                           telemetry=TelemetryPoller(rider, interval=10.0))
+    readings = EventRecorder(ex.events, TelemetryRead)
+    gate = threading.Event()
+    clock.hook = lambda deadline: gate.wait(5)  # the writer waits until both are read
+    ex.start(clock.now() + 0.5)
+    deadline = time.monotonic() + 5
+    while len(readings.events) < 2 and time.monotonic() < deadline:
+        time.sleep(0.001)
+    readers = [t for t in threading.enumerate() if t.name == "xgo-show reader rita"]
+    assert len(readers) == 1 and readers[0].daemon
+    gate.set()
+    assert ex.join(5)
+    now = clock.now()
+    assert readings.events == [TelemetryRead(pytest.approx(now, abs=1.0), "rita", "battery", 80.0),
+                               TelemetryRead(pytest.approx(now, abs=1.0), "rita", "battery", 75.0)]
+    assert ex.readings == {"battery": 75.0}
+    ex.close()
+    assert not readers[0].is_alive()
+
+
+def test_a_fault_the_reader_finds_ends_its_reading(perf) -> None:
+    clock = FakeClock()
+    rider = get_profile("rider")
+    status = rider.register("status").address
+    reads: list[int] = []
+
+    class Fallen(PollingSim):
+        def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+            reads.append(size)
+            return reply_frame(status, b"\x00")  # fallen, again and again
+
+    link = Fallen(create_robot("rider"), clock=clock.now)
+    link.open()
+    ex = PerformerExecutor(perf("rita", "rider", count=3), link, clock=clock, profile=rider,
+                           telemetry=TelemetryPoller(rider))
+    ex.start(clock.now() + 100.0)  # far off: the reader finds the fault first
+    assert ex.join(5)
+    assert ex.state is ExecutorState.FAILED and ex.fault is not None and "fallen" in ex.fault
+    seen = len(reads)
+    time.sleep(0.05)
+    assert len(reads) == seen == 1  # no read after the fault
+    ex.close()
+
+
+def test_without_telemetry_bytes_handed_over_are_no_verdict(perf) -> None:
+    """A behaviour that reads the port hands every chunk over and stops reading on False."""
+    clock = FakeClock()
+    ex = PerformerExecutor(perf("rex", count=2), sim_link(clock), clock=clock, profile=MINI,
+                           read_port=False)
+    assert ex.received(b"\x55\x00", clock.now()) is True
+    assert ex.fault is None
+
+
+def test_a_port_unreadable_after_the_part_is_over_is_no_fault(perf) -> None:
+    clock = FakeClock()
+    rider = get_profile("rider")
+    unplugged = threading.Event()
+
+    class Late(PollingSim):
+        def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+            if unplugged.is_set():
+                raise OSError("unplugged")
+            return super().read(size, timeout)
+
+    link = Late(create_robot("rider"), clock=clock.now)
+    link.open()
+    ex = PerformerExecutor(perf("rita", "rider", count=3), link, clock=clock, profile=rider,
+                           telemetry=TelemetryPoller(rider))
+    ex.start(clock.now() + 0.1)
+    assert ex.join(5) and ex.state is ExecutorState.FINISHED
+    reader = next(t for t in threading.enumerate() if t.name == "xgo-show reader rita")
+    unplugged.set()  # the owner closed the port after the part, before closing the executor
+    reader.join(5)
+    assert not reader.is_alive()
+    assert ex.fault is None and ex.state is ExecutorState.FINISHED
+    ex.close()
+
+
+def test_closing_ends_a_reader_stuck_in_a_read_within_a_bound(perf) -> None:
+    clock = FakeClock()
+    rider = get_profile("rider")
+    release = threading.Event()
+    timeouts: list[float | None] = []
+
+    class Stuck(PollingSim):
+        def read(self, size: int = 4096, timeout: float | None = 0.0) -> bytes:
+            timeouts.append(timeout)
+            release.wait(10)  # a wedged adapter
+            return b""
+
+    link = Stuck(create_robot("rider"), clock=clock.now)
+    link.open()
+    ex = PerformerExecutor(perf("rita", "rider", count=3), link, clock=clock, profile=rider,
+                           telemetry=TelemetryPoller(rider))
+    ex.start(clock.now() + 0.1)
+    assert ex.join(5)
+    began = time.monotonic()
+    ex.close()  # never waits for ever on the reader
+    assert time.monotonic() - began < 5.0
+    release.set()
+    # Each read gives up after a short timeout, so a closed executor's reader ends soon.
+    assert timeouts and all(t is not None and 0 < t <= 0.1 for t in timeouts)
+
+
+# ---------------------------------------------------------------- faults and threads
+
+
+@pytest.mark.parametrize(
+    ("error", "fault"),
+    [
+        (OSError("port gone"), "port sim:mini: port gone"),
+        (TransportError("sim:mini is not open"), "port sim:mini: sim:mini is not open"),
+        (XgoShowError("the schedule is broken"), "the schedule is broken"),
+        (ValueError("boom"), "internal error in the executor: ValueError('boom')"),
+    ],
+)
+def test_a_writer_that_fails_says_why_and_stops(perf, error: Exception, fault: str) -> None:
+    clock = FakeClock()
+
+    class Breaks(SimTransport):
+        def write(self, data: bytes) -> None:
+            if len(self.robot.received) == 2:
+                raise error
+            super().write(data)
+
+    link = Breaks(create_robot("mini"), clock=clock.now, sleep=clock.advance)
+    link.open()
+    ex = PerformerExecutor(perf("rex", count=5), link, clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events, FaultRaised)
+    ex.run(clock.now() + 0.1)
+    assert ex.fault == fault and ex.state is ExecutorState.FAILED
+    assert [e.reason for e in rec.events] == [fault]
+
+
+def test_threads_are_raised_for_the_show_on_a_real_clock_only(perf, monkeypatch) -> None:
+    from xgo_show.runtime import executor as executor_module
+    from xgo_show.runtime.clock import MonotonicClock
+    from xgo_show.runtime.realtime import HELPER_PRIORITY, PRIORITY
+
+    calls: list[tuple[str, str, int | None]] = []
+
+    def enter(priority: int = PRIORITY) -> bool:
+        calls.append(("enter", threading.current_thread().name, priority))
+        return True
+
+    def leave() -> None:
+        calls.append(("leave", threading.current_thread().name, None))
+
+    monkeypatch.setattr(executor_module, "enter_show_thread", enter)
+    monkeypatch.setattr(executor_module, "leave_show_thread", leave)
+    rider = get_profile("rider")
+    for clock in (FakeClock(), MonotonicClock()):
+        calls.clear()
+        link = PollingSim(create_robot("rider"), clock=clock.now)
+        link.open()
+        ex = PerformerExecutor(perf("rita", "rider", count=3, spacing=0.01), link, clock=clock,
+                               profile=rider, telemetry=TelemetryPoller(rider))
+        ex.start(clock.now() + 0.05)
+        assert ex.join(10)
+        ex.close()
+        if isinstance(clock, FakeClock):
+            assert calls == []  # a writer that never waits must never be raised
+        else:
+            writer, reader = "xgo-show writer rita", "xgo-show reader rita"
+            assert sorted(calls, key=str) == sorted(
+                [("enter", writer, PRIORITY), ("leave", writer, None),
+                 ("enter", reader, HELPER_PRIORITY), ("leave", reader, None)], key=str)
+
+
+def test_the_lead_time_counts_any_start_after_the_beginning(perf) -> None:
+    clock = FakeClock()
+    schedule = perf("rex", count=3)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI,
+                           reach=lambda t: [(b"\x00" * 9, "a")])
+    link = schedule.link
+    assert ex.lead_time(0.5) == pytest.approx(link.wire_time(9) + link.gap + 0.05)

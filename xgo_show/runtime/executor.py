@@ -5,9 +5,9 @@ a :class:`~xgo_show.transports.base.Transport`, a start time and a
 :class:`~xgo_show.runtime.clock.Clock`; it assumes nothing about where the port is, so a relay
 on another host runs it unchanged in front of its own local port.
 
-Timing. Frame ``i`` is due at ``start + (frame.t - offset) + paused``, one monotonic start for
-the whole show, so waits never accumulate error. A frame that goes out late does not make the
-following ones bunch up on the wire: each frame waits for
+Timing. Frame ``i`` is due at ``start + (frame.t - offset)``, one monotonic start for the whole
+show (a resume or a seek sets a new one), so waits never accumulate error. A frame that goes out
+late does not make the following ones bunch up on the wire: each frame waits for
 ``max(due, previous_actual + wire_time(previous) + gap)``, which keeps the link's silence
 between frames. Every send is recorded (planned and actual time).
 
@@ -102,13 +102,12 @@ class SafeStopResult:
 class _Timeline:
     start: float = 0.0  # clock time at which show time ``offset`` happens
     offset: float = 0.0
-    paused: float = 0.0  # total seconds spent paused since ``start``
 
     def at(self, t: float) -> float:
-        return self.start + (t - self.offset) + self.paused
+        return self.start + (t - self.offset)
 
     def show_time(self, now: float) -> float:
-        return now - self.start + self.offset - self.paused
+        return now - self.start + self.offset
 
 
 @dataclass
@@ -392,7 +391,8 @@ class PerformerExecutor:
         index = self._first_index(offset)
         if offset > 0 and self.reach is not None:
             self._set_state(ExecutorState.REACHING)
-            self._send_now("reach", self.reach(offset))
+            if not self._send_now("reach", self.reach(offset)):
+                return  # aborted during the catch-up: it never ran
         self._set_state(ExecutorState.RUNNING)
         while True:
             flags.wake.clear()  # before reading the flags: a request after this wakes the wait
@@ -444,16 +444,17 @@ class PerformerExecutor:
         at: float | None,
         index: int,
         catch_up: Sequence[tuple[bytes, str]] | None = None,
-    ) -> int:
+    ) -> None:
         """Catch up to ``show_time`` (with ``catch_up`` if made already, else the reach's
         frames), then play on from it (schedule ``index``) at clock time ``at`` (None: once the
-        catch-up frames are sent). Returns ``index``, or -1 if aborted meanwhile."""
+        catch-up frames are sent). Aborted meanwhile, it returns early: the caller's loop ends."""
         self._sent_frames = index
         if self.reach is not None:
             frames = self.reach(show_time) if catch_up is None else catch_up
             if frames:
                 self._set_state(ExecutorState.REACHING)
-                self._send_now("reach", frames)
+                if not self._send_now("reach", frames):
+                    return
         now = self.clock.now()
         # As soon as possible means when the link is free after the catch-up frames: the
         # first frame then goes out on its planned time, not late by their wire time.
@@ -461,9 +462,8 @@ class PerformerExecutor:
         self._rebase(show_time, go)
         self._paused_at = None
         if go > now and not self.clock.sleep_until(go, self._flags.abort):
-            return -1
+            return
         self._set_state(ExecutorState.RUNNING)
-        return index
 
     def _seek_now(self) -> int:
         """Apply a pending seek while playing; returns the index to continue from."""
@@ -471,8 +471,9 @@ class PerformerExecutor:
         assert seek is not None
         self._flags.seek = None
         show_time, at = seek
-        index = self._go_on(show_time, at, self._first_index(show_time))
-        return len(self.schedule.frames) if index < 0 else index
+        index = self._first_index(show_time)
+        self._go_on(show_time, at, index)
+        return index
 
     def _hold(self, index: int) -> int:
         """Pause: rest the robot, wait for resume (polling telemetry), then reach back.
@@ -517,8 +518,8 @@ class PerformerExecutor:
             flags.seek = None
             index = self._first_index(show_time)
             catch_up = None  # elsewhere: the whole state at the new place
-        index = self._go_on(show_time, resume_at, index, catch_up)
-        return len(self.schedule.frames) if index < 0 else index
+        self._go_on(show_time, resume_at, index, catch_up)
+        return index
 
     def _send_now(self, kind: str, frames: Iterable[tuple[bytes, str]]) -> bool:
         """Send frames outside the schedule (reach, rest) as soon as the link is free each
