@@ -12,9 +12,9 @@ from dataclasses import replace
 import pytest
 
 from xgo_show.compiler.schedule import ScheduledFrame
+from xgo_show.errors import TransportError, XgoShowError
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import FakeClock
-from xgo_show.errors import TransportError, XgoShowError
 from xgo_show.runtime.events import (
     EventRecorder,
     FaultRaised,
@@ -991,7 +991,8 @@ def test_an_abort_during_any_wait_ends_the_part_there_and_sends_nothing_more(per
         at_abort: list[tuple[float, int, int]] = []
 
         def abort_kth(deadline: float, k: int = k, ex: PerformerExecutor = ex,
-                      rec: EventRecorder = rec, clock: HookClock = clock) -> None:
+                      rec: EventRecorder = rec, clock: HookClock = clock,
+                      at_abort: list[tuple[float, int, int]] = at_abort) -> None:
             if len(clock.waits) == k and not at_abort:
                 at_abort.append((clock.now(), len(rec.sent()), len(rec.events)))
                 ex.abort()
@@ -1110,14 +1111,14 @@ def test_the_reader_turns_each_chunk_into_readings_at_the_time_it_came(perf) -> 
     rider = get_profile("rider")
     battery = rider.register("battery").address
 
+    chunks = [reply_frame(battery, b"\x50"), reply_frame(battery, b"\x4b")]
+
     class Replies(PollingSim):
         """Two battery replies, a chunk each, then nothing."""
 
-        chunks = [reply_frame(battery, b"\x50"), reply_frame(battery, b"\x4b")]
-
         def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
-            if self.chunks:
-                return self.chunks.pop(0)
+            if chunks:
+                return chunks.pop(0)
             time.sleep(0.001)
             return b""
 
