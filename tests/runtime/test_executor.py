@@ -910,13 +910,14 @@ def test_a_show_can_be_paused_and_resumed_twice(perf) -> None:
 
 
 def test_a_pause_after_the_last_frame_holds_until_resumed_then_lingers_on(perf) -> None:
-    clock = FakeClock()
+    clock = HookClock()
     schedule = perf("rex", count=3, spacing=0.1)  # ends at show time 0.3
     ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI,
                            linger_until=1.0)
     rec = EventRecorder(ex.events)
     start = clock.now() + 0.1
-    ex.events.subscribe(lambda e: e.index == 2 and ex.pause(at=start + 0.6))
+    # The pause arrives while the executor waits for the end of the lingering.
+    clock.before = lambda deadline: deadline == start + 1.0 and ex.pause(at=start + 0.6)
     ex.start(start)
     _wait_state(ex, ExecutorState.PAUSED)
     assert ex.progress.show_time == pytest.approx(0.6)
@@ -1301,3 +1302,59 @@ def test_the_lead_time_counts_any_start_after_the_beginning(perf) -> None:
                            reach=lambda t: [(b"\x00" * 9, "a")])
     link = schedule.link
     assert ex.lead_time(0.5) == pytest.approx(link.wire_time(9) + link.gap + 0.05)
+
+
+def test_telemetry_reads_go_only_where_they_leave_the_margin_before_the_next_frame() -> None:
+    """A read request goes out only when it, its reply and the link's gap end at least 2 ms
+    (the margin for the OS write and scheduling noise) before the next frame is due, and every
+    slot with that much room gets one."""
+    from xgo_show.compiler.schedule import PerformerSchedule
+
+    clock = FakeClock()
+    rider = get_profile("rider")
+    link = PollingSim(create_robot("rider"), clock=clock.now)
+    link.open()
+    poller = TelemetryPoller(rider, interval=0.001)
+    reply = {i.name: i.reply_bytes for i in poller.items}
+    margin = 0.002
+    room = max(rider.link.wire_time(len(i.request) + i.reply_bytes) + rider.link.gap + margin
+               for i in poller.items)
+    body_z = rider.register("body_z")
+    busy = rider.link.wire_time(9) + rider.link.gap
+    times = [0.0]
+    for step in range(40):  # the room after each frame grows by 0.25 ms, from none to 10 ms
+        times.append(times[-1] + busy + step * 0.00025)
+    frames = tuple(ScheduledFrame(t, write_frame(body_z.address, bytes((i % 256,)),
+                                                 write_type=rider.write_type))
+                   for i, t in enumerate(times))
+    schedule = PerformerSchedule("rita", "rider", rider.link, frames, end=times[-1])
+    ex = PerformerExecutor(schedule, link, clock=clock, profile=rider, telemetry=poller)
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    ex.run(start)
+    sent = [r for r in rec.sent() if r.kind in ("frame", "read")]
+    frames_sent = [r for r in sent if r.kind == "frame"]
+    assert len(frames_sent) == len(frames)
+    assert all(r.error == pytest.approx(0.0, abs=1e-9) for r in frames_sent)
+    for r, after in itertools.pairwise(sent):
+        if r.kind == "read" and after.kind == "frame":
+            end = r.actual + rider.link.wire_time(r.nbytes + reply[r.note]) + rider.link.gap
+            assert end + margin <= after.planned + 1e-9
+    # Every slot with room for the largest read (and a little more) gets one.
+    for a, b in itertools.pairwise(frames_sent):
+        if b.planned - (a.planned + busy) >= room + 0.0003:
+            assert any(a.actual < r.actual < b.actual for r in sent if r.kind == "read")
+
+
+def test_an_executor_without_telemetry_starts_no_reader(perf, monkeypatch) -> None:
+    crashed: list[str] = []
+    monkeypatch.setattr(threading, "excepthook", lambda args: crashed.append(str(args.thread)))
+    clock = FakeClock()
+    ex = PerformerExecutor(perf("rexa", count=2), sim_link(clock), clock=clock, profile=MINI)
+    ex.start(clock.now() + 0.1)
+    assert ex.join(5) and ex.state is ExecutorState.FINISHED
+    for thread in threading.enumerate():
+        if thread.name == "xgo-show reader rexa":
+            thread.join(5)
+    assert crashed == []
+    ex.close()
