@@ -268,3 +268,26 @@ def test_a_countdown_of_one_second_and_each_line_shown_at_once() -> None:
     assert out.flushes >= 1  # shown when printed, not when the show starts
     countdown(-1, out=out, clock=clock)
     assert out.getvalue() == "starting in 1 s\n"
+
+
+def test_a_robot_that_does_not_answer_is_given_half_a_second(perf, sched) -> None:
+    from xgo_show.sim import create_robot
+    from xgo_show.transports.sim import SimTransport
+
+    class Deaf(SimTransport):
+        """A port whose robot never hears the request (a dead or unpowered robot)."""
+
+        def write(self, data: bytes) -> None:
+            pass
+
+    schedule = sched(perf("rex", "mini"))
+    link = Deaf(create_robot("mini"))
+    link.open()
+    began = time.monotonic()
+    report = preflight(schedule, {"rex": link}, low_latency=False)
+    took = time.monotonic() - began
+    assert not report.ok and report.ports_ok
+    # Half a second for its answer (waited for in full), then it is a problem.
+    assert report.rows[0].problems == [
+        "no reply from sim:mini to a read of firmware (0x07) within 0.5 s"]
+    assert took >= 0.45

@@ -785,3 +785,22 @@ def test_a_negative_wait_is_a_poll(waker: _Waker) -> None:
     t = time.monotonic()
     waker.wait(-1.0)
     assert time.monotonic() - t < 0.05
+
+
+def test_a_short_stop_timeout_gives_up_on_a_stuck_stop_as_soon(
+    schedule: Schedule, clock: FakeClock, two: dict[str, Stub]
+) -> None:
+    """The wait for a stuck stop is twice the stop timeout however short it is: 0.1 s for a
+    50 ms timeout, never a floor of a second."""
+    stuck = threading.Event()
+    two["rex"].block_stop = stuck
+    runner = runner_for(schedule, two, clock, stop_timeout=0.05)
+    result = in_thread(runner)
+    started(two)
+    began = time.monotonic()
+    runner.stop("enough")
+    res = result()
+    took = time.monotonic() - began
+    stuck.set()
+    assert res.stops["rex"].error == "safe stop did not finish in time" and res.stops["ivy"].ok
+    assert took < 0.9
