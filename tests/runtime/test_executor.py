@@ -1088,7 +1088,18 @@ def test_the_hold_keeps_polling_telemetry_while_the_robot_is_paused(perf) -> Non
     ex.pause(at=start + 0.35)
     ex.start(start)
     _wait_state(ex, ExecutorState.PAUSED)
+    n_rest = len(rest_frames(rider))
+    deadline = time.monotonic() + 5
+    while len([r for r in rec.sent() if r.kind == "rest"]) < n_rest:  # the hold has begun
+        assert time.monotonic() < deadline
+        time.sleep(0.001)
+    clock.advance(0.01)  # past the rest frames' wire time: a reading due at the pause goes
+    time.sleep(0.1)
     reads = len([r for r in rec.sent() if r.kind == "read"])
+    clock.advance(0.01)  # the link is free again, but no reading is due yet: nothing to send
+    time.sleep(0.1)
+    assert ex.state is ExecutorState.PAUSED and ex.fault is None
+    assert len([r for r in rec.sent() if r.kind == "read"]) == reads
     # The hold looks for a due reading every 20 ms: five in a row take well under 3 s.
     began = time.monotonic()
     for _ in range(5):
@@ -1209,10 +1220,12 @@ def test_closing_ends_a_reader_stuck_in_a_read_within_a_bound(perf) -> None:
     rider = get_profile("rider")
     release = threading.Event()
     timeouts: list[float | None] = []
+    sizes: list[object] = []
 
     class Stuck(PollingSim):
         def read(self, size: int = 4096, timeout: float | None = 0.0) -> bytes:
             timeouts.append(timeout)
+            sizes.append(size)
             release.wait(10)  # a wedged adapter
             return b""
 
@@ -1228,6 +1241,7 @@ def test_closing_ends_a_reader_stuck_in_a_read_within_a_bound(perf) -> None:
     release.set()
     # Each read gives up after a short timeout, so a closed executor's reader ends soon.
     assert timeouts and all(t is not None and 0 < t <= 0.1 for t in timeouts)
+    assert all(isinstance(n, int) and n > 0 for n in sizes)  # a bounded chunk, never "all"
 
 
 # ---------------------------------------------------------------- faults and threads
@@ -1358,3 +1372,93 @@ def test_an_executor_without_telemetry_starts_no_reader(perf, monkeypatch) -> No
             thread.join(5)
     assert crashed == []
     ex.close()
+
+
+def test_a_request_while_a_late_frame_waits_for_the_link_is_acted_on_before_it(perf) -> None:
+    clock = HookClock()
+    # Frames 0.5 ms apart: each waits for the link (1.78 ms a frame) after the one before.
+    schedule = perf("rex", count=6, spacing=0.0005)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    late = start + schedule.frames[1].t
+
+    asked: list[float] = []
+
+    def pause_while_waiting(deadline: float) -> None:
+        if deadline > late and not asked:  # frame 1's wait for the link
+            asked.append(deadline)
+            ex.pause()
+
+    clock.before = pause_while_waiting
+    # Frame 0 goes out 1 ms late: frame 1 is due by then, and waits only for the link.
+    clock.hook = lambda deadline: deadline == start and clock.advance(0.001)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    assert [r.index for r in rec.sent() if r.kind == "frame"] == [0]  # held before frame 1
+    ex.resume()
+    assert ex.join(5) and ex.state is ExecutorState.FINISHED
+    assert [r.index for r in rec.sent() if r.kind == "frame"] == list(range(6))
+
+
+def test_a_seek_while_playing_at_a_time_goes_on_exactly_then(perf) -> None:
+    clock = HookClock()
+    schedule = perf("rex", count=10, spacing=0.1)
+    reached: list[float] = []
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI,
+                           reach=_reaching(reached))
+    rec = EventRecorder(ex.events)
+    sent_when: list[tuple[ExecutorState, int]] = []
+    ex.events.subscribe(lambda e: sent_when.append((e.state, ex.progress.sent)), StateChanged)
+    start = clock.now() + 0.1
+    go = start + 5.0
+
+    def seek_hook(deadline: float) -> None:
+        if abs(deadline - (start + 0.2)) < 1e-12:
+            ex.seek(0.65, at=go)
+
+    clock.hook = seek_hook
+    ex.run(start)
+    assert reached == [pytest.approx(0.65)]
+    frames = [r for r in rec.sent() if r.kind == "frame"]
+    assert [r.index for r in frames] == [0, 1, 2, 7, 8, 9]
+    # Show time 0.65 happens at ``go``: frame 7 (t=0.7) 50 ms later.
+    assert frames[3].actual == pytest.approx(go + 0.05)
+    assert sent_when[1:3] == [(ExecutorState.REACHING, 7), (ExecutorState.RUNNING, 7)]
+
+
+def test_an_abort_right_after_any_wait_ends_the_part_with_telemetry_too(perf) -> None:
+    """Aborts that land between a wait and the write it was for: a telemetry read the abort
+    refuses must end the wait too, never be tried again and again."""
+    rider = get_profile("rider")
+
+    def scenario() -> tuple[HookClock, PerformerExecutor, EventRecorder]:
+        clock = HookClock()
+        link = PollingSim(create_robot("rider"), clock=clock.now)
+        link.open()
+        ex = PerformerExecutor(perf("rita", "rider", count=6, spacing=0.02, end=0.2), link,
+                               clock=clock, profile=rider,
+                               telemetry=TelemetryPoller(rider, interval=0.005))
+        return clock, ex, EventRecorder(ex.events)
+
+    clock, ex, rec = scenario()
+    ex.run(clock.now() + 0.05)
+    waits = len(clock.waits)
+    assert {"frame", "read"} <= {r.kind for r in rec.sent()} and waits > 10
+    for k in range(1, waits + 1):
+        clock, ex, rec = scenario()
+        sent: list[int] = []
+
+        def abort_after(deadline: float, k: int = k, ex: PerformerExecutor = ex,
+                        rec: EventRecorder = rec, clock: HookClock = clock,
+                        sent: list[int] = sent) -> None:
+            if len(clock.waits) == k and not sent:
+                sent.append(len(rec.sent()))
+                ex.abort()
+
+        clock.hook = abort_after
+        ex.start(clock.now() + 0.05)
+        ended = ex.join(5)
+        ex.close()
+        assert ended, k
+        assert sent and len(rec.sent()) == sent[0], k
