@@ -1,0 +1,158 @@
+"""The families' run-time hooks in-process: telemetry items and replies, the reset posture's
+registers, pre-flight rows and their problems, the xArm's stop frame and unsafe commands."""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import replace
+
+import pytest
+
+from xgo_show.compiler.schedule import PerformerSchedule, Schedule
+from xgo_show.families import get_family
+from xgo_show.families.values import StopFrame, TelemetryItem
+from xgo_show.families.xgo.posture import RESET_ACTION, posture_after
+from xgo_show.profiles import get_profile
+from xgo_show.profiles.model import Access, Profile
+from xgo_show.runtime.preflight import PreflightRow, preflight
+from xgo_show.sim import create_robot
+from xgo_show.transports.sim import SimTransport
+from xgo_show.wire import xarm as xarm_wire
+from xgo_show.wire.xgo import XgoDecoder, read_frame, reply_frame, write_frame
+
+
+def _with(profile: Profile, name: str, **changes: object) -> Profile:
+    """``profile`` with register ``name`` changed (or dropped, with ``drop=True``)."""
+    drop = changes.pop("drop", False)
+    regs = tuple(r if r.name != name else replace(r, **changes) for r in profile.registers
+                 if not (drop and r.name == name))
+    return replace(profile, registers=regs)
+
+
+def _items(profile: Profile) -> list[str]:
+    return [i.name for i in get_family(profile).telemetry_items(profile)]
+
+
+def test_xgo_telemetry_reads_only_what_the_model_has_readable_and_adjacent() -> None:
+    mini = get_profile("mini")
+    assert _items(mini) == ["battery", "status", "attitude"]
+    assert _items(_with(mini, "battery", drop=True)) == ["status", "attitude"]
+    assert _items(_with(mini, "status", access=Access.WRITE)) == ["battery", "attitude"]
+    pitch = mini.register("imu_pitch")
+    apart = _with(mini, "imu_pitch", address=pitch.address + 0x10)  # no longer after roll
+    assert _items(apart) == ["battery", "status"]
+    attitude = get_family(mini).telemetry_items(mini)[2]
+    roll = mini.register("imu_roll")
+    assert attitude == TelemetryItem("attitude", roll.address, (roll, pitch),
+                                     read_frame(roll.address, 8))
+
+
+def test_xgo_telemetry_values_read_each_field_of_a_reply_in_turn() -> None:
+    rider = get_profile("rider")
+    family = get_family(rider)
+    items = {i.address: i for i in family.telemetry_items(rider)}
+    roll = rider.register("imu_roll").address
+    [frame] = XgoDecoder().feed(reply_frame(roll, struct.pack("<ff", 3.5, -2.0)))
+    assert family.telemetry_values(items, frame) == [("imu_roll", 3.5),
+                                                            ("imu_pitch", -2.0)]
+    status = rider.register("status").address
+    [named] = XgoDecoder().feed(reply_frame(status, b"\x01"))
+    assert family.telemetry_values(items, named) == [("status", 1.0)]
+
+
+def test_the_reset_posture_holds_only_ranged_registers_with_an_initial_value() -> None:
+    mini = get_profile("mini")
+    odd = _with(mini, "body_x", initial=None)
+    assert "body_x" in posture_after(mini, RESET_ACTION)
+    assert "body_x" not in posture_after(odd, RESET_ACTION)
+    enum_posture = replace(mini, default_posture=("status", *mini.default_posture))
+    assert list(posture_after(enum_posture, RESET_ACTION)) == list(mini.default_posture)
+
+
+def _schedule(model: str) -> Schedule:
+    """One performer ``rex`` of ``model`` with nothing to send: pre-flight reads only."""
+    profile = get_profile(model)
+    return Schedule("test", "show.yaml",
+                    (PerformerSchedule("rex", model, profile.link, (), end=1.0),), 1.0)
+
+
+def _sim(model: str, **options: object) -> SimTransport:
+    link = SimTransport(create_robot(model, **options))
+    link.open()
+    return link
+
+
+def test_xgo_preflight_names_an_unknown_firmware_and_a_battery_below_the_floor() -> None:
+    schedule = _schedule("mini")
+    report = preflight(schedule, {"rex": _sim("mini", firmware="Z-9.9.9", battery=24)},
+                       battery_floor=25, low_latency=False)
+    assert report.rows[0].problems == [
+        "firmware 'Z-9.9.9' is an unknown model, not mini",
+        "battery 24% is below the floor of 25%",
+    ]
+    at_floor = preflight(schedule, {"rex": _sim("mini", battery=25)}, battery_floor=25,
+                         low_latency=False)
+    assert at_floor.ok  # the floor itself is enough
+
+
+class Deaf(SimTransport):
+    """A port whose robot never hears the request."""
+
+    def write(self, data: bytes) -> None:
+        pass
+
+
+@pytest.mark.parametrize("model", ["mini", "xarm"])
+def test_preflight_gives_a_silent_robot_the_time_it_is_told(model: str) -> None:
+    schedule = _schedule(model)
+    link = Deaf(create_robot(model))
+    link.open()
+    report = preflight(schedule, {"rex": link}, timeout=0.2, low_latency=False)
+    [problem] = report.rows[0].problems
+    assert problem.startswith("no reply from sim:") and problem.endswith("within 0.2 s")
+
+
+def test_xarm_preflight_fills_its_row_and_judges_the_voltage_at_the_floor() -> None:
+    from xgo_show.families.xarm.runtime import floor_text
+    from xgo_show.profiles.xarm import battery_floor_mv, battery_percent
+
+    xarm = get_profile("xarm")
+    family = get_family(xarm)
+    floor_mv = int(battery_floor_mv(20))
+    row = PreflightRow("arm", "xarm", "sim:xarm")
+    family.preflight(row, _sim("xarm", battery_mv=floor_mv), xarm, 20, 0.5)
+    assert (row.firmware, row.detected, row.voltage, row.battery, row.problems) == (
+        "xArm controller", "xarm", floor_mv / 1000, battery_percent(floor_mv), [])
+    low = PreflightRow("arm", "xarm", "sim:xarm")
+    family.preflight(low, _sim("xarm", battery_mv=floor_mv - 1), xarm, 20, 0.5)
+    assert low.problems == [f"battery {(floor_mv - 1) / 1000:.2f} V is below the floor of "
+                            f"{floor_text(20)}"]
+
+
+def test_the_xarm_stop_is_one_labelled_group_stop_and_its_one_telemetry_item() -> None:
+    xarm = get_profile("xarm")
+    family = get_family(xarm)
+    assert family.stop_frames(xarm) == [StopFrame(xarm_wire.group_stop(), "GroupStop")]
+    assert family.telemetry_items(xarm) == (TelemetryItem(
+        "battery_v", int(xarm_wire.XarmCommand.GET_BATTERY_VOLTAGE), (),
+        xarm_wire.get_battery_voltage(), reply_bytes=6),)
+
+
+def test_xarm_unsafe_problems_name_the_command_or_the_bad_packet() -> None:
+    xarm = get_profile("xarm")
+    family = get_family(xarm)
+    assert family.unsafe_problems(xarm, xarm_wire.servo_move(20, {1: 500})) == []
+    off = xarm_wire.encode_packet(20, b"\x01\x01")
+    assert family.unsafe_problems(xarm, off) == [
+        "sends unsafe command ServoOff (20: ServoOff: unpowers servos, the arm drops)"]
+    [bad] = family.unsafe_problems(xarm, b"\x55\x55\x02")
+    assert bad.startswith("unknown packet: ")
+
+
+def test_xgo_frame_problems_and_labels() -> None:
+    mini = get_profile("mini")
+    family = get_family(mini)
+    frame = write_frame(mini.register("vx").address, b"\x80")
+    assert family.frame_problem(frame) is None
+    assert family.frame_problem(frame[:-1]) == "not one valid XGO frame (bad length or checksum)"
+    assert "vx" in family.frame_labels(mini)(frame)
