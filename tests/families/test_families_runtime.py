@@ -156,3 +156,25 @@ def test_xgo_frame_problems_and_labels() -> None:
     assert family.frame_problem(frame) is None
     assert family.frame_problem(frame[:-1]) == "not one valid XGO frame (bad length or checksum)"
     assert "vx" in family.frame_labels(mini)(frame)
+
+
+def _probe(robot: str, given: str | None, *, firmware: str | None = None,
+           table: str = "mini") -> dict[str, str]:
+    from xgo_show.client import XgoClient
+
+    options = {} if firmware is None else {"firmware": firmware}
+    client = XgoClient(_sim(robot, **options), get_profile(table), timeout=0.5)
+    return dict(get_family(get_profile(table)).probe(client, given=given))
+
+
+def test_probe_says_where_the_model_it_names_came_from() -> None:
+    assert _probe("mini", None) == {"port": "sim:mini", "model": "mini (from firmware)",
+                                    "firmware": "M-1.4.1", "battery": "100 %",
+                                    "status": _probe("mini", "mini")["status"]}
+    assert _probe("mini", None, firmware="Z-9.9.9")["model"] == "mini (from the URL)"
+    assert _probe("lite", None)["model"] == "mini (from the URL)"  # the firmware says lite
+    assert _probe("mini", "mini")["model"] == "mini"
+    assert _probe("mini", "mini", firmware="Z-9.9.9")["model"] == "mini"  # nothing to contradict
+    named = _probe("lite", "mini")
+    assert named["model"] == "mini (given; the firmware names a lite)"
+    assert named["battery"] == "100 %"
