@@ -178,3 +178,42 @@ def test_probe_says_where_the_model_it_names_came_from() -> None:
     named = _probe("lite", "mini")
     assert named["model"] == "mini (given; the firmware names a lite)"
     assert named["battery"] == "100 %"
+
+
+def test_xarm_telemetry_reads_volts_from_battery_replies_only() -> None:
+    xarm = get_profile("xarm")
+    family = get_family(xarm)
+    items = {i.address: i for i in family.telemetry_items(xarm)}
+
+    def values(data: bytes) -> list[tuple[str, float]] | None:
+        _, packet = xarm_wire.decode_one(data)
+        assert packet is not None
+        return family.telemetry_values(items, packet)
+
+    assert values(xarm_wire.battery_reply(7600)) == [("battery_v", pytest.approx(7.6))]
+    assert values(xarm_wire.get_battery_voltage()) is None  # the request, not a reply
+    assert values(xarm_wire.positions_reply({1: 500})) is None
+
+
+def test_xarm_battery_low_judges_volts_against_the_mapped_floor() -> None:
+    from xgo_show.profiles.xarm import battery_floor_mv
+
+    family = get_family("xarm")
+    floor_v = battery_floor_mv(20) / 1000.0
+    text = (f"battery {floor_v:.2f} V is below the floor of {floor_v:.2f} V "
+            "(20% of the xArm's range)")
+    assert family.battery_low("battery_v", floor_v, 20) == (False, text)
+    assert family.battery_low("battery_v", floor_v - 0.01, 20)[0] is True  # type: ignore[index]
+    assert family.battery_low("battery", 1.0, 20) is None
+
+
+def test_xarm_probe_rows_name_the_port_model_battery_and_servos() -> None:
+    from xgo_show.client import XarmClient
+
+    xarm = get_profile("xarm")
+    client = XarmClient(_sim("xarm"), xarm, timeout=0.5)
+    rows = get_family(xarm).probe(client, given=None)
+    assert rows[:3] == [("port", "sim:xarm"), ("model", "xarm (from the URL)"),
+                        ("battery", "7.60 V")]
+    assert [label for label, _ in rows[3:]] == [f"servo {s}" for s in xarm.xarm_servos]
+    assert dict(get_family(xarm).probe(client, given="xarm"))["model"] == "xarm"
