@@ -217,3 +217,24 @@ def test_xarm_probe_rows_name_the_port_model_battery_and_servos() -> None:
                         ("battery", "7.60 V")]
     assert [label for label, _ in rows[3:]] == [f"servo {s}" for s in xarm.xarm_servos]
     assert dict(get_family(xarm).probe(client, given="xarm"))["model"] == "xarm"
+
+
+def test_probe_reading_with_the_robots_own_table_keeps_the_timeout_given() -> None:
+    from xgo_show.client import XgoClient
+    from xgo_show.errors import XgoShowError
+
+    class AnswersOnce(SimTransport):
+        """A robot that answers the firmware read, then goes silent."""
+
+        heard = 0
+
+        def write(self, data: bytes) -> None:
+            self.heard += 1
+            if self.heard == 1:
+                super().write(data)
+
+    link = AnswersOnce(create_robot("lite"))
+    link.open()
+    client = XgoClient(link, get_profile("mini"), timeout=0.2)
+    with pytest.raises(XgoShowError, match=r"within 0\.2 s"):
+        get_family(get_profile("mini")).probe(client, given="mini")
