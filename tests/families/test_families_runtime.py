@@ -238,3 +238,57 @@ def test_probe_reading_with_the_robots_own_table_keeps_the_timeout_given() -> No
     client = XgoClient(link, get_profile("mini"), timeout=0.2)
     with pytest.raises(XgoShowError, match=r"within 0\.2 s"):
         get_family(get_profile("mini")).probe(client, given="mini")
+
+
+@pytest.mark.parametrize("model", ["mini", "xarm"])
+def test_each_family_hook_answers_for_the_profile_and_arguments_it_is_given(model: str) -> None:
+    """The families hand each hook's arguments on to the module that implements it: the
+    answers are those modules' answers for the same profile, frames and times."""
+    from xgo_show.compiler import state as state_module
+    from xgo_show.compiler import timeline as timeline_module
+    from xgo_show.compiler import xarm as xarm_compiler
+    from xgo_show.compiler.schedule import ScheduledFrame
+
+    profile = get_profile(model)
+    family = get_family(profile)
+    if model == "xarm":
+        data = [xarm_wire.servo_move(20, {1: 300}), xarm_wire.servo_move(20, {1: 600, 2: 400})]
+    else:
+        data = [write_frame(profile.register("vx").address, b"\x90"),
+                write_frame(profile.register("body_z").address, b"\x70")]
+    frames = [ScheduledFrame(0.1, data[0]), ScheduledFrame(0.5, data[1])]
+    performer = PerformerSchedule("p", model, profile.link, tuple(frames), end=1.0)
+    at_03 = family.state_at(profile, frames, 0.3)
+    at_06 = family.state_at(profile, frames, 0.6)
+    assert at_03 and at_06 != at_03
+    if model == "xarm":
+        assert at_06 == xarm_compiler.xarm_state_at(frames, 0.6)
+        assert family.describe_frame(profile, data[1]) == xarm_compiler.describe_xarm_frame(
+            data[1])
+        slow = family.frames_to_reach(profile, at_06, move_time=2.0)
+        assert [f.data for f in slow] == [f.data for f in xarm_compiler.xarm_frames_to_reach(
+            profile, at_06, move_time=2.0)]
+        assert slow != family.frames_to_reach(profile, at_06, move_time=0.5)
+        timeline = timeline_module.xarm_timeline(profile, performer, 1.0)
+        assert family.refuse_cue("gripper", profile) == (
+            "on the xArm the gripper is servo 1: use pose: {1: POSITION}")
+        assert family.after_action(profile, 255) == {}
+        assert family.simulate_options(seed=3, battery=None) == {}
+        assert family.frame_labels(profile)(data[0]) == state_module.frame_label(profile, data[0])
+    else:
+        assert at_06 == state_module.xgo_state_at(profile, frames, 0.6)
+        assert family.describe_frame(profile, data[1]) == state_module.describe_xgo_frame(
+            profile, data[1])
+        assert [f.data for f in family.frames_to_reach(profile, at_06, move_time=1.0)] == [
+            f.data for f in state_module.xgo_frames_to_reach(profile, at_06)]
+        timeline = timeline_module.xgo_timeline(profile, performer, 1.0)
+        assert family.refuse_cue("pose", profile) == (
+            f"pose is for the xArm; the {profile.title} moves with move: (registers) "
+            "or arm: / gripper:")
+        assert family.refuse_cue("move", profile) is None
+        assert family.after_action(profile, RESET_ACTION) == posture_after(profile, RESET_ACTION)
+        assert family.simulate_options(seed=3, battery=40.0) == {"seed": 3, "battery": 40.0}
+        assert family.simulate_options(seed=4, battery=None) == {"seed": 4}
+    assert family.timeline(profile, performer, 1.0) == timeline
+    client = family.client(_sim(model), profile, timeout=0.25)
+    assert client.profile is profile and client.timeout == 0.25
