@@ -292,3 +292,12 @@ def test_each_family_hook_answers_for_the_profile_and_arguments_it_is_given(mode
     assert family.timeline(profile, performer, 1.0) == timeline
     client = family.client(_sim(model), profile, timeout=0.25)
     assert client.profile is profile and client.timeout == 0.25
+
+
+def test_the_xarm_simulator_refuses_a_battery_percentage_and_says_why() -> None:
+    from xgo_show.errors import UsageError
+
+    with pytest.raises(UsageError) as refused:
+        get_family("xarm").simulate_options(seed=1, battery=50.0)
+    assert str(refused.value) == ("--battery is a percentage for XGO robots; the xArm reports "
+                                  "millivolts (its simulator starts at 7600 mV)")
