@@ -301,3 +301,34 @@ def test_the_xarm_simulator_refuses_a_battery_percentage_and_says_why() -> None:
         get_family("xarm").simulate_options(seed=1, battery=50.0)
     assert str(refused.value) == ("--battery is a percentage for XGO robots; the xArm reports "
                                   "millivolts (its simulator starts at 7600 mV)")
+
+
+def test_the_xgo_plan_and_its_remerge_are_the_planners_and_mergers_for_that_link() -> None:
+    from xgo_show.choreo.resolved import ActionCue, MotionCue, ResolvedTrack
+    from xgo_show.compiler.frames import Write
+    from xgo_show.compiler.layout import ACTION_REGISTER
+    from xgo_show.compiler.merge import merge_writes
+    from xgo_show.compiler.planner import plan_xgo_track
+    from xgo_show.compiler.state import layout_of
+    from xgo_show.diagnostics import Origin
+
+    mini = get_profile("mini")
+    track = ResolvedTrack("p", "mini", (
+        MotionCue(0.0, Origin("show.yaml", 1, 1, "lean"), {"roll": 10.0, "body_z": 90.0}, 1.0),
+        ActionCue(1.5, Origin("show.yaml", 2, 1, "wave"), 19, "wave", 1.0),
+    ))
+    layout = layout_of(mini)
+    for rate, gap, details in ((50.0, 0.003, True), (20.0, 0.001, False)):
+        plan, remerge = get_family(mini).plan_track(mini, track, rate=rate, link=mini.link,
+                                                    gap=gap, details=details)
+        want = plan_xgo_track(layout, track, rate=rate, link=mini.link, gap=gap, details=details)
+        assert plan.frames == want.frames and plan.samples == want.samples
+        assert remerge is not None
+        action = layout.by_name[ACTION_REGISTER]
+        writes = [Write(action.address, b"\x13", None, 0, False, 1.0),
+                  Write(mini.register("vx").address, b"\x90", None, 1, False),
+                  Write(mini.register("vy").address, b"\x70", None, 2, False)]
+        assert remerge(2_000, writes) == merge_writes(layout, mini.link, gap, 2_000, writes, {},
+                                                       action_address=action.address)
+        assert remerge(2_000, writes) != merge_writes(layout, mini.link, gap, 2_000, writes, {},
+                                                       action_address=None)
