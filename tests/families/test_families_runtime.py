@@ -332,3 +332,22 @@ def test_the_xgo_plan_and_its_remerge_are_the_planners_and_mergers_for_that_link
                                                        action_address=action.address)
         assert remerge(2_000, writes) != merge_writes(layout, mini.link, gap, 2_000, writes, {},
                                                        action_address=None)
+
+
+def test_the_xarm_plan_is_the_arm_planners_for_that_profile_and_track() -> None:
+    from xgo_show.choreo.resolved import ArmCue, ResolvedTrack
+    from xgo_show.compiler.xarm import plan_xarm_track
+    from xgo_show.diagnostics import Origin
+
+    xarm = get_profile("xarm")
+    track = ResolvedTrack("arm", "xarm", (
+        ArmCue(0.0, Origin("show.yaml", 1, 1, "reach"), {1: 300, 2: 700}, 0.5),
+        ArmCue(1.0, Origin("show.yaml", 2, 1, "far"), {9: 500}, 0.5),  # no such servo
+    ))
+    plan, remerge = get_family(xarm).plan_track(xarm, track, rate=50.0, link=xarm.link,
+                                                gap=0.001, details=False)
+    want = plan_xarm_track(xarm, track)
+    assert remerge is None
+    assert plan.frames == want.frames and len(plan.frames) == 1
+    assert [d.message for d in plan.diagnostics] == [d.message for d in want.diagnostics]
+    assert len(plan.diagnostics) == 1
