@@ -140,6 +140,16 @@ def test_a_fade_writes_its_led_at_each_tick_of_its_span_and_at_its_end() -> None
     model = _model([FadeCue(0.01, origin("f"), "led1", (200, 0, 40), 1.0)], "rider")
     assert model is not None
     assert _plain(model) == ({1: [(led, 1)], 51: [(led, -1)]}, {1_010_000: {led}})
+    # Shorter than a tick (2 Hz): only its end.
+    model = _model([FadeCue(0.05, origin("f"), "led1", (200, 0, 40), 0.4)], "rider", rate=2.0)
+    assert model is not None
+    assert _plain(model) == ({}, {450_000: {led}})
+    # At 144 Hz tick 2 rounds up to 13889 us: a fade ending there has ticks 0 and 1 only.
+    assert tick_us(2, 144.0) == 13_889
+    model = _model([FadeCue(0.0, origin("f"), "led1", (200, 0, 40), 0.013889)], "rider",
+                   rate=144.0)
+    assert model is not None
+    assert _plain(model) == ({0: [(led, 1)], 2: [(led, -1)]}, {13_889: {led}})
     # No duration: only its colour, at its start.
     model = _model([FadeCue(0.3, origin("f"), "led1", (200, 0, 40), 0.0)], "rider")
     assert model is not None
@@ -153,6 +163,36 @@ def test_a_fade_writes_its_led_at_each_tick_of_its_span_and_at_its_end() -> None
                     SetCue(0.51, origin("s"), {"led1": (1, 2, 3)})], "rider")
     assert model is not None
     assert _plain(model) == ({0: [(led, 1)], 26: [(led, -1)]}, {510_000: {led}})
+
+
+def test_a_move_sampled_at_one_tick_and_a_move_to_its_tables_ends_are_modelled() -> None:
+    z = _addr("body_z")
+    # At 2 Hz a move over 0.05..0.55 s is sampled at tick 1 (0.5 s) only.
+    model = _model([_move(0.05, {"body_z": 100.0}, 0.5)], rate=2.0)
+    assert model is not None
+    assert _plain(model) == ({1: [(z, 1)], 2: [(z, -1)]}, {550_000: {z}})
+    # Right to the byte table's ends (75 and 120 mm): within it, so modelled.
+    for target in (75.0, 120.0):
+        assert _model([_move(0.0, {"body_z": target})]) is not None
+
+
+class _Overshooting:
+    """A planned move whose path leaves its register's range though its target is inside."""
+
+    def __init__(self, plan: object) -> None:
+        self._plan = plan
+
+    def __getattr__(self, name: str) -> object:
+        return getattr(self._plan, name)
+
+    def extrema(self) -> list[tuple[float, float]]:
+        return [(lo, hi + 100.0) for lo, hi in self._plan.extrema()]  # type: ignore[attr-defined]
+
+
+def test_a_move_whose_path_leaves_the_byte_table_is_left_to_the_full_compile() -> None:
+    walk = _walk([_move(0.0, {"body_z": 100.0})])
+    walk.runs[0].plan = _Overshooting(walk.runs[0].plan)  # type: ignore[assignment]
+    assert link_model(walk, rate=50.0, link=MINI.link, gap_us=GAP_US) is None
 
 
 @pytest.mark.parametrize("target", [120.0000005, 74.9999995])
@@ -207,6 +247,13 @@ def test_lateness_carries_to_the_next_instant_only_while_the_link_is_busy() -> N
     # Between ticks (5 ms): 7 ms late.
     model = _hand({}, {0: {1}, 5_000: {2}}, {1: 12_000.0, 2: 15_000.0})
     assert _sweep(model, rate=100.0, limit=math.inf) == 7_000 + 15_000 - 100
+    # ... and the link is busy 7 + 15 ms after it: an instant at 20 ms waits 7 ms.
+    model = _hand({}, {0: {1}, 5_000: {2}, 20_000: {3}}, {1: 12_000.0, 2: 15_000.0,
+                                                          3: 30_000.0})
+    assert _sweep(model, rate=100.0, limit=math.inf) == 7_000 + 30_000 - 100
+    # 6 ms, nearer tick 1 than tick 0, is still between them.
+    model = _hand({}, {0: {1}, 6_000: {2}}, {1: 12_000.0, 2: 15_000.0})
+    assert _sweep(model, rate=100.0, limit=math.inf) == 6_000 + 15_000 - 100
     # A link free again before the next instant: nothing carries.
     model = _hand({}, {0: {1}, 10_000: {2}}, {1: 8_000.0, 2: 15_000.0})
     assert _sweep(model, rate=100.0, limit=math.inf) == 15_000 - 100
@@ -230,6 +277,19 @@ def test_a_window_dearer_than_a_tick_grows_lateness_by_the_excess_a_tick() -> No
     assert _sweep(model, rate=100.0, limit=math.inf) == 9 * 5_001 + 5_000 + 60_000 - 100
 
 
+def test_a_point_between_ticks_comes_after_the_ticks_before_it_and_before_those_after() -> None:
+    # Ticks 0..2 cost 15 ms; 100 ms at 15 ms (between ticks 1 and 2): it waits for ticks 0
+    # and 1 only (15 001 us late), tick 2 then for it.
+    model = _hand({0: [(1, 1)], 3: [(1, -1)]}, {15_000: {2}}, {1: 15_000.0, 2: 100_000.0})
+    tick2 = (15_000 + 15_001 + 100_000) - 20_000
+    assert _sweep(model, rate=100.0, limit=math.inf) == tick2 + 15_000 - 100
+
+
+def test_at_one_hertz_a_tick_is_a_second_less_a_microsecond() -> None:
+    model = _hand({0: [(1, 1)], 10: [(1, -1)]}, {}, {1: 1_500_000.0})
+    assert _sweep(model, rate=1.0, limit=math.inf) == 9 * 500_001 + 1_500_000 - 100
+
+
 def test_a_window_cheaper_than_a_tick_drains_lateness_by_the_slack_a_tick() -> None:
     # 50 ms at tick 0; ticks 1..3 cost 2 ms each (8 ms of slack a tick; the sweep, 7999 us);
     # then 60 ms at tick 4, which starts 40 - 2 x 7999 - 10 + 2 ms late.
@@ -241,6 +301,10 @@ def test_a_window_cheaper_than_a_tick_drains_lateness_by_the_slack_a_tick() -> N
     model = _hand({1: [(1, 1)], 20: [(1, -1)]}, {0: {2}, 200_000: {3}},
                   {1: 2_000.0, 2: 50_000.0, 3: 60_000.0})
     assert _sweep(model, rate=100.0, limit=math.inf) == 60_000 - 100
+    # ... so a point 1.5 ms after the last drained tick waits only for that tick's 2 ms.
+    model = _hand({1: [(1, 1)], 20: [(1, -1)]}, {0: {2}, 191_500: {3}},
+                  {1: 2_000.0, 2: 50_000.0, 3: 60_000.0})
+    assert _sweep(model, rate=100.0, limit=math.inf) == 500 + 60_000 - 100
 
 
 def test_a_register_counts_once_an_instant_however_many_cues_write_it() -> None:
@@ -265,6 +329,8 @@ def test_the_sweep_stops_counting_once_past_its_limit() -> None:
     assert full == 90_000 + 200_000 - 100
     assert _sweep(model, rate=100.0, limit=20_000) == 100_000 - 100
     assert _sweep(model, rate=100.0, limit=full) == full
+    # Reaching the limit is not past it: the count goes on.
+    assert _sweep(model, rate=100.0, limit=100_000 - 100) == full
 
 
 # -- the short cut ----------------------------------------------------------------------------
