@@ -100,3 +100,46 @@ def test_plot_writes_a_png(make_show, o, tmp_path: Path) -> None:  # type: ignor
     image = imread(path)[:, :, :3]
     coloured = np.abs(image - image.mean(axis=2, keepdims=True)).max(axis=2) > 0.1
     assert all(band.sum() > 1000 for band in np.array_split(coloured, 3))
+
+
+# -- the layout of labels and bar numbers, without drawing ------------------------------------
+
+
+def test_label_rows_are_greedy_by_left_edge_and_the_first_row_free_is_taken() -> None:
+    from xgo_show.compiler.plot import _rows, _text_width
+
+    w = _text_width("x")  # inches; one second an inch below
+    # Three instants: the second starts where the first label ends (fits its row), the
+    # third inside the second's label (a new row); a span longer than its label reaches on.
+    items = [(0.0, 0.0, "x"), (w, w, "x"), (w + 0.01, w + 0.01, "x"), (5.0, 9.0, "x"),
+             (8.0, 8.0, "x"), (9.0, 9.0, "x")]
+    assert _rows(items, 1.0, 100.0) == [(0, False), (0, False), (1, False), (0, False),
+                                        (1, False), (0, False)]
+    # Given out of order: placed by left edge all the same.
+    assert _rows(items[::-1], 1.0, 100.0) == [(0, False), (1, False), (0, False), (1, False),
+                                              (0, False), (0, False)]
+    # Two seconds an inch: the label is twice as long in seconds.
+    assert _rows([(0.0, 0.0, "x"), (1.5 * w, 1.5 * w, "x")], 2.0, 100.0) == [(0, False),
+                                                                             (1, False)]
+    # A label that would run past the show's end ends at its start (right-aligned), and
+    # takes the room left of it.
+    assert _rows([(10.0 - w / 2, 10.0 - w / 2, "x"), (9.75, 9.75, "x")], 1.0, 10.0) == [
+        (1, True), (0, False)]
+    assert _rows([(10.0 - w, 10.0 - w, "x")], 1.0, 10.0) == [(0, False)]
+    assert _rows([], 1.0, 10.0) == []
+
+
+def test_bar_numbers_are_labelled_every_power_of_two_bars_to_stay_apart() -> None:
+    from xgo_show.compiler.plot import _label_step
+    from xgo_show.compiler.timeline import Timeline
+
+    def step(bar_seconds: float, bars: int, duration: float) -> int:
+        grid = tuple((i * bar_seconds, i + 1) for i in range(bars))
+        return _label_step(Timeline("t", duration, (), grid), min_inches=0.3)
+
+    # 14 in x 0.76 of axes: 10.64 in for the show.
+    assert step(2.0, 8, 14.0) == 1  # 1.52 in a bar
+    assert step(2.0, 60, 120.0) == 2  # 0.177 in
+    assert step(2.0, 151, 300.0) == 8  # 0.071 in: 0.142 at 2, 0.284 at 4 (< 0.3), 0.57 at 8
+    assert step(2.0, 60, 211.0) == 4  # 0.1009 in: 0.3026 at 3 would do, but steps double
+    assert step(2.0, 1, 2.0) == 1 and step(2.0, 0, 2.0) == 1
