@@ -41,6 +41,12 @@ def _frames(p: PerformerSchedule, ref: OriginRef) -> object:
 
 def _read_frames(r: Reader, p: Mapping[str, Any], where: str, name: str, profile: Profile,
                  origins: Sequence[Origin], origin: OriginOf) -> list[ScheduledFrame]:
+    # A performer's frames reader is given the file's reader, the performer's path, name and
+    # profile, and the origins table (the file versions' readers check frames with them).
+    assert isinstance(r, Reader) and r.name == NAME
+    assert where.startswith("performers[") and name == p["name"]
+    assert profile.model == p["model"] and isinstance(profile, Profile)
+    assert [o.line for o in origins] == [7, 3, 1]
     return [ScheduledFrame(t / 1e6, bytes.fromhex(h), origin({"origin": o}, where), d / 1e6)
             for t, h, o, d in p["frames"]]
 
@@ -138,7 +144,12 @@ def test_fields_added_later_are_optional_and_nulls_read_as_none() -> None:
     for value in (schedule.control_rate, schedule.bpm, schedule.tempo_map[0][1],
                   schedule.music and schedule.music.offset):
         assert type(value) is float
-    # The ends of each range are accepted.
+    # The ends of each range are accepted, and either failure policy.
+    doc["show"].update(control_rate=1, on_failure="halt_all")
+    doc["performers"][1]["link"]["baud"] = 1
+    schedule = _read(doc)
+    assert (schedule.control_rate, schedule.on_failure, schedule.performers[1].link.baud) == (
+        1.0, "halt_all", 1)
     for floor in (0, 100):
         doc["show"]["battery_floor"] = floor
         assert _read(doc).battery_floor == floor
