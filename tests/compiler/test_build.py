@@ -145,3 +145,21 @@ def test_decimated_samples_are_a_warning_with_their_count_and_first_drop() -> No
         "their values went out with later frames")]
     assert compile_show(_show({"rex": ("mini", [_dense()])}, control_rate=50.0,
                               decimate=True)).warnings == ()
+
+
+def test_validate_only_walks_a_performer_whose_link_provably_fits(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # The short cut (compiler/linkfit.py) neither samples moves nor paces frames: with the
+    # sampling broken, validate still answers for a show that fits, and only the compile fails.
+    from xgo_show.compiler import planner
+
+    def broken(self: object, run: object) -> None:
+        raise AssertionError("sampled")
+
+    show = _show({"rex": ("mini", [MotionCue(0.0, origin("m"), {"body_z": 100.0}, 1.0),
+                                   MotionCue(1.0, origin("g", 4), {"gait": 1.0})])})
+    monkeypatch.setattr(planner.XgoPlanner, "_sample_run", broken)
+    with pytest.raises(CompileError, match="gait cannot follow a trajectory"):
+        compile_diagnostics(show)
+    with pytest.raises(AssertionError, match="sampled"):
+        compile_show(show)
