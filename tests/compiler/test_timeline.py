@@ -152,6 +152,7 @@ def test_an_arms_servos_ramp_over_each_move_and_are_assumed_before_their_first()
     frames = [ScheduledFrame(0.5, ServoMove(1000, {6: 300, 1: 500}).encode(), first, 1.0),
               ScheduledFrame(2.0, ServoMove(500, {1: 700}).encode(), second, 0.5)]
     arm = build_timeline(_schedule(_performer("arm", "xarm", frames, 5.0))).performers[0]
+    assert (arm.name, arm.model, arm.title) == ("arm", "xarm", get_profile("xarm").title)
     a, b = ("arm: reach", "show.yaml:3"), ("arm: grip", "show.yaml:8")
     d = position_to_degrees
     assert arm.lanes == (Lane("deg", (
