@@ -5,6 +5,7 @@ drawn)."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ from xgo_show.compiler.timeline import (
     PerformerTimeline,
     Timeline,
     build_timeline,
+    xgo_timeline,
 )
 from xgo_show.compiler.timeline_html import timeline_data, timeline_html, write_timeline_html
 from xgo_show.diagnostics import Origin
@@ -79,6 +81,8 @@ def _initial(name: str) -> float:
 def test_an_xgo_performers_registers_become_curves_from_their_initial_value() -> None:
     move, lean = _at(3, "rex: move a"), _at(7, "rex: move b")
     frames = [
+        # Re-sent at its initial value only (a gap filler): no curve, and the others still.
+        _write(0.2, move, ("body_x", _initial("body_x"))),
         _write(0.5, move, ("body_z", 100.0)),
         _write(1.0, lean, ("body_z", 110.0), ("roll", 5.0), ("pitch", -4.0)),
         _write(1.5, lean, ("roll", 6.0)),
@@ -103,6 +107,18 @@ def test_an_xgo_performers_registers_become_curves_from_their_initial_value() ->
                            sources=(NONE, b, b)))),
     )
     assert rex.events == () and rex.colours == ()
+
+
+def test_a_register_without_an_initial_value_starts_at_its_first_value_assumed() -> None:
+    # A profile (a new robot's) whose body_z has no documented initial value and no unit.
+    profile = replace(MINI, registers=tuple(
+        replace(r, initial=None, unit="") if r.name == "body_z" else r for r in MINI.registers))
+    frames = [_write(0.5, None, ("body_z", 100.0)), _write(1.0, None, ("body_z", 110.0))]
+    rex = xgo_timeline(profile, _performer("rex", "mini", frames, 2.0), 2.0)
+    first, second = _value("body_z", 100.0), _value("body_z", 110.0)
+    assert rex.lanes == (Lane("value", (Curve(
+        "body_z", "value", (0.0, 0.5, 1.0, 2.0), (first, first, second, second),
+        known_from=0.5, sources=(NONE, NONE, NONE, NONE)),)),)
 
 
 def test_lanes_follow_each_units_lowest_register_and_unitless_registers_share_one() -> None:
@@ -137,12 +153,15 @@ def test_led_colours_are_runs_from_each_change_to_the_next_by_led_then_start() -
         _write(0.2, green, ("led2", (0, 255, 16)), model="rider"),
         _write(0.5, also, ("led1", (255, 0, 0)), model="rider"),  # a resend: the same run
         _write(1.0, blue, ("led1", (0, 0, 255)), model="rider"),
+        # A resend of led1's colour and a new one of led2 in one frame: led2's run starts.
+        _write(2.0, green, ("led1", (0, 0, 255)), ("led2", (9, 9, 9)), model="rider"),
     ]
     rio = build_timeline(_schedule(_performer("rio", "rider", frames, 3.0))).performers[0]
     assert rio.colours == (
         Event(0.0, 1.0, "colour", "led1 #FF0000", "show.yaml:2", "red", "led1", (255, 0, 0)),
         Event(1.0, 3.0, "colour", "led1 #0000FF", "show.yaml:4", "blue", "led1", (0, 0, 255)),
-        Event(0.2, 3.0, "colour", "led2 #00FF10", "show.yaml:5", "green", "led2", (0, 255, 16)),
+        Event(0.2, 2.0, "colour", "led2 #00FF10", "show.yaml:5", "green", "led2", (0, 255, 16)),
+        Event(2.0, 3.0, "colour", "led2 #090909", "show.yaml:5", "green", "led2", (9, 9, 9)),
     )
     assert rio.events == () and rio.lanes == ()
 
