@@ -7,6 +7,7 @@ from __future__ import annotations
 import pytest
 
 from tests.compiler.conftest import origin
+from xgo_show.choreo.music import Music
 from xgo_show.choreo.resolved import ArmCue, Cue, MotionCue, ResolvedShow, ResolvedTrack, SetCue
 from xgo_show.choreo.sections import Section
 from xgo_show.compiler import compile_diagnostics, compile_show
@@ -46,6 +47,12 @@ def _both(show: ResolvedShow) -> tuple[str, tuple[Diagnostic, ...]]:
     return str(full.value), full.value.diagnostics
 
 
+def test_the_slowest_control_rate_compiles() -> None:
+    show = _show({"rex": ("mini", [MotionCue(0.0, origin("m"), {"body_z": 100.0}, 2.0)])},
+                 control_rate=1.0)
+    assert [f.t for f in compile_show(show).performers[0].frames] == [0.0, 1.0, 2.0]
+
+
 @pytest.mark.parametrize("rate", [0.0, -5.0])
 def test_a_control_rate_must_be_positive(rate: float) -> None:
     show = _show({"rex": ("mini", [])}, control_rate=rate)
@@ -82,13 +89,14 @@ def test_a_schedule_carries_the_shows_settings_and_each_performers_link() -> Non
                        port="/dev/ttyUSB3"),
          ResolvedTrack("arm", "xarm", (ArmCue(0.5, origin("r"), {1: 500}, 1.0),))),
         control_rate=40.0, gap=0.005, on_failure="continue", battery_floor=35, bpm=90.0,
-        beats_per_bar=3, warnings=(loader,), tempo_map=((1, 90.0, 3),), sections=sections)
+        beats_per_bar=3, warnings=(loader,), tempo_map=((1, 90.0, 3),), sections=sections,
+        music=Music("song.ogg", "/music/song.ogg", -1.5))
     schedule = compile_show(show)
     assert (schedule.name, schedule.source, schedule.control_rate, schedule.on_failure,
             schedule.battery_floor, schedule.bpm, schedule.beats_per_bar, schedule.tempo_map,
             schedule.sections, schedule.music, schedule.warnings) == (
-        "s", "show.yaml", 40.0, "continue", 35, 90.0, 3, ((1, 90.0, 3),), sections, None,
-        (loader,))
+        "s", "show.yaml", 40.0, "continue", 35, 90.0, 3, ((1, 90.0, 3),), sections,
+        Music("song.ogg", "/music/song.ogg", -1.5), (loader,))
     rex, arm = schedule.performers
     assert (rex.name, rex.model, rex.port, arm.name, arm.model, arm.port) == (
         "rex", "mini", "/dev/ttyUSB3", "arm", "xarm", None)
@@ -118,13 +126,18 @@ def test_a_link_that_does_not_fit_names_the_cue_the_times_and_the_way_out() -> N
     _, diags = _both(_show({"rex": ("mini", [_dense(), _dense(4.0, "n", 7, 0.3)])},
                               control_rate=1000.0))
     # One error a cue, however many of its frames are late.
-    assert [(d.origin and d.origin.cue, d.path) for d in diags] == [("m", "tracks.rex"),
-                                                                    ("n", "tracks.rex")]
+    assert [(d.severity, d.origin and d.origin.cue, d.path) for d in diags] == [
+        ("error", "m", "tracks.rex"), ("error", "n", "tracks.rex")]
     assert diags[0].message == (
         "the link does not fit cue 'm': its frame planned at 0.000 s could only start at "
         "0.003 s, more than one control period (1 ms) late at 115200 baud with 1.2 ms between "
         "frames; write fewer registers at once or lower control_rate, or set decimate: true")
     assert diags[1].message.startswith("the link does not fit cue 'n': its frame planned at 4.")
+    # Ten minutes in: times to the millisecond.
+    _, diags = _both(_show({"rex": ("mini", [_dense(600.0)])}, control_rate=1000.0))
+    assert diags[0].message.startswith(
+        "the link does not fit cue 'm': its frame planned at 600.000 s could only start at "
+        "600.003 s,")
     # With decimate, the samples give way; settings cannot: no hint to decimate then.
     crowded: list[Cue] = [SetCue(0.0, origin("names"), {"bt_name": "a" * 20, "gait": "trot"})]
     _, diags = _both(_show({"rex": ("mini", crowded)}, control_rate=1000.0, decimate=True,
@@ -145,6 +158,9 @@ def test_decimated_samples_are_a_warning_with_their_count_and_first_drop() -> No
         "their values went out with later frames")]
     assert compile_show(_show({"rex": ("mini", [_dense()])}, control_rate=50.0,
                               decimate=True)).warnings == ()
+    later = compile_show(_show({"rex": ("mini", [_dense(600.0)])}, control_rate=1000.0,
+                               decimate=True)).warnings
+    assert "(first at 600.000 s)" in later[0].message
 
 
 def test_validate_only_walks_a_performer_whose_link_provably_fits(

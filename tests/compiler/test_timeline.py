@@ -223,7 +223,9 @@ def _small() -> Timeline:
     rex = PerformerTimeline("rex", "mini", "XGO Mini", (Lane("mm", (curve,)),),
                             (Event(1.0, 8.0, "action", "wave (action 13)", "show.yaml:4",
                                    "rex: wave"),
-                             Event(1.5, 1.5, "setting", "gait=trot")),
+                             Event(1.5, 1.5, "setting", "gait=trot"),
+                             Event(1.6, 1.6, "setting", "pace=slow", "show.yaml:5"),
+                             Event(1.7, 1.7, "setting", "gait=walk", "", "rex: walk")),
                             (Event(0.0, 2.0, "colour", "led1 #FF0000", "show.yaml:3",
                                    "rex: up", "led1", (255, 0, 0)),))
     arm = PerformerTimeline("arm", "xarm", "xArm", (Lane("deg", (ramp,)),), (), ())
@@ -242,15 +244,18 @@ def test_the_pages_data_has_short_keys_rounded_numbers_and_one_source_table() ->
                  "name": "body_z", "t": [0.0, 0.1235, 2.0], "v": [97.5, 100.0, 100.0],
                  "ramp": False, "known": 0.0, "src": [-1, 0, 0]}]}],
              "events": [[1.0, 8.0, "action", "wave (action 13)", 1, "", None],
-                        [1.5, 1.5, "setting", "gait=trot", -1, "", None]],
+                        [1.5, 1.5, "setting", "gait=trot", -1, "", None],
+                        [1.6, 1.6, "setting", "pace=slow", 2, "", None],
+                        [1.7, 1.7, "setting", "gait=walk", 3, "", None]],
              "colours": [[0.0, 2.0, "colour", "led1 #FF0000", 0, "led1", [255, 0, 0]]]},
             {"name": "arm", "title": "xArm",
              "lanes": [{"unit": "deg", "curves": [{
                  "name": "1 gripper", "t": [0.0, 1.5, 2.0], "v": [10.0, 10.0, 20.0],
-                 "ramp": True, "known": 1.5, "src": [-1, 2, -1]}]}],
+                 "ramp": True, "known": 1.5, "src": [-1, 4, -1]}]}],
              "events": [], "colours": []},
         ],
-        "sources": [up, ["rex: wave", "show.yaml:4"], ["arm: reach", "show.yaml:9"]],
+        "sources": [up, ["rex: wave", "show.yaml:4"], ["", "show.yaml:5"], ["rex: walk", ""],
+                    ["arm: reach", "show.yaml:9"]],
     }
 
 
