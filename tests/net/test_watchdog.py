@@ -9,7 +9,7 @@ from collections.abc import Callable
 
 import pytest
 
-from xgo_show.net.watchdog import Watchdog
+from xgo_show.net.watchdog import GRACE, LATE, Watchdog
 from xgo_show.runtime.clock import FakeClock, MonotonicClock
 
 
@@ -57,6 +57,20 @@ def test_the_thread_fires_at_the_deadline_itself_and_reports_a_peer_that_comes_b
         assert silences[1] == (pytest.approx(0.5), pytest.approx(102.25))
 
 
+class WakeRecordingClock(MonotonicClock):
+    """The real clock, noting each completed wait's deadline and how late it woke after it."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.woke: list[tuple[float, float]] = []
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        done = super().sleep_until(deadline, interrupt)
+        if done:
+            self.woke.append((deadline, self.now() - deadline))
+        return done
+
+
 def test_on_the_real_clock_a_peer_heard_often_is_kept_and_silence_is_noticed_on_time() -> None:
     lost = threading.Event()
     noticed: list[float] = []
@@ -65,7 +79,8 @@ def test_on_the_real_clock_a_peer_heard_often_is_kept_and_silence_is_noticed_on_
         noticed.append(time.monotonic())
         lost.set()
 
-    with Watchdog(0.1, on_silence, clock=MonotonicClock()) as dog:
+    clock = WakeRecordingClock()
+    with Watchdog(0.1, on_silence, clock=clock) as dog:
         for _ in range(15):
             dog.heard()
             time.sleep(0.02)
@@ -73,7 +88,18 @@ def test_on_the_real_clock_a_peer_heard_often_is_kept_and_silence_is_noticed_on_
         last = dog.last_heard
         assert lost.wait(2.0)
     late = noticed[0] - (last + 0.1)
-    assert 0 <= late < 0.02  # a sleeper wakes ~0.1 ms late; more only on a busy machine
+    # The waits for the final silence: from its deadline on (the earlier ones ended heard).
+    final = [w for at, w in clock.woke if at >= last + 0.1 - 1e-9]
+    starved = [w for w in final if w > LATE]
+    if not starved:
+        assert 0 <= late < LATE  # a sleeper wakes ~0.1 ms late on an idle machine
+    else:
+        # This host starved the watchdog (a loaded machine): it gave the process a grace of its
+        # late wake-up (at least GRACE) before judging, so the silence is noticed after that
+        # grace, and only that much later (each grace at most the timeout, each wait's own
+        # lateness on top).
+        first = starved[0]
+        assert first + min(max(first, GRACE), 0.1) <= late < sum(final) + 0.1 * len(starved) + LATE
 
 
 def test_a_timeout_must_be_positive() -> None:
