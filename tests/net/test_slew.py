@@ -218,7 +218,9 @@ def test_to_base_inverts_now_while_slewing_and_after() -> None:
     now = clock.now()
     assert clock.to_base(now) == pytest.approx(100.0, abs=1e-12)
     assert clock.to_base(now + 1.0) == pytest.approx(100.0 + 1.0 / (1 - SLEW), abs=1e-9)
-    # Past the slew's end the estimate's own mapping holds: 3 s on, 1 ms behind the base.
+    # Past the slew's end the estimate's own mapping holds: 1 ms behind the base. The slew
+    # ends when this clock reads now + 2 s less 1 ms: 2 s on is already past it.
+    assert clock.to_base(now + 2.0) == pytest.approx(102.001, abs=1e-9)
     assert clock.to_base(now + 3.0) == pytest.approx(103.001, abs=1e-9)
 
 
@@ -283,3 +285,11 @@ def test_a_correction_during_a_long_wait_moves_its_wake_up() -> None:
     assert clock.sleep_until(102.0)
     assert clock.now() == pytest.approx(102.0, abs=1e-9)  # on the show clock as it now runs
     assert base.now() < 102.0 - 0.0003  # the base clock woke earlier, as the show clock ran fast
+
+
+def test_a_wait_of_exactly_50_ms_is_one_wait() -> None:
+    base = FakeClock(0.0)  # 0.05 - 0.0 is 0.05 exactly in floats
+    clock = SlewingClock(base)
+    clock.follow(Timebase(0.0, 0.0, 0.0))
+    assert clock.sleep_until(0.05)
+    assert base.waits == [0.05]
