@@ -23,6 +23,7 @@ from tests.conftest import wait_until
 from xgo_show.errors import RelayRefused
 from xgo_show.net import messages as msg
 from xgo_show.net.testhooks import DelayInjector, SkewedClock
+from xgo_show.relay import server
 from xgo_show.relay.robots import OwnedRobot, close_robots, open_robots
 from xgo_show.relay.server import Relay, RelayState
 from xgo_show.runtime.clock import MonotonicClock
@@ -62,12 +63,18 @@ def events(log: RunLog, name: str) -> list[dict[str, Any]]:
             for r in log.events(name)]
 
 
+@pytest.fixture(autouse=True)
+def patient_watchdog(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A holder's watchdog of 60 s from its hello on: these tests send no heartbeats, and on a
+    loaded machine (a mutation run at idle priority) 500 ms can pass between two lines of a
+    test. test_relay_handling.py checks the 500 ms default and what a silence does."""
+    monkeypatch.setattr(server, "DEFAULT_WATCHDOG_MS", 60_000)
+
+
 def hold(r: Relay, who: msg.Conductor = ALICE) -> None:
-    """``who`` holds ``r``, with a watchdog long enough for a test on a loaded machine (the
-    default 500 ms lets a holder go that a slow upload kept from sending heartbeats)."""
+    """``who`` holds ``r``."""
     r.handle(request("hello", who))
-    assert r._holder is not None
-    r._holder.watchdog.set_timeout(60.0)
+    assert r._holder is not None and r._holder.watchdog.timeout == 60.0
 
 
 def worker() -> threading.Thread:
