@@ -329,3 +329,80 @@ def test_two_estimates_bound_the_rate_by_their_intervals_and_the_allowance() -> 
     wide = DriftFit()
     wide.add(first)
     assert wide.add(second).rate_bound == pytest.approx(3e-4, abs=1e-12)  # -150..450 ppm
+
+
+def test_no_valid_exchange_says_why_it_may_be() -> None:
+    with pytest.raises(ValueError) as info:
+        estimate_offset([])
+    assert str(info.value) == ("no valid time-sync exchange (no reply, or clock readings out "
+                               "of order)")
+
+
+def test_intervals_that_just_touch_agree_on_the_point_they_share() -> None:
+    # Two instant exchanges whose intervals, widened by the readings' 2 ns, meet at 0 exactly.
+    below = Exchange(2e-9, 0.0, 0.0, 2e-9)  # offset -2 ns
+    above = Exchange(0.0, 2e-9, 2e-9, 0.0)  # offset +2 ns
+    est = estimate_offset([below, above], max_rate=0.0)
+    assert est.consistent is True
+    assert (est.offset, est.bound) == (0.0, 0.0)
+
+
+def test_a_contradiction_is_reported_as_false() -> None:
+    before = Exchange(1000.0, 1001.001, 1001.001, 1000.002)
+    after = Exchange(1000.01, 1011.0105, 1011.0105, 1000.011)
+    assert estimate_offset([before, after]).consistent is False
+
+
+def test_after_a_restart_the_window_grows_again_with_the_whole_rate_allowance() -> None:
+    fit = DriftFit(max_rate=300e-6)
+    fit.add(OffsetEstimate(1.0, 0.0001, 0.0002, 1000.0, 1))
+    fit.add(OffsetEstimate(1.0, 0.0001, 0.0002, 1001.0, 1))
+    restarted = fit.add(OffsetEstimate(2.0, 0.0001, 0.0002, 1002.0, 1))  # a step: start again
+    assert len(fit) == 1 and restarted.rate_bound == 300e-6 and restarted.rate == 0.0
+    tb = fit.add(OffsetEstimate(2.0, 0.0001, 0.0002, 1003.0, 1))
+    assert len(fit) == 2 and tb.rate_bound < 300e-6
+
+
+def test_estimates_that_pin_the_rate_exactly_are_kept() -> None:
+    # Bounds of 0 (intervals that touched): one rate and one offset fit both, exactly.
+    fit = DriftFit()
+    fit.add(OffsetEstimate(0.0, 0.0, 0.0, 0.0, 1))
+    tb = fit.add(OffsetEstimate(1e-4, 0.0, 0.0, 1.0, 1))
+    assert len(fit) == 2
+    assert (tb.rate, tb.rate_bound, tb.offset, tb.bound) == (1e-4, 0.0, 1e-4, 0.0)
+
+
+def test_estimates_under_a_second_apart_narrow_the_rate_too() -> None:
+    fit = DriftFit()
+    fit.add(OffsetEstimate(1.0, 1e-5, 2e-5, 0.0, 1))
+    tb = fit.add(OffsetEstimate(1.0, 1e-5, 2e-5, 0.5, 1))
+    assert tb.rate_bound == pytest.approx(4e-5, abs=1e-12)  # +-(1e-5 + 1e-5) / 0.5 s
+
+
+def test_loose_estimates_close_in_time_still_give_their_slope() -> None:
+    # Bounds of 1 s half a second apart: the rate is only bounded by the allowance, and the
+    # fitted slope is the line through both.
+    fit = DriftFit()
+    fit.add(OffsetEstimate(1.0, 1.0, 2.0, 0.0, 1))
+    tb = fit.add(OffsetEstimate(1.0001, 1.0, 2.0, 0.5, 1))
+    assert tb.rate == pytest.approx(2e-4, abs=1e-12)
+    assert tb.offset == pytest.approx(1.0001, abs=1e-12)
+
+
+def test_the_drift_fit_weighs_each_estimate_by_one_over_its_bound_squared() -> None:
+    import numpy as np
+
+    points = [OffsetEstimate(1.000, 0.002, 0.004, 0.0, 5),
+              OffsetEstimate(1.003, 0.002, 0.004, 10.0, 5),
+              OffsetEstimate(1.002, 0.0005, 0.001, 20.0, 5)]  # the newest is the tightest
+    fit = DriftFit()
+    for p in points:
+        tb = fit.add(p)
+    x = np.array([p.at - 20.0 for p in points])
+    y = np.array([p.offset for p in points])
+    # numpy weighs residuals: w = 1 / sigma is least squares with weights 1 / sigma**2
+    slope, intercept = np.polyfit(x, y, 1, w=[1 / p.bound for p in points])
+    assert tb.rate == pytest.approx(slope, abs=1e-12)
+    assert tb.offset == pytest.approx(intercept, abs=1e-12)
+    plain_slope, _ = np.polyfit(x, y, 1)
+    assert abs(tb.rate - plain_slope) > 3e-5  # unweighted it would be 100 ppm, not 63
