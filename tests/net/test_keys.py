@@ -74,3 +74,19 @@ def test_a_bad_relay_url_says_what_is_missing(url: str, performer: str, says: st
     with pytest.raises(NetworkError) as info:
         parse_relay_url(url, performer)
     assert str(info.value) == says
+
+
+def test_a_url_is_cut_at_its_first_colon_and_its_first_slash() -> None:
+    assert is_relay_url("zenoh:hall/r:1")  # a zenoh URL with a bad robot name, not another URL
+    with pytest.raises(NetworkError, match=r"^relay name 'r:1': "):
+        parse_relay_url("zenoh:hall/r:1")
+    assert parse_relay_url("zenoh:Xhall/reX") == ("Xhall", "reX")  # only slashes are trimmed
+
+
+def test_without_a_performer_a_url_must_name_the_robot() -> None:
+    with pytest.raises(NetworkError, match=r"^'zenoh:hall': name the robot too, e\.g\. "
+                       r"zenoh:hall/rex$"):
+        parse_relay_url("zenoh:hall")
+    with pytest.raises(NetworkError, match=r"^'zenoh:': name the relay, e\.g\. "
+                       r"zenoh:stage-left/rex$"):
+        parse_relay_url("zenoh:")
