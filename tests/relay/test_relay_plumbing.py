@@ -372,3 +372,100 @@ def test_stage_commands_are_refused_while_a_show_runs(
         r.handle(request("stage_open", robots=["rex"], telemetry=0.25, watchdog_ms=500))
     assert str(info.value) == "stage_open: a show is running on this relay"
     assert r._stage is None
+
+
+# --- what the first mutation run with these tests showed --------------------------------------
+
+def test_a_silence_between_shows_says_how_long_to_the_microsecond(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, _, log = relay
+    hold(r)
+    upload_for(r, "stop", 0.3)  # loaded, not playing: nothing to stop, no policy
+    r._on_silence(ALICE, 0.1234567)
+    assert events(log, "link_lost") == [{"conductor": "alice", "silent_ms": 123.457,
+                                         "policy": None}]
+    assert events(log, "release")[-1]["reason"] == "conductor silent for 123 ms"
+    assert r.describe()["state"] == RelayState.IDLE and events(log, "safe_stop") == []
+
+
+def test_a_silence_during_a_stop_show_names_the_conductor_and_how_long(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, _, log = relay
+    hold(r)
+    sha = upload_for(r, "stop", 5.0)
+    start(r, sha, offset=0.0, start_in=0.2)
+    r._on_silence(ALICE, 0.4567)
+    assert events(log, "link_lost") == [{"conductor": "alice", "silent_ms": 456.7,
+                                         "policy": "stop"}]
+    last = r.describe()["last"]
+    assert last is not None and last["reason"] == "link lost: conductor alice silent for 457 ms"
+
+
+def test_a_heartbeat_during_a_show_reports_each_robot(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, _, _ = relay
+    hold(r)
+    sha = upload_for(r, "stop", 2.0)
+    start(r, sha, offset=0.0, start_in=0.2)
+    status = r.handle(request("heartbeat"))["show"]
+    assert isinstance(status["show_time"], float)
+    rex = status["performers"]["rex"]
+    assert set(rex) == {"state", "show_time", "sent", "total", "cue", "fault"}
+    assert isinstance(rex["state"], str) and isinstance(rex["show_time"], float)
+    assert isinstance(rex["sent"], int) and rex["fault"] is None
+
+
+def test_timed_commands_reach_the_runner_at_their_time(
+    relay: tuple[Relay, Session, RunLog], monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from xgo_show.runtime.show_runner import ShowRunner
+
+    r, _, _ = relay
+    calls: list[tuple[str, tuple[Any, ...], dict[str, Any]]] = []
+    for name in ("pause", "resume", "seek"):
+        monkeypatch.setattr(ShowRunner, name, lambda self, *a, name=name, **k:
+                            calls.append((name, a, k)))
+    hold(r)
+    sha = upload_for(r, "stop", 5.0)
+    start(r, sha, offset=0.0, start_in=0.2)
+    at = r.clock.now() + 10.0
+    r.handle(request("pause", at=at))
+    r.handle(request("resume", at=at + 1))
+    r.handle(request("seek", show_time=1.5, at=at + 2))
+    assert calls == [("pause", (), {"at": at}), ("resume", (), {"at": at + 1}),
+                     ("seek", (1.5,), {"at": at + 2})]
+
+
+def test_a_probe_names_the_model_the_relay_was_given_and_waits_for_the_show(
+    relay: tuple[Relay, Session, RunLog],
+) -> None:
+    r, _, _ = relay
+    hold(r)
+    rows = dict(r.handle(request("probe", performer="rex"))["rows"])
+    assert rows["model"] == "mini"  # given, not "(from firmware)"
+    sha = upload_for(r, "stop", 2.0)
+    start(r, sha, offset=0.0, start_in=0.2)
+    with pytest.raises(RelayRefused) as info:
+        r.handle(request("probe", performer="rex"))
+    assert str(info.value) == "probe: a show is running on relay hall"
+
+
+def test_a_release_stops_the_old_watchdog_in_a_daemon_thread_of_its_own(
+    relay: tuple[Relay, Session, RunLog], monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    made: list[tuple[str, bool | None]] = []
+    real = threading.Thread
+
+    class Recorded(real):  # type: ignore[misc,valid-type]
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            made.append((self.name, kwargs.get("daemon")))
+
+    r, _, _ = relay
+    hold(r)
+    monkeypatch.setattr(server.threading, "Thread", Recorded)
+    r.handle(request("release"))
+    assert made == [("xgo-show watchdog stop", True)]
