@@ -462,3 +462,64 @@ def test_a_session_closing_under_the_tracker_stops_it_and_says_why() -> None:
     wait_until(lambda: tracker.failure != "", timeout=5.0)
     assert tracker.failure == f"clock tracking of {KEY} stopped: session closed"
     tracker.close()
+
+
+# --- what the first mutation run left ---------------------------------------------------------
+
+def test_a_query_without_a_payload_gets_an_error_reply() -> None:
+    net = Net()
+    serve_time(net, KEY, Ticking(1.0))  # type: ignore[arg-type]
+    q = Query(None, KEY)
+    net.queryables[KEY](q)
+    assert error(q) == "time-sync payload is not JSON"
+
+
+def test_closing_a_server_on_a_closed_session_is_quiet() -> None:
+    net = Net()
+    server = serve_time(net, KEY, Ticking(1.0))  # type: ignore[arg-type]
+
+    def closed() -> None:
+        raise zenoh.ZError("session closed")
+
+    server._queryable.undeclare = closed  # type: ignore[method-assign]
+    server.close()
+
+
+def test_measure_numbers_its_pings_from_1() -> None:
+    net = served()
+    measure(net, KEY, n=4, clock=Ticking(1.0))  # type: ignore[arg-type]
+    assert [json.loads(p)["seq"] for p in net_payloads(net)] == [1, 2, 3, 4]
+
+
+def test_the_trackers_defaults() -> None:
+    from xgo_show.runtime.clock import MonotonicClock
+
+    net = Net()
+    relay_taking(net, lambda tb, who: None)
+    tracker = ClockTracker(net, KEY, conductor="c7")  # type: ignore[arg-type]
+    assert (tracker.interval, tracker.burst, tracker.first, tracker.timeout, tracker.push) == (
+        1.0, 8, 25, 0.5, True)
+    assert isinstance(tracker.clock, MonotonicClock)
+    tracker.start()
+    tracker.close()
+    assert net.queriers[0][1]["timeout"] == 0.5
+    assert len(net_payloads(net)) >= 25
+
+
+def test_a_closed_tracker_has_no_querier_left_to_ping_with() -> None:
+    tracker = ClockTracker(served(), KEY, conductor="c7", clock=Ticking(1.0), push=False)  # type: ignore[arg-type]
+    tracker.start()
+    tracker.close()
+    with pytest.raises(RuntimeError, match=r"^ClockTracker\.round before start$"):
+        tracker.round(2)
+
+
+@pytest.mark.parametrize(("replies", "says"), [
+    ([Reply(err=b"\xff not utf-8")], "\ufffd not utf-8"),
+    ([Reply(err=b'{"v":1}')], '{"v":1}'),  # no "error" field: the reply as it came
+])
+def test_a_push_refusal_is_read_whatever_its_bytes(replies: list[Reply], says: str) -> None:
+    tracker = ClockTracker(Pushed(replies), KEY, conductor="c7", clock=Ticking(1.0))  # type: ignore[arg-type]
+    with pytest.raises(TimeSyncError) as info:
+        tracker.start()
+    assert str(info.value) == f"{KEY}: {says}"
