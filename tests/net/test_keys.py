@@ -30,7 +30,7 @@ def test_a_relay_name_is_one_key_chunk_of_1_to_64_characters(name: str) -> None:
     assert check_relay_name(name) == name
 
 
-@pytest.mark.parametrize("name", ["", "x" * 65, "a/b", "a*", "a b", "caf\u00e9", "a$"])
+@pytest.mark.parametrize("name", ["", "x" * 65, "a/b", "a*", "a b", "caf\u00e9", "a$", "a\n"])
 def test_anything_else_is_refused_with_what_a_name_may_hold(name: str) -> None:
     with pytest.raises(NetworkError) as info:
         check_relay_name(name)

@@ -49,7 +49,7 @@ def test_a_namespace_is_words_between_slashes(namespace: str) -> None:
     assert SessionOptions(namespace=namespace).namespace == namespace
 
 
-@pytest.mark.parametrize("namespace", ["", "a/*", "/a", "a/", "a//b", "a b", "**"])
+@pytest.mark.parametrize("namespace", ["", "a/*", "/a", "a/", "a//b", "a b", "acme\n", "**"])
 def test_any_other_namespace_is_refused_saying_what_it_may_hold(namespace: str) -> None:
     with pytest.raises(NetworkError) as info:
         SessionOptions(namespace=namespace)

@@ -33,7 +33,7 @@ __all__ = [
 #: The URL scheme of a robot behind a relay.
 SCHEME = "zenoh"
 
-_NAME_RE = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
+_NAME_RE = re.compile(r"[A-Za-z0-9_.-]{1,64}")
 
 
 def relay_name_chunk(text: str) -> str:
@@ -44,7 +44,7 @@ def relay_name_chunk(text: str) -> str:
 
 def check_relay_name(name: str) -> str:
     """``name`` if it can be a relay's name, else a :class:`NetworkError` saying why."""
-    if not _NAME_RE.match(name):
+    if not _NAME_RE.fullmatch(name):
         raise NetworkError(
             f"relay name {name!r}: use 1 to 64 letters, digits, '_', '-' or '.' (one key chunk)"
         )

@@ -60,7 +60,7 @@ DEFAULT_PORT = 7447
 DEFAULT_HUB = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 #: A process that is not the first on the machine listens here (the OS picks the port).
 LOOPBACK_ANY = "tcp/127.0.0.1:0"
-_NAMESPACE_RE = re.compile(r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$")
+_NAMESPACE_RE = re.compile(r"[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*")
 
 
 @dataclass(frozen=True)
@@ -77,7 +77,7 @@ class SessionOptions:
     also_connect: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        if not _NAMESPACE_RE.match(self.namespace):
+        if not _NAMESPACE_RE.fullmatch(self.namespace):
             raise NetworkError(
                 f"--namespace {self.namespace!r}: use letters, digits, '_', '-', '.' and '/' "
                 "between words (no wildcards, no leading or trailing '/')"
