@@ -111,15 +111,20 @@ def test_music_follows_start_pause_resume_and_seek_on_the_clock(song: Path) -> N
     expected += [t0 + 1.4 + (s - 2.9) for s in _expected_clicks(2.9, 3.5)]
     expected += [t0 + 2.0 + (s - 6.0) for s in _expected_clicks(6.0, 6.0 + asked - t0 - 2.0)]
     heard = [t for t in recorder.clicks(rate) if t < asked]
-    assert len(heard) == len(expected), (heard, expected)
     # A click whose onset fell in an underrun's gap (a machine so busy that the device thread
-    # missed its queue) is heard when sound resumes, at the gap's end: the device's silence,
-    # not the player's error. Every other click sounds within 3 ms of its time.
+    # missed its queue) is heard when sound resumes, at the gap's end, or not at all if it
+    # faded meanwhile: the device's silence, not the player's error. Every other click sounds
+    # within 3 ms of its time, and nothing sounds that is not one of these.
     gaps = recorder.gaps(rate)
-    for want, got in zip(expected, heard, strict=True):
-        late = next((end - want for start, end in gaps if start <= want < end), 0.0)
-        assert abs(got - want - late) < 0.003, f"click due at {want - t0:.4f} s after t0 is " \
-            f"{(got - want) * 1000:.1f} ms off ({late * 1000:.1f} ms of it in an underrun)"
+    in_gap = {want: end for want in expected for start, end in gaps if start <= want < end}
+    for want in expected:
+        if want not in in_gap:
+            assert any(abs(got - want) < 0.003 for got in heard), (
+                f"click due at {want - t0:.4f} s after t0: heard {[h - t0 for h in heard]}")
+    for got in heard:
+        assert any(abs(got - want) < 0.003 for want in expected) or any(
+            abs(got - end) < 0.003 for end in in_gap.values()), (
+            f"a click at {got - t0:.4f} s after t0 that none was due for ({in_gap=})")
     assert not recorder.loud_between(t0 + 0.9 + 0.04, t0 + 1.4, rate), "sound while paused"
     assert not recorder.loud_between(stopped + 0.05, stopped + 10, rate), "sound after the stop"
 
