@@ -113,8 +113,7 @@ class MusicPlayer:
 
     @property
     def done(self) -> bool:
-        return self._state in (ExecutorState.FINISHED, ExecutorState.STOPPED,
-                               ExecutorState.FAILED)
+        return self._state.ended
 
     @property
     def fault(self) -> str | None:

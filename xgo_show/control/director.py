@@ -580,7 +580,7 @@ class Director(WorkerClosing):
                 assert wait is not None
                 self._emit(WaitStarted(event.t, v.section.name, wait.trigger, v.section.start,
                                        wait.timeout))
-        elif state in (ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED):
+        elif state.ended:
             tr.done = True
 
     def _arm(self, name: str, tr: _Track, now: float) -> float | None:

@@ -65,7 +65,6 @@ MIN_NETWORK_LEAD = 0.05
 RELAY_SETUP = 0.05
 #: The executors' own lead on the relay (see ``PerformerExecutor.lead_time``).
 _EXECUTOR_LEAD = 0.05
-_DONE = (ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED)
 
 
 @dataclass(frozen=True)
@@ -392,7 +391,7 @@ class RelayedPerformer:
 
     @property
     def done(self) -> bool:
-        return self.state in _DONE
+        return self.state.ended
 
     @property
     def fault(self) -> str | None:

@@ -47,7 +47,6 @@ from xgo_show.relay.robots import OwnedRobot
 from xgo_show.relay.validate import validate_upload
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.runtime.events import EventBus
-from xgo_show.runtime.executor import ExecutorState
 from xgo_show.runtime.launch import local_runner
 from xgo_show.runtime.preflight import preflight
 from xgo_show.runtime.realtime import policy
@@ -74,9 +73,6 @@ class RelayState:
     RUNNING = "running"
     ENDED = "ended"  # the last show is over (see "last")
 
-
-#: A robot's states after its show: nothing more will happen to it.
-_ENDED = frozenset({ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED})
 
 
 @dataclass
@@ -640,7 +636,7 @@ class Relay:
         t = self.clock.now()  # the show clock now: when the show times below were read
         runner = show.runner if show is not None else None
         snap = runner.snapshot() if runner is not None else None
-        if snap is not None and any(p.state in _ENDED for p in snap.performers):
+        if snap is not None and any(p.state.ended for p in snap.performers):
             # A robot's end goes out with the events that led to it: the conductor's runner
             # returns once it sees every robot ended, and the bookkeeping thread hands events
             # on a few ms late (relay/deferred.py), so they would miss the conductor's log.

@@ -72,6 +72,14 @@ class ExecutorState(enum.Enum):
     STOPPED = "stopped"  # safe-stopped
     FAILED = "failed"  # port or telemetry fault
 
+    @property
+    def ended(self) -> bool:
+        """Whether nothing more will happen to the performer: finished, stopped or failed."""
+        return self in _ENDED
+
+
+_ENDED = frozenset({ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED})
+
 
 @dataclass(frozen=True)
 class Progress:
@@ -207,7 +215,7 @@ class PerformerExecutor:
     @property
     def done(self) -> bool:
         """Whether the writer has nothing more to do (finished, stopped or failed)."""
-        return self._state in (ExecutorState.FINISHED, ExecutorState.STOPPED, ExecutorState.FAILED)
+        return self._state.ended
 
     @property
     def readings(self) -> Mapping[str, float]:
