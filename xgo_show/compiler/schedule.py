@@ -24,6 +24,7 @@ __all__ = [
     "Schedule",
     "ScheduledFrame",
     "frame_columns",
+    "frame_data",
     "ready_frames",
     "to_us",
 ]
@@ -164,6 +165,14 @@ def ready_frames(frames: Sequence[ScheduledFrame]) -> None:
         frames.frames()
 
 
+def frame_data(frames: Sequence[ScheduledFrame]) -> Sequence[bytes]:
+    """Each frame's wire bytes: a :class:`Frames`' own column (no frame made), else read off
+    the frames."""
+    if isinstance(frames, Frames):
+        return frames.columns.data
+    return [f.data for f in frames]
+
+
 def frame_columns(frames: Sequence[ScheduledFrame]) -> FrameColumns:
     """``frames`` as columns: a :class:`Frames`' own (no frame made), else read off the frames
     (``labels`` then the first frame's)."""
@@ -189,10 +198,7 @@ class PerformerSchedule:
 
     @property
     def total_bytes(self) -> int:
-        frames = self.frames
-        if isinstance(frames, Frames):
-            return sum(map(len, frames.columns.data))
-        return sum(len(f.data) for f in frames)
+        return sum(map(len, frame_data(self.frames)))
 
 
 @dataclass(frozen=True)

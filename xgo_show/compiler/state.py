@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 
 from xgo_show.compiler.layout import ACTION_REGISTER, Layout
-from xgo_show.compiler.schedule import Frames, PerformerSchedule, ScheduledFrame
+from xgo_show.compiler.schedule import PerformerSchedule, ScheduledFrame, frame_data
 from xgo_show.errors import ProtocolError
 from xgo_show.families import get_family
 from xgo_show.profiles.model import Link, Profile, Register
@@ -308,5 +308,4 @@ def link_use(link: Link, frames: Sequence[ScheduledFrame], duration: float) -> f
     """Fraction of ``duration`` the link spends carrying ``frames`` (wire time only)."""
     if duration <= 0:
         return 0.0
-    data = frames.columns.data if isinstance(frames, Frames) else [f.data for f in frames]
-    return sum(map(link.wire_time, map(len, data))) / duration
+    return sum(map(link.wire_time, map(len, frame_data(frames)))) / duration
