@@ -103,6 +103,17 @@ def wait_until(predicate: Callable[[], object], timeout: float = 2.0) -> float:
     return time.monotonic()
 
 
+def starved_ms(records: list[dict[str, object]], *, window: float = 0.5) -> float:
+    """The worst issue lateness (ms, >= 0) of the scheduled frames in a run log's last
+    ``window`` seconds of show: how much the machine was starving the show just before it
+    ended. A deadline a test checks on a shared machine (the suite runs beside others at load
+    8-16) takes this on top, as a stop or a reaction is delayed as the frames were."""
+    frames = [r for r in records if r["kind"] == "frame" and r["send"] == "frame"]
+    last = max(float(r["actual"]) for r in frames)  # type: ignore[arg-type]
+    return max(0.0, *(1000 * (float(r["actual"]) - float(r["planned"]))  # type: ignore[arg-type]
+                      for r in frames if float(r["actual"]) > last - window))  # type: ignore[arg-type]
+
+
 @pytest.fixture
 def wait() -> Callable[[Callable[[], bool]], None]:
     """``wait(predicate, timeout=2.0)``: :func:`wait_until` as a fixture."""

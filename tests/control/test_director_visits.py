@@ -15,6 +15,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
@@ -276,6 +277,7 @@ def rehearse(schedule: Schedule, cues: tuple[ScriptCue, ...]) -> tuple[
             tr.close()
 
 
+_LATE = 0.25  # s: the most a real-time event may trail its virtual time on a loaded machine
 TOLERANCE = 0.03  # s per hold: the rest and catch-up frames before a section goes on
 
 
@@ -337,6 +339,7 @@ def test_a_script_plays_the_same_in_virtual_and_in_real_time(triggered_schedule:
         ScriptCue(trigger="encore", at=0.4),  # and then: kept for c, which is played through
     ])
     runs: list[list[tuple[str, str, str, float]]] = []
+    fired: list[list[float]] = []
     for fast in (False, True):
         with directed_show(triggered_schedule, fast=fast) as (director, played, go):
             player = ScriptPlayer(script, director, say=lambda _: None)
@@ -354,11 +357,17 @@ def test_a_script_plays_the_same_in_virtual_and_in_real_time(triggered_schedule:
             ("go", "trigger 'go' refused"),
             ("encore", "kept for section 'c'"),
         ]
-        assert all(abs(f.t - 0.8) < 0.03 for f in player.fired), player.fired
+        fired.append([f.t for f in player.fired])
     real, virtual = runs
     assert [r[:3] for r in real] == [v[:3] for v in virtual] == [
         ("WaitStarted", "b", ""), ("WaitReleased", "b", "trigger"),
         ("WaitReleased", "c", "early"),
     ]
-    for r, v in zip(real, virtual, strict=True):
-        assert abs(r[3] - v[3]) < 0.03, (real, virtual)
+    # Virtual time is exact: every entry's turn comes at 0.8 s (0.6 + 0.2, then no earlier
+    # than the turn before). Real time is the same times, never earlier, and later only by
+    # how late this shared machine wakes threads (a few ms idle; tens under load 8-16, and the
+    # three firings' lateness adds up, as each turn starts when the one before was fired).
+    assert fired[1] == pytest.approx([0.8] * 3, abs=1e-9)
+    for times, ideal in ((fired[0], fired[1]), ([r[3] for r in real], [v[3] for v in virtual])):
+        late = [t - i for t, i in zip(times, ideal, strict=True)]
+        assert all(-0.005 < x < _LATE for x in late), (real, virtual, fired)

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.conftest import starved_ms
 from tests.relay.conftest import claim, upload_text
 from tests.relay.processes import READY_TIMEOUT
 from xgo_show.compiler.artifact import save_schedule
@@ -149,17 +150,26 @@ def test_a_lost_relay_stops_the_whole_show_within_the_watchdog(
     left.kill(sig)
     lost_at = time.monotonic()
     stdout, stderr = proc.communicate(timeout=20)
-    ended = time.monotonic()
     assert proc.returncode == 2, stdout + stderr
     assert "relay left lost" in stderr + stdout
-    assert ended - lost_at < 3.0  # stopped well before the show's end
     from xgo_show.runtime.runlog import read_log
 
-    events = [r for r in read_log(log) if r.get("kind") == "event"]
+    records = read_log(log)
+    events = [r for r in records if r.get("kind") == "event"]
+    # stopped well before the show's end (3 s): lola's last frame a second or more before it
+    assert not next(e for e in events if e.get("event") == "end")["completed"]
+    lola = [r["actual"] for r in records if r["kind"] == "frame" and r["performer"] == "lola"
+            and r["send"] == "frame"]
+    assert lola and max(lola) < show.duration - 1.0, (max(lola), show.duration)
     faults = [e for e in events if e.get("event") == "fault" and "relay left lost" in e["reason"]]
     stops = [e for e in events if e.get("event") == "safe_stop" and e.get("performer") == "lola"]
     assert faults and stops and stops[0]["ok"]
-    assert stops[0]["mono"] - faults[0]["mono"] < 0.2
+    # lola (local) is stopped at once when the relay is found lost: 8-12 ms idle; on a
+    # starved machine later, as its frames were late just before
+    starved = starved_ms(records)
+    assert stops[0]["mono"] - faults[0]["mono"] < 0.2 + starved / 1000, starved
+    # found lost within the watchdog (300 ms from the last word heard) and one check
+    assert faults[0]["mono"] - lost_at < 0.3 + 0.1 + starved / 1000, starved
     if sig == signal.SIGSTOP:
         left.proc.send_signal(signal.SIGCONT)  # its own watchdog then stops its robot
         until(lambda: bool(left.stop_times("rex")), 3)
