@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import socket
 import time
 from pathlib import Path
 
@@ -88,6 +89,19 @@ def test_a_client_that_reaches_no_router_fails_in_time(tmp_path: Path) -> None:
     file.write_text(f'{{mode: "client", connect: {{endpoints: ["tcp/127.0.0.1:{free_port()}"]}}}}')
     with pytest.raises(NetworkError, match="cannot open the Zenoh session"):
         open_session(SessionOptions(config_file=str(file), timeout=0.3))
+
+
+def test_a_listen_on_a_taken_port_says_so(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with pytest.raises(NetworkError) as info:
+            open_session(SessionOptions(listen=(f"tcp/127.0.0.1:{port}",), timeout=0.3))
+    assert str(info.value) == (
+        f"cannot open the Zenoh session: Can not create a new TCP listener bound to "
+        f"tcp/127.0.0.1:{port}: [127.0.0.1:{port}: Address already in use (os error 98)] "
+        "(retried until the timeout)")
 
 
 def test_two_sessions_on_explicit_loopback_endpoints_talk() -> None:

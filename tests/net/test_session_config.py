@@ -160,12 +160,46 @@ def test_listen_alone_connects_nowhere() -> None:
 
 def test_a_bad_endpoint_is_one_line_naming_the_endpoints() -> None:
     with pytest.raises(NetworkError) as info:
-        build_config(SessionOptions(connect=("pigeon",)))
-    text = str(info.value)
-    assert text.startswith("bad Zenoh endpoint in ['tcp/127.0.0.1:0', 'pigeon']: ")
-    assert "\n" not in text
-    with pytest.raises(NetworkError, match=r"^bad Zenoh endpoint in \['pigeon'\]: "):
-        build_config(SessionOptions(listen=("pigeon",)))
+        build_config(SessionOptions(connect=("tcp/a:1?",)))
+    assert str(info.value) == (
+        "bad Zenoh endpoint in ['tcp/127.0.0.1:0', 'tcp/a:1?']: Endpoints must be of the form "
+        "<protocol>/<address>[?<metadata>][#<config>]: tcp/a:1?")  # no Rust source position
+    with pytest.raises(NetworkError, match=r"^bad Zenoh endpoint in \['tcp/a:1#'\]: Endpoints"):
+        build_config(SessionOptions(listen=("tcp/a:1#",)))
+
+
+@pytest.mark.parametrize("endpoint", [
+    "tcp/0.0.0.0:0", "tcp/host.lan:65535", "tcp/[::1]:7447", "udp/10.0.0.2:7447?iface=lo",
+    "tls/a:1#x=1", "quic/a:1", "ws/a:1", "unixsock-stream//tmp/z.sock", "serial//dev/ttyUSB0",
+    "pigeon/home",  # a protocol Zenoh does not know: Zenoh says so when the session opens
+])
+def test_an_endpoint_that_may_be_right_is_left_to_zenoh(endpoint: str) -> None:
+    opts = SessionOptions(connect=(endpoint,), listen=(endpoint,), also_connect=(endpoint,))
+    assert opts.connect == opts.listen == opts.also_connect == (endpoint,)
+
+
+@pytest.mark.parametrize("endpoint", ["pigeon", "tcp", "tcp/", "/a:1"])
+def test_an_endpoint_is_protocol_slash_address(endpoint: str) -> None:
+    for option, opts in (("--connect", {"connect": (endpoint,)}),
+                         ("--connect", {"also_connect": ("tcp/a:1", endpoint)}),
+                         ("--listen", {"listen": (endpoint,)})):
+        with pytest.raises(NetworkError) as info:
+            SessionOptions(**opts)  # type: ignore[arg-type]
+        assert str(info.value) == (f"{option} {endpoint!r}: a Zenoh endpoint is "
+                                   "PROTOCOL/ADDRESS, e.g. tcp/192.168.1.20:7447")
+
+
+@pytest.mark.parametrize("endpoint", [
+    "tcp/127.0.0.1:notaport", "tcp/127.0.0.1", "tcp/127.0.0.1:65536", "udp/:7447",
+    "tls/a:123456", "quic/[::1:7447", "ws/a b:1", "tcp/a:1:2", "tcp/a:-1",
+])
+def test_an_ip_endpoint_needs_a_host_and_a_port_that_exists(endpoint: str) -> None:
+    protocol = endpoint.split("/")[0]
+    with pytest.raises(NetworkError) as info:
+        SessionOptions(listen=(endpoint,))
+    assert str(info.value) == (
+        f"--listen {endpoint!r}: a {protocol} endpoint's address is HOST:PORT with a port "
+        f"0-65535, e.g. {protocol}/192.168.1.20:7447 or {protocol}/[::1]:7447")
 
 
 def write(tmp_path: Path, text: str) -> str:
@@ -218,6 +252,12 @@ def test_an_unreadable_or_invalid_config_file_is_one_line(tmp_path: Path) -> Non
     with pytest.raises(NetworkError) as info:
         build_config(SessionOptions(config_file=bad))
     assert str(info.value).startswith(f"--zenoh-config {bad}: not a valid Zenoh config: ")
+    wrong = write(tmp_path, '{connect: {endpoints: ["tcp/a:1?"]}}')
+    with pytest.raises(NetworkError) as info:
+        build_config(SessionOptions(config_file=wrong))
+    assert str(info.value) == (
+        f"--zenoh-config {wrong}: not a valid Zenoh config: Endpoints must be of the form "
+        "<protocol>/<address>[?<metadata>][#<config>]: tcp/a:1?")
 
 
 def test_also_connect_adds_endpoints_not_already_chosen() -> None:
@@ -239,10 +279,13 @@ class Opener:
         self.configs: list[zenoh.Config] = []
         self.session = object()
 
+        self.errors: list[str] = []  # the error of each failing call in turn, if given
+
     def __call__(self, config: zenoh.Config) -> object:
-        self.configs.append(config)
+        self.configs.append(zenoh.Config.from_json5(str(config)))  # a copy: it may change after
         if len(self.configs) <= self.fails:
-            raise zenoh.ZError(self.error)
+            errors = self.errors or [self.error]
+            raise zenoh.ZError(errors[min(len(self.configs), len(errors)) - 1])
         return self.session
 
 
@@ -294,6 +337,45 @@ def test_a_config_files_session_is_not_tried_again(
         open_session(SessionOptions(config_file=write(tmp_path, '{mode: "client"}')))
     assert str(info.value) == "cannot open the Zenoh session: no router"
     assert len(opener.configs) == 1
+
+
+def test_a_listen_retried_until_the_timeout_says_what_failed(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Zenoh keeps only "deadline has elapsed" of a listen it retried: one more try without
+    # retries says why (the cause Zenoh saw each time).
+    opener = Opener(2, "deadline has elapsed at /root/.cargo/a.rs:9.")
+    opener.errors = ["deadline has elapsed at /root/.cargo/a.rs:9.",
+                     "Can not create a new TCP listener bound to tcp/127.0.0.1:9: [Address "
+                     "already in use (os error 98) at /r/t.rs:61.] at /r/u.rs:338."]
+    monkeypatch.setattr(zenoh, "open", opener)
+    with pytest.raises(NetworkError) as info:
+        open_session(SessionOptions(listen=("tcp/127.0.0.1:9",), timeout=3.0))
+    assert str(info.value) == (
+        "cannot open the Zenoh session: Can not create a new TCP listener bound to "
+        "tcp/127.0.0.1:9: [Address already in use (os error 98)] (retried until the timeout)")
+    first, second = opener.configs
+    assert (get(first, "listen/timeout_ms"), get(first, "connect/timeout_ms")) == (3000, 3000)
+    assert (get(second, "listen/timeout_ms"), get(second, "connect/timeout_ms")) == (0, 0)
+    assert get(second, "listen/endpoints") == ["tcp/127.0.0.1:9"]
+    # The try without retries works (the address came free): that session is used.
+    opener = Opener(1, "deadline has elapsed")
+    monkeypatch.setattr(zenoh, "open", opener)
+    assert open_session(SessionOptions(listen=("tcp/127.0.0.1:9",))) is opener.session
+    assert len(opener.configs) == 2
+    # Any other error is said as it is, with no second try.
+    opener = Opener(2, "deadline has elapsed, and more")
+    monkeypatch.setattr(zenoh, "open", opener)
+    with pytest.raises(NetworkError, match=r"elapsed, and more$"):
+        open_session(SessionOptions(listen=("tcp/127.0.0.1:9",)))
+    assert len(opener.configs) == 1
+
+
+def test_a_wrapped_config_error_is_its_message() -> None:
+    wrapped = ('Json5Err(Message { msg: "Endpoints must be \\"x\\": tcp/a:1? at /r/e.rs:674.", '
+               "location: Some(Location { line: 1, column: 2 }) }) at /r/config.rs:86.")
+    assert zs._first_line(zenoh.ZError(wrapped)) == 'Endpoints must be "x": tcp/a:1?'
+    assert zs._first_line(ValueError("a [b at /x/y.rs:1.] c at /x/z.rs:2.")) == "a [b] c"
 
 
 def test_an_error_without_words_is_named_by_its_type() -> None:

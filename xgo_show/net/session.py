@@ -61,6 +61,13 @@ DEFAULT_HUB = f"tcp/127.0.0.1:{DEFAULT_PORT}"
 #: A process that is not the first on the machine listens here (the OS picks the port).
 LOOPBACK_ANY = "tcp/127.0.0.1:0"
 _NAMESPACE_RE = re.compile(r"[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*")
+#: Zenoh's protocols whose address is HOST:PORT (Zenoh itself refuses unknown protocols clearly)
+_HOST_PORT_PROTOCOLS = frozenset({"tcp", "udp", "tls", "quic", "ws"})
+_HOST_PORT_RE = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[^\s:\[\]/]+):([0-9]{1,5})")
+#: Zenoh's own trailer on an error: the Rust source position, not for users
+_RUST_POSITION_RE = re.compile(r"\s+at /\S+\.rs:\d+\.?")
+#: a config error Zenoh wraps: ``Json5Err(Message { msg: "WORDS", location: ... })``
+_WRAPPED_RE = re.compile(r'Message \{ msg: "((?:[^"\\]|\\.)*)"')
 
 
 @dataclass(frozen=True)
@@ -84,6 +91,31 @@ class SessionOptions:
             )
         if not self.timeout > 0:
             raise NetworkError(f"session timeout must be positive, not {self.timeout:g}")
+        for option, endpoints in (("--connect", self.connect + self.also_connect),
+                                  ("--listen", self.listen)):
+            for endpoint in endpoints:
+                _check_endpoint(option, endpoint)
+
+
+def _check_endpoint(option: str, endpoint: str) -> None:
+    """Refuse an endpoint whose address cannot be right, before Zenoh is asked: a peer retries
+    a bad ``--connect`` in the background for ever, so the user would only see nobody come."""
+    protocol, slash, rest = endpoint.partition("/")
+    if not slash or not protocol or not rest:
+        raise NetworkError(
+            f"{option} {endpoint!r}: a Zenoh endpoint is PROTOCOL/ADDRESS, e.g. "
+            f"tcp/192.168.1.20:{DEFAULT_PORT}"
+        )
+    if protocol not in _HOST_PORT_PROTOCOLS:
+        return
+    address = re.split(r"[?#]", rest, maxsplit=1)[0]
+    match = _HOST_PORT_RE.fullmatch(address)
+    if match is None or int(match.group(2)) > 65535:
+        raise NetworkError(
+            f"{option} {endpoint!r}: a {protocol} endpoint's address is HOST:PORT with a port "
+            f"0-65535, e.g. {protocol}/192.168.1.20:{DEFAULT_PORT} or {protocol}/[::1]:"
+            f"{DEFAULT_PORT}"
+        )
 
 
 def add_session_arguments(parser: argparse.ArgumentParser) -> None:
@@ -162,7 +194,8 @@ def build_config(opts: SessionOptions, *, hub_taken: bool | None = None) -> zeno
         try:
             config = zenoh.Config.from_json5(text)
         except zenoh.ZError as exc:
-            raise NetworkError(f"--zenoh-config {path}: not a valid Zenoh config: {exc}") from exc
+            words = _RUST_POSITION_RE.sub("", str(exc)).strip()  # a parse error's lines kept
+            raise NetworkError(f"--zenoh-config {path}: not a valid Zenoh config: {words}") from exc
     else:
         config = zenoh.Config()
         config.insert_json5("mode", '"peer"')
@@ -189,7 +222,9 @@ def build_config(opts: SessionOptions, *, hub_taken: bool | None = None) -> zeno
             if connect:
                 config.insert_json5("connect/endpoints", json.dumps(connect))
         except zenoh.ZError as exc:
-            raise NetworkError(f"bad Zenoh endpoint in {listen + connect}: {exc}") from exc
+            raise NetworkError(
+                f"bad Zenoh endpoint in {listen + connect}: {_first_line(exc)}"
+            ) from exc
     if opts.also_connect:
         chosen = json.loads(config.get_json("connect/endpoints"))
         extra = [e for e in opts.also_connect if e not in chosen]
@@ -213,11 +248,30 @@ def open_session(opts: SessionOptions) -> zenoh.Session:
                 return zenoh.open(build_config(opts, hub_taken=True))
             except zenoh.ZError:
                 pass
-        raise NetworkError(f"cannot open the Zenoh session: {_first_line(exc)}") from exc
+        reason = _first_line(exc)
+        if reason == "deadline has elapsed":
+            # Zenoh retried a listen (or a client's connect) until the timeout and kept only
+            # that; one attempt with no retries says what failed (an address in use, a port
+            # refused). If that attempt works after all, the session is as good as any.
+            try:
+                return zenoh.open(_without_retries(config))
+            except zenoh.ZError as again:
+                reason = f"{_first_line(again)} (retried until the timeout)"
+        raise NetworkError(f"cannot open the Zenoh session: {reason}") from exc
+
+
+def _without_retries(config: zenoh.Config) -> zenoh.Config:
+    for key in ("connect/timeout_ms", "listen/timeout_ms"):
+        config.insert_json5(key, "0")
+    return config
 
 
 def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip().splitlines()
-    line = text[0] if text else type(exc).__name__
-    # Zenoh appends the Rust source position (" at /root/.cargo/...rs:388."): not for users.
-    return re.sub(r"\s+at /\S+\.rs:\d+\.?$", "", line)
+    """Zenoh's error in one line of words: the message inside a wrapped JSON5 error, without
+    the Rust source position Zenoh puts after each nested message (" at /root/...rs:388.")."""
+    text = str(exc)
+    wrapped = _WRAPPED_RE.search(text)
+    if wrapped is not None:
+        text = wrapped.group(1).replace('\\"', '"')
+    lines = _RUST_POSITION_RE.sub("", text).strip().splitlines()
+    return lines[0] if lines else type(exc).__name__
