@@ -86,7 +86,10 @@ def test_pause_resume_and_seek_act_at_the_same_show_time_on_every_host(
             target=lambda: results.append(launch.run(handle_signals=False)), daemon=True
         )
         player.start()
-        until(lambda: all(played(r, n) for r, n in hosts), 10)
+        # The first frames on both hosts (or the run ended: then say how).
+        until(lambda: all(played(r, n) for r, n in hosts) or not player.is_alive(), 20)
+        assert all(played(r, n) for r, n in hosts), (results, [
+            (n, len(played(r, n)), r.proc.poll()) for r, n in hosts])
         begin = runner.result.start_at if runner.result else 0.0
 
         # Pause between two frames: frames 1..k go out on both hosts, none after.
