@@ -27,6 +27,10 @@ from xgo_show.runtime.show_runner import ShowResult
 
 AHEAD = 0.3  # seconds between a command and the time it is due
 EXACT = 0.010  # seconds: an event's time against the time it was due
+#: seconds an event may trail the time it was due on a loaded machine, where the relay's
+#: executor wakes late (13.6 ms seen in a full suite at load 12-15); a timeline built from the
+#: heartbeats' arrival would be up to their 100 ms period late, a time before the due one wrong
+LATE = 0.040
 
 
 @pytest.fixture
@@ -90,9 +94,9 @@ def test_pauses_and_resumes_are_on_the_timeline_at_the_relays_times(
         assert results and results[0].completed, results
         records = [r for r in log.records if r["kind"] == "state"]
 
-    assert abs(paused.t - pause_at) < EXACT, paused.t - pause_at
+    assert -0.002 < paused.t - pause_at < LATE, paused.t - pause_at
     assert abs(paused.show_time - (pause_at - start_at)) < 1e-3
-    assert abs(resumed.t - resume_at) < EXACT, resumed.t - resume_at
+    assert -0.002 < resumed.t - resume_at < LATE, resumed.t - resume_at
     # It goes on where it stopped: its show time when it said so is the paused one plus how
     # late after the resume time it said so (a loaded machine wakes it a few ms late: seen
     # 2.0 ms in a full suite at load 10-15, which a bare "< 1 ms" took for a jump).
