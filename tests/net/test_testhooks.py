@@ -108,9 +108,11 @@ def test_the_start_tracer_logs_each_robots_first_frame_once_per_show() -> None:
         ("first_frame", "b", 130.0),
     ]
     first = logged[0][1]
-    assert first["actual_host"] == pytest.approx(110.002)  # 10 s behind the relay's clock
-    assert first["planned_host"] == pytest.approx(110.0)
-    assert first["start_host"] == pytest.approx(110.0)
+    assert first == {"performer": "a", "start_at": 120.0, "planned": 120.0,
+                     "actual": 120.002, "start_host": pytest.approx(110.0),
+                     "planned_host": pytest.approx(110.0),  # 10 s behind the relay's clock
+                     "actual_host": pytest.approx(110.002),
+                     "seen_host": pytest.approx(100.0)}  # seen when the host clock read 100
 
 
 def test_the_start_tracer_logs_every_scheduled_frame_on_the_host_clock_when_the_show_ends() -> None:
@@ -149,3 +151,39 @@ def test_the_start_tracer_logs_every_scheduled_frame_on_the_host_clock_when_the_
     assert frames["b"][0][1:] == pytest.approx((110.0, 110.001, 100.25))
     bus.publish(ShowEnded(122.0, True, "completed"))  # after close: nothing
     assert len(logged) == 3  # nothing more
+
+
+def test_host_time_stops_at_a_clock_that_cannot_say_how_it_maps_onto_its_base() -> None:
+    from xgo_show.net.testhooks import host_time
+
+    class Mapped:  # maps onto a base it does not name
+        def to_base(self, t: float) -> float:
+            return t - 1000.0
+
+    class Based:  # names a base but cannot map onto it
+        base = FakeClock(0.0)
+
+    assert host_time(Mapped(), 5.0) == 5.0  # type: ignore[arg-type]
+    assert host_time(Based(), 5.0) == 5.0  # type: ignore[arg-type]
+
+
+def test_the_start_tracer_ignores_frames_outside_a_show_and_numbers_unindexed_ones_minus_1(
+) -> None:
+    from xgo_show.net.testhooks import StartTracer
+    from xgo_show.runtime.events import EventBus, FrameSent, ShowEnded, ShowStarted
+
+    host = FakeClock(100.0)
+    bus = EventBus()
+    logged: list[tuple[str, dict[str, object]]] = []
+    tracer = StartTracer(bus, host, lambda event, **fields: logged.append((event, fields)))
+    bus.publish(FrameSent(99.0, "a", "frame", 0, 99.0, b"\x00", "", None, 0.0))  # no show yet
+    bus.publish(ShowEnded(99.5, True, "completed"))  # an end without a start: nothing
+    assert logged == [] and bus.listener_errors == 0
+    bus.publish(ShowStarted(100.0, "s", 0.0, 101.0, ("a",), "halt_all", 0.0))
+    bus.publish(FrameSent(101.0, "a", "frame", None, 101.0, b"\x00", "", None, 0.0))
+    bus.publish(FrameSent(101.0, "z", "frame", 0, 101.0, b"\x00", "", None, 0.0))  # not in it
+    bus.publish(ShowEnded(102.0, True, "completed"))
+    tracer.close()
+    assert bus.listener_errors == 0
+    assert logged[-1] == ("frames_host", {"start_host": 101.0,
+                                          "frames": {"a": [(-1, 101.0, 101.0, 100.0)]}})

@@ -134,3 +134,10 @@ def test_a_skewed_clock_defaults_to_none_and_sleeps_on_its_base() -> None:
     stop = threading.Event()
     stop.set()
     assert not skewed.sleep_until(200.0, stop)
+
+
+def test_a_value_with_a_second_equals_sign_is_not_a_number() -> None:
+    # The key is what comes before the first "=": "offset=1=2" names offset, with "1=2".
+    with pytest.raises(ValueError) as info:
+        clock_from_env({CLOCK_ENV: "offset=1=2"}, FakeClock())
+    assert str(info.value) == "XGO_SHOW_TEST_CLOCK='offset=1=2': offset is not a number"
