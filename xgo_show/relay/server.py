@@ -86,7 +86,6 @@ class _Show:
     schedule: Schedule
     sha256: str
     link_loss: str
-    preflight_ok: bool
     runner: ShowRunner | None = None
     thread: threading.Thread | None = None
     start_at: float | None = None
@@ -243,9 +242,10 @@ class Relay:
         show = self._show
         if show is None:
             return RelayState.ENDED if self._last is not None else RelayState.IDLE
-        if show.thread is None:
-            return RelayState.ARMED if show.start_at is not None else RelayState.LOADED
-        return RelayState.RUNNING
+        if show.start_at is None:
+            return RelayState.LOADED
+        # Armed from the start command (which starts the show's thread) to the start time.
+        return RelayState.ARMED if self.clock.now() < show.start_at else RelayState.RUNNING
 
     def _robot_states(self) -> dict[str, str]:
         show = self._show
@@ -443,7 +443,6 @@ class Relay:
                 schedule,
                 request.text("sha256"),
                 request.text("link_loss"),
-                report.ok,
                 battery_floor=request.maybe_number("battery_floor"),
             )
             self._last = None
