@@ -66,8 +66,8 @@ def test_the_first_event_arms_the_delay_from_when_it_was_published() -> None:
         bus.publish(Event(1.0))
         wait_until(lambda: got, timeout=10.0)
         assert got[0] - published >= 0.25
-        bus.publish(Event(2.0))  # the next one after a quiet spell: its own delay again
         again = time.monotonic()
+        bus.publish(Event(2.0))  # the next one after a quiet spell: its own delay again
         wait_until(lambda: len(got) == 2, timeout=10.0)
         assert got[1] - again >= 0.25
     finally:
@@ -232,8 +232,8 @@ def test_the_thread_is_raised_from_the_first_event_until_a_quiet_spell(
         assert raised == []  # nothing real-time before a show's first event
         bus.publish(Event(1.0))
         assert deferred.flush(10.0)
+        last = time.monotonic()  # read before the event is queued: it is no later
         bus.publish(Event(2.0))
-        last = time.monotonic()
         assert deferred.flush(10.0)
         assert [c[:3] for c in raised] == [("enter", HELPER_PRIORITY, "booked")]  # once
         wait_until(lambda: len(raised) == 2, timeout=10.0)
@@ -256,8 +256,8 @@ def test_a_quiet_spell_is_counted_from_the_last_event_not_the_first(
     try:
         last = time.monotonic()
         for _ in range(8):  # events 0.05 s apart: never quiet for 0.2 s
+            last = time.monotonic()  # read before the event is queued: it is no later
             bus.publish(Event(1.0))
-            last = time.monotonic()
             time.sleep(0.05)
         wait_until(lambda: len(raised) == 2, timeout=10.0)
         assert raised[1][3] - last >= 0.2
@@ -331,16 +331,22 @@ def test_publishing_wakes_nobody_until_the_delay_is_over() -> None:
     deferred = DeferredListeners(bus, [lambda ev: got.append(ev.t)], delay=1.0, realtime=False)
     tid = deferred._thread.native_id
     assert tid is not None
-    before = _asleep(tid)  # the thread waits for its alarm
-    published = time.monotonic()
-    bus.publish(Event(1.0))
-    bus.publish(Event(2.0))
-    time.sleep(0.15)
-    switches = _switches(tid)
-    assert time.monotonic() - published < 1.0, "too slow to tell: the delay is over"
-    assert switches == before and got == []
-    wait_until(lambda: got, timeout=10.0)
-    assert got == [1.0, 2.0] and _switches(tid) > before
+    for _ in range(5):  # a look that came after the delay tells nothing: look again
+        got.clear()
+        before = _asleep(tid)  # the thread waits for its alarm
+        published = time.monotonic()
+        bus.publish(Event(1.0))
+        bus.publish(Event(2.0))
+        time.sleep(0.15)
+        switches, seen = _switches(tid), list(got)
+        in_time = time.monotonic() - published < 1.0
+        wait_until(lambda: len(got) == 2, timeout=10.0)
+        if in_time:
+            assert switches == before and seen == []
+            assert got == [1.0, 2.0] and _switches(tid) > before
+            break
+    else:
+        raise AssertionError("the machine was too busy to look within the delay five times")
     deferred.close()
 
 
