@@ -17,6 +17,7 @@ import zenoh
 
 from tests.children import exited, first_answer
 from tests.control.serving import Serve
+from tests.control.staging import Stage, staged
 from tests.loopback import client_config, free_port
 from xgo_show.choreo import load_show
 from xgo_show.compiler import compile_show
@@ -173,8 +174,17 @@ def directed() -> Callable[..., Any]:
 
 
 @pytest.fixture
-def serve() -> Iterator[Serve]:
-    """``serve``'s server over a recording session, simulated robots (tests/control/serving)."""
+def stage(monkeypatch: pytest.MonkeyPatch) -> Iterator[Stage]:
+    """Stand-in robots (tests/control/staging.py) behind ``stand:`` URLs and in place of
+    ``serve --sim``'s simulators."""
+    with staged(monkeypatch) as s:
+        yield s
+
+
+@pytest.fixture
+def serve(stage: Stage) -> Iterator[Serve]:
+    """``serve``'s server over a recording session (tests/control/serving), ``--sim`` with
+    stand-in robots in place of the simulators (tests/control/staging)."""
     s = Serve()
     yield s
     s.close()

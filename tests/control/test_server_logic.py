@@ -14,6 +14,7 @@ from pathlib import Path
 
 from tests.conftest import wait_until
 from tests.control.serving import NS, Serve, block_the_control_thread, refusal
+from tests.control.staging import Stage
 from tests.relay.recording import RecordingSession
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
@@ -171,7 +172,7 @@ def test_a_malformed_panic_is_still_refused(serve: Serve) -> None:
 
 
 def test_closing_answers_the_queued_commands_and_undeclares_everything(
-    triggered_schedule: Schedule
+    stage: Stage, triggered_schedule: Schedule
 ) -> None:
     s = Serve()
     first = block_the_control_thread(s, triggered_schedule)
@@ -219,7 +220,8 @@ def test_unknown_trigger_queries_get_at_most_their_rate_of_replies(serve: Serve)
     serve.trigger("last")
     wait_until(lambda: len(serve.events("warning")) == 2)
     assert serve.events("warning")[1]["unknown"] == UNKNOWN_REPLIES + 5
-    time.sleep(1.0)  # a new second: replies again
+    start, sent = serve.server._unknown_window
+    serve.server._unknown_window = (start - 1.0, sent)  # a second later: replies again
     assert serve.trigger("again").errors
 
 
@@ -301,8 +303,8 @@ def test_a_show_starts_holds_at_its_wait_is_released_by_a_trigger_and_stops(
     loaded: Serve
 ) -> None:
     before = time.time()
-    got = loaded.ask("start", **{"in": 0.2})
-    assert got["ok"] and got["show"] == "Triggered test" and got["offset"] == 0.0
+    got = loaded.ask("start", section="b", **{"in": 0.2})  # holds as it starts
+    assert got["ok"] and got["show"] == "Triggered test" and got["offset"] == 0.6
     assert before + 0.15 < got["start_time"] < time.time() + 0.25
     assert got["preflight"] is not None
     refusal(loaded.ask("start"), "start", "refused", "a show is running already (stop it first)")

@@ -13,13 +13,15 @@ import pytest
 
 from tests.conftest import wait_until
 from tests.control.serving import Serve, refusal
+from tests.control.staging import Stage
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
 
 
 @pytest.fixture
-def tempo(triggered_schedule: Schedule) -> Iterator[Serve]:
-    """The triggered show at 120 bpm in 4/4 (a bar is 2 s, a beat 0.5 s), loaded."""
+def tempo(stage: Stage, triggered_schedule: Schedule) -> Iterator[Serve]:
+    """The triggered show at 120 bpm in 4/4 (a bar is 2 s, a beat 0.5 s), loaded (on stand-in
+    robots)."""
     s = Serve()
     timed = dataclasses.replace(triggered_schedule, tempo_map=((1, 120.0, 4),))
     assert s.ask("load", schedule=schedule_to_bytes(timed).decode())["ok"]

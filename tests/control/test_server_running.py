@@ -1,22 +1,21 @@
 """``serve``'s server (control/server.py) in this process with a show running, over the
 recording session: OSC cues while a show plays (seek, bar, stop, go, busy), a trigger released
 by a put, what the run log keeps of a trigger's release, and the unknown-trigger reply rate
-to the reply. The server's refusals, queue and idle triggers: test_server_logic.py."""
+to the reply, on stand-in robots (tests/control/staging.py). The server's refusals, queue and
+idle triggers: test_server_logic.py; with shows on simulators: test_server_sims.py."""
 
 from __future__ import annotations
 
 import dataclasses
-import json
 import threading
 import time
 from collections.abc import Iterator, Sequence
-from pathlib import Path
-from typing import Any
 
 import pytest
 
 from tests.conftest import wait_until
 from tests.control.serving import Serve, block_the_control_thread, refusal
+from tests.control.staging import Stage
 from tests.relay.recording import Answer, Query, ScriptedRelay
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
@@ -28,8 +27,8 @@ from xgo_show.timecode.osc import Command
 
 
 @pytest.fixture
-def playing(triggered_schedule: Schedule) -> Iterator[Serve]:
-    """A show without waits, playing."""
+def playing(stage: Stage, triggered_schedule: Schedule) -> Iterator[Serve]:
+    """A show without waits, playing (on stand-in robots)."""
     s = Serve()
     plain = dataclasses.replace(triggered_schedule, sections=())
     s.ask("load", schedule=schedule_to_bytes(plain).decode())
@@ -87,7 +86,7 @@ def test_osc_cues_are_refused_when_the_queue_is_full(serve: Serve,
 
 
 def test_an_osc_trigger_releases_a_held_wait(loaded: Serve) -> None:
-    loaded.ask("start")
+    loaded.ask("start", section="b")  # holds at once
     wait_until(lambda: loaded.server.status()["state"] == "waiting", timeout=10)
     loaded.server._on_osc(Command("trigger", name="go"))
     wait_until(lambda: any(e.get("accepted") for e in loaded.events("trigger")))
@@ -97,55 +96,17 @@ def test_an_osc_trigger_releases_a_held_wait(loaded: Serve) -> None:
     loaded.ask("stop")
 
 
-def records(path: Path, kind: str) -> list[dict[str, Any]]:
-    lines = path.read_text(encoding="utf-8").splitlines()
-    return [r for r in map(json.loads, lines) if r["kind"] == kind]
-
-
-def test_a_put_releases_a_held_wait_and_the_log_keeps_its_times(
-    tmp_path: Path, triggered_schedule: Schedule
-) -> None:
-    log = tmp_path / "run.jsonl"
-    s = Serve(log=log)
-    try:
-        s.ask("load", schedule=schedule_to_bytes(triggered_schedule).decode())
-        s.ask("start")
-        wait_until(lambda: s.server.status()["state"] == "waiting", timeout=10)
-        s.session.publish("ns/trigger/go", b'{"source": "desk", "data": 7}')
-        wait_until(lambda: any(e.get("accepted") for e in s.events("trigger")))
-        event = next(e for e in s.events("trigger") if e.get("accepted"))
-        assert (event["trigger"], event["section"], event["held"], event["source"],
-                event["data"]) == ("go", "b", True, "desk", 7)
-        assert s.server.counters["accepted"] == 1
-        wait_until(lambda: s.server._trace is None, timeout=10)  # the section's first frame
-        s.ask("stop")
-    finally:
-        s.close()
-    (trace,) = records(log, "trigger")
-    assert (trace["trigger"], trace["section"]) == ("go", "b")
-    times = [trace[k] for k in ("received", "parsed", "decided", "woke", "released",
-                                "first_frame")]
-    assert all(isinstance(t, float) for t in times), trace
-    assert times == sorted(times) and times[-1] - times[0] < 5.0
-    assert trace["received"] <= trace["first_write"] <= trace["first_frame"]
-
-
-def test_a_trigger_given_before_its_wait_is_not_timed(tmp_path: Path,
-                                                      triggered_schedule: Schedule) -> None:
-    log = tmp_path / "run.jsonl"
-    s = Serve(log=log)
-    try:
-        s.ask("load", schedule=schedule_to_bytes(triggered_schedule).decode())
-        s.ask("start")
-        wait_until(lambda: s.server.status()["state"] in ("playing", "waiting"), timeout=10)
-        got = s.trigger("go").answer()
-        if got["held"]:  # the show reached its wait first (a loaded machine)
-            pytest.skip("the show held before the trigger came")
-        assert s.server._trace is None
-        s.ask("stop")
-    finally:
-        s.close()
-    assert records(log, "trigger") == []
+def test_a_put_releases_a_held_wait(loaded: Serve) -> None:
+    loaded.ask("start", section="b")  # holds at once
+    wait_until(lambda: loaded.server.status()["state"] == "waiting", timeout=10)
+    loaded.session.publish("ns/trigger/go", b'{"source": "desk", "data": 7}')
+    wait_until(lambda: any(e.get("accepted") for e in loaded.events("trigger")))
+    event = next(e for e in loaded.events("trigger") if e.get("accepted"))
+    assert (event["trigger"], event["section"], event["held"], event["source"],
+            event["data"]) == ("go", "b", True, "desk", 7)
+    assert loaded.server.counters["accepted"] == 1
+    wait_until(lambda: loaded.server.status()["state"] == "playing")
+    loaded.ask("stop")
 
 
 def test_unknown_trigger_queries_in_one_second_get_exactly_their_rate(serve: Serve) -> None:
@@ -160,9 +121,10 @@ def test_unknown_trigger_queries_in_one_second_get_exactly_their_rate(serve: Ser
 # --- a start armed across a panic ----------------------------------------------------------------
 
 @pytest.fixture
-def relayed(monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[Serve, ScriptedRelay]]:
+def relayed(monkeypatch: pytest.MonkeyPatch,
+            stage: Stage) -> Iterator[tuple[Serve, ScriptedRelay]]:
     """A server whose performer rex plays on robot dog1 of relay hall (a scripted relay that
-    answers through the server's own recording session), ivy on a simulator."""
+    answers through the server's own recording session), ivy on a stand-in robot."""
     for name in ("_options", "_session", "_conductor"):  # the conductor's, restored after
         monkeypatch.setattr(conductor, name, getattr(conductor, name))
     relay = ScriptedRelay()
