@@ -19,6 +19,7 @@ from typing import Any
 import pytest
 
 from tests.conftest import wait_until
+from tests.control.conftest import ROUTINE
 from tests.control.serving import Serve, refusal
 from tests.control.staging import Stage
 from tests.relay.recording import RecordingSession
@@ -31,6 +32,7 @@ from xgo_show.runtime.events import FrameSent, StateChanged
 from xgo_show.runtime.executor import ExecutorState
 from xgo_show.runtime.realtime import HELPER_PRIORITY
 from xgo_show.runtime.show_runner import ShowResult
+from xgo_show.timecode.osc import Command
 
 STANDS = {"rex": "stand:rex", "ivy": "stand:ivy"}
 S = ExecutorState
@@ -620,6 +622,78 @@ def test_a_trigger_kept_for_the_wait_ahead_is_not_timed(
         wait_until(lambda: state(s) == "playing")
         got = s.trigger("go").answer()
         assert got["held"] is False and s.server._trace is None
+        s.ask("stop")
+    finally:
+        s.close()
+
+
+# --- loads, and the events' wire form ------------------------------------------------------
+
+def test_a_routine_is_compiled_and_its_problems_are_placed_in_routine(serve: Serve) -> None:
+    got = serve.ask("load", routine=ROUTINE.replace("Triggered test", "Überraschung"))
+    assert got["ok"] and got["show"]["name"] == "Überraschung"
+    assert got["show"]["source"] == "<routine>" and got["show"]["triggers"] == ["go", "encore"]
+    assert serve.said[-1] == "loaded 'Überraschung' (<routine>); triggers: go, encore"
+    refusal(serve.ask("load", routine="show: x\n"), "load", "failed",
+            "<routine>: 2 error(s): <routine>:1:1: error: performers: missing required field "
+            "'performers' (and 1 more)")
+    assert serve.server.status()["show"]["name"] == "Überraschung"  # the last good one stays
+
+
+def test_a_schedule_sent_as_text_is_named_schedule_in_its_problems(serve: Serve) -> None:
+    refusal(serve.ask("load", schedule="{"), "load", "failed",
+            "<schedule>: not a schedule file (invalid JSON at line 1 column 2: Expecting "
+            "property name enclosed in double quotes)")
+    refusal(serve.ask("load", path="/nonexistent.yaml"), "load", "failed",
+            "/nonexistent.yaml: no such file")
+
+
+def test_events_go_out_as_compact_json_that_may_be_dropped_under_congestion(
+    serve: Serve
+) -> None:
+    import zenoh
+
+    serve.server._put("ns/event/x", {"a": [1, 2], "b": "c"})
+    assert serve.session.puts[-1] == ("ns/event/x", b'{"a":[1,2],"b":"c"}',
+                                      zenoh.CongestionControl.DROP)
+    with pytest.raises(ValueError):  # strict JSON: a NaN is refused, not sent
+        serve.server._put("ns/event/x", {"a": float("nan")})
+
+
+def test_an_osc_bar_without_a_number_seeks_to_the_first_bar(
+    stage: Stage, triggered_schedule: Schedule
+) -> None:
+    timed = dataclasses.replace(triggered_schedule, tempo_map=((1, 120.0, 4),))
+    s = serving(timed)
+    try:
+        assert s.ask("start", section="d")["ok"]  # no wait ahead
+        wait_until(lambda: state(s) == "playing")
+        s.server._on_osc(Command("bar"))
+        wait_until(lambda: any(line.startswith("osc: seek") for line in s.said))
+        assert "osc: seek: done" in s.said
+        assert all(any(c[0] == "seek" and c[1] == 0.0 for c in p.calls)
+                   for p in stage.performers.values())
+        s.server._on_osc(Command("bar", 2.0))
+        wait_until(lambda: all(any(c[0] == "seek" and c[1] == 2.0 for c in p.calls)
+                               for p in stage.performers.values()))
+        s.ask("stop")
+    finally:
+        s.close()
+
+
+def test_an_osc_trigger_is_timed_in_the_log_like_any_other(
+    stage: Stage, triggered_schedule: Schedule, tmp_path: Path
+) -> None:
+    s = serving(triggered_schedule, log=tmp_path / "run.jsonl")
+    try:
+        held_at_b(s)
+        before = s.server.clock.now()
+        s.server._on_osc(Command("trigger", name="go"))
+        trace = s.server._trace
+        assert trace is not None and before <= trace.received <= trace.parsed
+        wait_until(lambda: [e for e in s.events("trigger") if e["accepted"]])
+        (event,) = [e for e in s.events("trigger") if e["accepted"]]
+        assert event["source"] == "osc" and event["data"] is None
         s.ask("stop")
     finally:
         s.close()

@@ -799,7 +799,12 @@ def _load(req: LoadRequest) -> tuple[Schedule, str]:
     with tempfile.TemporaryDirectory(prefix="xgo-show-load-") as tmp:
         path = Path(tmp) / "routine.yaml"
         path.write_text(req.routine, encoding="utf-8")
-        return compile_show(load_show(path)), "<routine>"
+        try:
+            return compile_show(load_show(path)), "<routine>"
+        except XgoShowError as exc:
+            # The client sent text, not a file: its problems are placed in "<routine>", not in
+            # a temporary file it never named (gone once this returns).
+            raise ControlError(str(exc).replace(str(path), "<routine>"), code="failed") from exc
 
 
 def _show_time(schedule: Schedule, req: Any) -> float:
