@@ -697,3 +697,19 @@ def test_an_osc_trigger_is_timed_in_the_log_like_any_other(
         s.ask("stop")
     finally:
         s.close()
+
+
+def test_a_put_that_releases_a_held_wait_is_timed_from_its_arrival(
+    stage: Stage, triggered_schedule: Schedule, tmp_path: Path
+) -> None:
+    s = serving(triggered_schedule, log=tmp_path / "run.jsonl")
+    try:
+        held_at_b(s)
+        before = s.server.clock.now()
+        s.session.publish("ns/trigger/go")
+        trace = s.server._trace
+        assert trace is not None and (trace.trigger, trace.section) == ("go", "b")
+        assert before <= trace.received <= trace.parsed <= trace.decided
+        s.ask("stop")
+    finally:
+        s.close()
