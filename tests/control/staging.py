@@ -225,6 +225,8 @@ class StandBench:
 
     def __init__(self, stage: Stage, schedule: Schedule, names: Sequence[str]) -> None:
         self.names = list(names)
+        models = {p.name: p.model for p in schedule.performers}
+        self.models = [models[n] for n in names]  # a simulator needs its robot's model
         self.closed = 0
         stage.benches.append(self)
 

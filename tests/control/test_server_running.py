@@ -22,7 +22,8 @@ from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.server import UNKNOWN_REPLIES
 from xgo_show.net.session import SessionOptions
 from xgo_show.relay import conductor
-from xgo_show.relay.options import ConductorOptions
+from xgo_show.relay.options import RELAY_STOP_TIMEOUT, ConductorOptions
+from xgo_show.relay.performer import NETWORK_LEAD
 from xgo_show.timecode.osc import Command
 
 
@@ -161,3 +162,42 @@ def test_a_panic_during_a_starts_pre_flight_cancels_the_start(
             "start cancelled by a panic during its pre-flight")
     assert s.server.counters["cancelled"] == 1 and s.server.status()["state"] == "loaded"
     assert s.session.of("release")  # the relay given up: nothing left armed
+
+
+def test_a_relayed_performer_plays_with_the_relays_stop_timeout_and_command_lead(
+    relayed: tuple[Serve, ScriptedRelay], triggered_schedule: Schedule
+) -> None:
+    s, _ = relayed
+    s.ask("load", schedule=schedule_to_bytes(triggered_schedule).decode())
+    got = s.ask("start", section="b")
+    assert got["ok"], got
+    run = s.server._run
+    assert run is not None
+    assert (run.launch.stop_timeout, run.launch.command_lead) == (RELAY_STOP_TIMEOUT,
+                                                                 NETWORK_LEAD)
+    assert s.session.of("upload")  # through the server's own session
+    s.ask("stop")
+
+
+@pytest.mark.parametrize("sim", [False, True])
+def test_a_relay_named_in_the_show_file_is_used_unless_sim_plays_that_performer(
+    relayed: tuple[Serve, ScriptedRelay], triggered_schedule: Schedule, sim: bool
+) -> None:
+    s, relay = relayed
+    ported = dataclasses.replace(triggered_schedule, performers=tuple(
+        dataclasses.replace(p, port="zenoh:hall/dog1") if p.name == "rex" else p
+        for p in triggered_schedule.performers))
+    options = s.server.opts.conductor
+    t = Serve(sim=sim, maps={} if sim else {"ivy": "stand:ivy"}, conductor=options)
+    t.session.respond = relay
+    try:
+        t.ask("load", schedule=schedule_to_bytes(ported).decode())
+        got = t.ask("start", section="b")
+        assert got["ok"], got
+        run = t.server._run
+        assert run is not None
+        assert run.launch.command_lead == (0.0 if sim else NETWORK_LEAD)
+        assert bool(t.session.of("upload")) is not sim
+        t.ask("stop")
+    finally:
+        t.close()

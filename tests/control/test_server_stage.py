@@ -268,7 +268,8 @@ def test_sim_gives_a_simulator_to_each_performer_not_mapped_and_closes_it_after(
     try:
         assert s.ask("start")["ok"]
         (bench,) = stage.benches
-        assert bench.names == ["ivy"] and stage.opened == [("rex", "ivy")]
+        assert bench.names == ["ivy"] and bench.models == ["lite"]
+        assert stage.opened == [("rex", "ivy")]
         assert bench.closed == 0
         s.ask("stop")
         ended(s)
@@ -713,3 +714,16 @@ def test_a_put_that_releases_a_held_wait_is_timed_from_its_arrival(
         s.ask("stop")
     finally:
         s.close()
+
+
+def test_the_shows_robot_states_and_progress_are_published(server: Serve) -> None:
+    held_at_b(server)
+    wait_until(lambda: {(e.get("robot"), e["state"]) for e in server.events("state")} >= {
+        ("rex", "paused"), ("ivy", "paused")})
+    paused = [e for e in server.events("state") if e.get("robot") == "rex"
+              and e["state"] == "paused"]
+    assert paused[0]["show_time"] == 0.6
+    wait_until(lambda: server.events("progress"), timeout=10)  # a few a second
+    progress = server.events("progress")[0]
+    assert progress["section"] == "b" and progress["duration"] == 2.3
+    server.ask("stop")
