@@ -423,7 +423,14 @@ class Run:
     # robot -> (planned, actual) time of its first frame's write, on this machine's clock
     writes: dict[str, tuple[float, float]] = field(default_factory=dict)
     load: float = 0.0  # the 1-minute load average when it started
-    lates: list[float] = field(default_factory=list)  # every frame's write - planned (s)
+    # robot -> (planned, actual) write time of every scheduled frame, in order: on this
+    # machine's clock (local processes) or on the relay's show clock, which reads the
+    # conductor's time, this machine's clock here, to within its estimate's error (part (a))
+    frames: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+
+    def lates(self) -> list[float]:
+        """Every frame's write - planned time (s)."""
+        return [a - p for rows in self.frames.values() for p, a in rows]
 
 
 def received_in(sim: Sim, run: Run) -> list[float]:
@@ -442,12 +449,12 @@ def skew(relays: Sequence[Relay], run: Run, index: int) -> float | None:
     return (max(times) - min(times)) * 1000
 
 
-def frame_lates(relay: Relay) -> dict[float, list[float]]:
-    """start time -> every frame's write - planned time (s) in that show, from the relay's
-    run log (show times on its show clock, which runs at the conductor's rate)."""
+def log_frames(relay: Relay) -> dict[float, list[tuple[float, float]]]:
+    """start time -> every scheduled frame's (planned, actual) write time in that show, from
+    the relay's run log (show times: seconds from the start, on its show clock)."""
     assert relay.log is not None
-    out: dict[float, list[float]] = {}
-    current: list[float] | None = None
+    out: dict[float, list[tuple[float, float]]] = {}
+    current: list[tuple[float, float]] | None = None
     for line in relay.log.read_text(encoding="utf-8").splitlines():
         rec = json.loads(line)
         if rec.get("event") == "start":
@@ -458,7 +465,7 @@ def frame_lates(relay: Relay) -> dict[float, list[float]]:
             and rec.get("planned") is not None
             and current is not None
         ):
-            current.append(float(rec["actual"]) - float(rec["planned"]))
+            current.append((float(rec["planned"]), float(rec["actual"])))
     return out
 
 
@@ -667,17 +674,24 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
             plain = start_relays(
                 rig, n, rng, prefix="plain", env=trace, flags=GROUPS[" --no-realtime"]
             )
-        session = connect([*relays, *plain])
-        for relay in [*relays, *plain]:
+        # --trace-ab: relays without the tracer (XGO_SHOW_TEST_TRACE), in turn with the
+        # traced ones: what the instrument itself costs a relayed robot
+        quiet = start_relays(rig, n, rng, prefix="quiet") if args.trace_ab else []
+        session = connect([*relays, *plain, *quiet])
+        for relay in [*relays, *plain, *quiet]:
             claim(session, relay)
+        groups = {"": relays, " --no-realtime": plain, " untraced": quiet}
+        groups = {k: v for k, v in groups.items() if v}
         for _ in range(args.starts):
             runs.append(play(relays, short, "start synced"))
             for mode, procs in locals_.items():
                 runs.append(play_local(procs, mode, lead(relays)))
-            if plain:
-                runs.append(play(plain, short, "start synced --no-realtime"))
-            runs.append(play(relays, short, "start naive"))
-        report_starts(args, runs, relays, plain, locals_, short)
+            for group, members in groups.items():
+                if group:
+                    runs.append(play(members, short, f"start synced{group}"))
+            if not args.no_naive:
+                runs.append(play(relays, short, "start naive"))
+        report_starts(args, runs, groups, locals_, short)
         if args.drift_seconds > 0:
             if plain:
                 runs.append(play(plain, long, "drift synced --no-realtime"))
@@ -730,22 +744,27 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
 def report_starts(
     args: argparse.Namespace,
     runs: Sequence[Run],
-    relays: Sequence[Relay],
-    plain: Sequence[Relay],
+    groups: dict[str, Sequence[Relay]],
     locals_: dict[str, list[LocalProcess]],
     short: Schedule,
 ) -> None:
     """Parts 1 and 3: the start skew and its parts, the send-time error (printed while the
-    processes still run: their records are flushed as they go)."""
+    processes still run: their records are flushed as they go). ``groups``: the relays by
+    the suffix of their runs' mode ("" the default ones)."""
+    relays = groups[""]
     n = len(relays)
-    logged = {relay.name: first_frames(relay) for relay in [*relays, *plain]}
-    lates = {relay.name: frame_lates(relay) for relay in [*relays, *plain]}
+    every_relay = [r for members in groups.values() for r in members]
+    logged = {relay.name: first_frames(relay) for relay in every_relay}
+    frames = {relay.name: log_frames(relay) for relay in every_relay}
     for run in runs:
-        if run.start_at is not None and not run.writes:
+        if run.start_at is not None and run.mode.startswith("start synced"):
             for name, writes in logged.items():
                 if (t := writes.get(round(run.start_at, 6))) is not None:
                     run.writes[name] = t
-                run.lates.extend(lates[name].get(round(run.start_at, 6), []))
+            for name, shows in frames.items():
+                if (rows := shows.get(round(run.start_at, 6))) is not None:
+                    # show times (offset 0) on the show clock that started at start_at
+                    run.frames[name] = [(run.start_at + p, run.start_at + a) for p, a in rows]
     loads = [r.load for r in runs if r.mode.startswith("start")]
     print(
         f"\n{n} relays, clocks off by up to +-100 s and +-100 ppm "
@@ -753,10 +772,7 @@ def report_starts(
         f"load average (1 min) during the starts {min(loads):.2f}-{max(loads):.2f}"
     )
     print(f"\n1. start skew: spread of the first frame across the robots, {args.starts} starts, ms")
-    groups = {"": relays, " --no-realtime": plain} if plain else {"": relays}
-    for mode in ("synced", "synced --no-realtime", "naive"):
-        if mode[6:] not in groups and mode != "naive":
-            continue
+    for mode in [f"synced{g}" for g in groups] + ["naive"]:
         group = groups[mode[6:]] if mode.startswith("synced") else relays
         values = [skew(group, r, 0) for r in runs if r.mode == f"start {mode}"]
         print(f"   {'relayed, ' + mode:34s} {stats([v for v in values if v is not None])}")
@@ -796,11 +812,80 @@ def report_starts(
         print(f"   {'relayed' + group:34s} {stats(busy)}")
     print("   its issue lateness: write - planned time of every frame (ms)")
     for group in groups:
-        late = [x * 1000 for r in runs if r.mode == f"start synced{group}" for x in r.lates]
+        late = [x * 1000 for r in runs if r.mode == f"start synced{group}" for x in r.lates()]
         print(f"   {'relayed' + group:34s} {stats(late)}")
     for mode in local_robots:
-        late = [x * 1000 for r in runs if r.mode == mode for x in r.lates]
+        late = [x * 1000 for r in runs if r.mode == mode for x in r.lates()]
         print(f"   {mode:34s} {stats(late)}")
+    print_per_frame(runs, groups, local_robots, short)
+
+
+def deliveries(robots: Sequence[Relay], run: Run) -> list[float]:
+    """Receive time - write time (ms) of every scheduled frame of ``run``, every robot."""
+    out = []
+    for robot in robots:
+        rows = run.frames.get(robot.name, [])
+        got = received_in(robot.sim, run)
+        out += [(t - actual) * 1000 for t, (_, actual) in zip(got, rows, strict=False)]
+    return out
+
+
+PerRun = list[list[float]]  # per run (in the order played), its per-frame values (ms)
+
+
+def bootstrap_p50_difference(
+    a: PerRun, b: PerRun, *, resamples: int = 2000, seed: int = 1
+) -> tuple[float, float, float]:
+    """Pooled p50 of ``b`` minus that of ``a`` and its 95 % bootstrap interval, resampling
+    the pairs of runs (``a[k]`` and ``b[k]`` played one after the other), not the frames:
+    frames of one run share its load (as ``benchmarks/trigger_latency.py`` does for p99)."""
+
+    def p50(runs: PerRun) -> float:
+        return percentile(sorted(x for run in runs for x in run), 0.5)
+
+    rng = random.Random(seed)
+    k = min(len(a), len(b))
+    diffs = []
+    for _ in range(resamples):
+        picked = [rng.randrange(k) for _ in range(k)]
+        diffs.append(p50([b[i] for i in picked]) - p50([a[i] for i in picked]))
+    diffs.sort()
+    return p50(b[:k]) - p50(a[:k]), percentile(diffs, 0.025), percentile(diffs, 0.975)
+
+
+def print_per_frame(
+    runs: Sequence[Run],
+    groups: dict[str, Sequence[Relay]],
+    local_robots: dict[str, list[Relay]],
+    short: Schedule,
+) -> None:
+    """Every frame's delivery (receive - write) and, run pair by run pair, what a relayed
+    robot adds over the local processes (and the tracer over untraced relays)."""
+    robots_of = {f"start synced{g}": list(m) for g, m in groups.items()} | local_robots
+    measures = {
+        "send-time error": lambda robots, run: send_errors(robots, run, short),
+        "delivery": deliveries,
+        "issue lateness": lambda robots, run: [x * 1000 for x in run.lates()],
+    }
+    per_run: dict[str, dict[str, PerRun]] = {}
+    for mode, robots in robots_of.items():
+        mine = [r for r in runs if r.mode == mode]
+        per_run[mode] = {m: [f(robots, r) for r in mine] for m, f in measures.items()}
+    print("   delivery: receive - write time of every frame (ms; a relay's write time is on its")
+    print("   show clock, the conductor's: this machine's to within its estimate's error (a))")
+    for mode in robots_of:
+        name = mode.replace("start synced", "relayed")
+        print(f"   {name:34s} {stats([x for run in per_run[mode]['delivery'] for x in run])}")
+    local = next((m for m in local_robots if m.endswith("processes")), None)
+    pairs: list[tuple[str, str]] = [(local, f"start synced{g}") for g in groups if local]
+    if " untraced" in groups:
+        pairs.append(("start synced untraced", "start synced"))
+    print("   p50 differences, 95 % bootstrap interval resampling the start rounds (ms):")
+    for a, b in pairs:
+        for m in measures:
+            est, lo, hi = bootstrap_p50_difference(per_run[a][m], per_run[b][m])
+            what = " - ".join(x.replace("start synced", "relayed") for x in (b, a))
+            print(f"     {m:16s} {what:44s} {est:+7.3f} [{lo:+7.3f}, {hi:+7.3f}]")
 
 
 @dataclass
@@ -818,14 +903,17 @@ class LocalProcess:
         self.proc.stdin.write(f"{start_at!r}\n")
         self.proc.stdin.flush()
 
-    def writes(self) -> tuple[dict[str, tuple[float, float]], list[float]]:
-        """Each robot's first (planned, actual) write, and every frame's lateness (s)."""
+    def writes(self) -> tuple[dict[str, tuple[float, float]], dict[str, list[tuple[float, float]]]]:
+        """Each robot's first (planned, actual) write, and every frame's."""
         assert self.proc.stdout is not None
         reply = json.loads(self.proc.stdout.readline())
         if not reply["completed"]:
             raise SystemExit(f"a local run did not complete: {reply['reason']}")
         firsts = {name: (float(p), float(a)) for name, (p, a) in reply["writes"].items()}
-        return firsts, [float(x) for x in reply.get("lates", [])]
+        every = {
+            name: [(float(p), float(a)) for p, a in rows] for name, rows in reply.get("frames", {}).items()
+        }
+        return firsts, every
 
 
 def start_local(rig: Rig, names: Sequence[str], *, rt: bool) -> LocalProcess:
@@ -856,12 +944,12 @@ def play_local(procs: Sequence[LocalProcess], mode: str, lead_s: float) -> Run:
     for proc in procs:
         proc.start(start_at)
     writes: dict[str, tuple[float, float]] = {}
-    lates: list[float] = []
+    frames: dict[str, list[tuple[float, float]]] = {}
     for proc in procs:
-        firsts, late = proc.writes()
+        firsts, every = proc.writes()
         writes.update(firsts)
-        lates += late
-    return Run(mode, sent, time.monotonic(), start_at, writes, load, lates)
+        frames.update(every)
+    return Run(mode, sent, time.monotonic(), start_at, writes, load, frames)
 
 
 def start_waker(rig: Rig, name: str) -> LocalProcess:
@@ -931,17 +1019,17 @@ def local_child(pairs: Sequence[str], rt: bool) -> int:
             )
             result = runner.run(start_at=start_at, lead=0.0, handle_signals=False)
             writes: dict[str, tuple[float, float]] = {}
-            lates: list[float] = []
+            frames: dict[str, list[tuple[float, float]]] = {n: [] for n in names}
             for ev in recorder.sent():
                 if ev.kind == "frame" and ev.planned is not None:
-                    lates.append(ev.t - ev.planned)
+                    frames[ev.performer].append((ev.planned, ev.t))
                     writes.setdefault(ev.performer, (ev.planned, ev.t))
             recorder.close()
             reply = {
                 "completed": result.completed,
                 "reason": result.reason,
                 "writes": writes,
-                "lates": lates,
+                "frames": frames,
             }
             print(json.dumps(reply), flush=True)
     finally:
@@ -1058,6 +1146,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="also relays and a local runner with --no-realtime (4 more relays, 4 more robots)",
     )
+    parser.add_argument(
+        "--trace-ab",
+        action="store_true",
+        help="also relays without the tracer (XGO_SHOW_TEST_TRACE), in turn with the others",
+    )
+    parser.add_argument("--no-naive", action="store_true", help="no naive starts (time)")
     parser.add_argument("--wake-child", metavar="NAME", help=argparse.SUPPRESS)
     parser.add_argument("--local-child", nargs="+", metavar="NAME=PTY", help=argparse.SUPPRESS)
     parser.add_argument("--no-realtime", action="store_true", help=argparse.SUPPRESS)
