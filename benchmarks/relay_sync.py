@@ -910,9 +910,8 @@ class LocalProcess:
         if not reply["completed"]:
             raise SystemExit(f"a local run did not complete: {reply['reason']}")
         firsts = {name: (float(p), float(a)) for name, (p, a) in reply["writes"].items()}
-        every = {
-            name: [(float(p), float(a)) for p, a in rows] for name, rows in reply.get("frames", {}).items()
-        }
+        rows = reply.get("frames", {})  # (a wake-up process has none)
+        every = {name: [(float(p), float(a)) for p, a in r] for name, r in rows.items()}
         return firsts, every
 
 
