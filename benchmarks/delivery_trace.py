@@ -28,7 +28,12 @@ robot's delivery waits for that a local one's does not.
 Needs root (or tracefs access). Prints figures only. Usage::
 
     python benchmarks/delivery_trace.py [--seconds 20] [--busy] [--sim fifo|nice|normal]
-                                        [--no-realtime] [--worst 5] [--relays]
+                                        [--no-realtime] [--worst 5] [--relays] [--processes]
+                                        [--lockstep] [--only-relays]
+
+``--processes`` plays the robots from one local process each too (the relays' shape without
+Zenoh: the like-for-like comparison), ``--lockstep`` puts every robot's frames at the same
+times, as a synced show does (``relay_sync.py``'s shows), instead of 3.7 ms apart.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ import argparse
 import bisect
 import contextlib
 import dataclasses
+import functools
 import json
 import os
 import re
@@ -54,7 +60,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import runtime_timing as rt
 
-from xgo_show.compiler.schedule import Schedule
+from xgo_show.compiler.schedule import Schedule, ScheduledFrame
 from xgo_show.runtime import realtime
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import Event, FrameSent
@@ -330,6 +336,103 @@ def play_local(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
                   (begin, time.monotonic()))
 
 
+def play_processes(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
+                   tracer: Tracer) -> Played:
+    """The schedule played by one local process per robot (``--play-child``): the relays'
+    shape without Zenoh, a conductor or a clock to estimate."""
+    procs: list[subprocess.Popen[str]] = []
+    for perf, path in zip(schedule.performers, sims.paths, strict=True):
+        procs.append(subprocess.Popen(
+            [sys.executable, __file__, "--play-child", f"{perf.name}={path}",
+             "--seconds", str(args.seconds), *(["--lockstep"] if args.lockstep else []),
+             *(["--no-realtime"] if args.no_realtime else [])],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True))
+    issued: list[tuple[float, str, int]] = []
+    late: list[tuple[float, float, int]] = []
+    roles: dict[int, str] = {}
+    try:
+        for proc in procs:
+            assert proc.stdout is not None
+            if proc.stdout.readline().strip() != "ready":
+                raise SystemExit("a local process did not start")
+        for i, proc in enumerate(procs):
+            roles.update({t: f"proc{i}:{c}" for t, c in _tasks(proc.pid).items()})
+        begin = time.monotonic()
+        tracer.start()
+        try:
+            start_at = time.monotonic() + 1.0
+            for proc in procs:
+                assert proc.stdin is not None
+                proc.stdin.write(f"{start_at!r}\n")
+                proc.stdin.flush()
+            for i, proc in enumerate(procs):
+                assert proc.stdout is not None
+                reply = json.loads(proc.stdout.readline())
+                if not reply["completed"]:
+                    raise SystemExit(f"a local process did not complete: {reply['reason']}")
+                for t, perf, tid, planned in reply["frames"]:
+                    issued.append((t, perf, tid))
+                    roles.setdefault(tid, f"proc{i}:writer")
+                    if t - planned > 0.001:
+                        late.append((planned, t, tid))
+            time.sleep(0.3)
+        finally:
+            lines = tracer.stop()
+    finally:
+        for proc in procs:
+            if proc.stdin is not None:
+                proc.stdin.close()
+        for proc in procs:
+            proc.wait(10)
+    issued.sort()
+    return Played(f"local, {len(procs)} processes, one robot each", lines, issued, late, {},
+                  roles, (begin, time.monotonic()))
+
+
+def play_child(pair: str, args: argparse.Namespace) -> None:
+    """``--play-child NAME=PTY``: play robot NAME's part of the schedule on PTY at the start
+    time read from stdin; print every frame's (write time, NAME, writer thread, planned)."""
+    name, _, path = pair.partition("=")
+    full = make_schedule(args)
+    schedule = dataclasses.replace(
+        full, performers=tuple(p for p in full.performers if p.name == name))
+    link = open_transport(path, baudrate=schedule.performers[0].link.baud)
+    link.open()
+    realtime.configure("off" if args.no_realtime else "required")
+    print("ready", flush=True)
+    try:
+        for line in sys.stdin:
+            frames: list[tuple[float, str, int, float]] = []
+            runner = local_runner(schedule, {name: link}, clock=MonotonicClock())
+            runner.events.subscribe(functools.partial(_note_frame, frames), FrameSent)
+            result = runner.run(start_at=float(line), lead=0.0, handle_signals=False)
+            print(json.dumps({"completed": result.completed, "reason": result.reason,
+                              "frames": frames}), flush=True)
+    finally:
+        link.close()
+
+
+def _note_frame(frames: list[tuple[float, str, int, float]], event: Event) -> None:
+    """A play child's listener: (write time, performer, writer thread, planned) per frame."""
+    if isinstance(event, FrameSent) and event.kind == "frame":
+        frames.append((event.t, event.performer, threading.get_native_id(),
+                       event.t if event.planned is None else event.planned))
+
+
+def make_schedule(args: argparse.Namespace) -> Schedule:
+    """``runtime_timing``'s show at 50 frames/s; with ``--lockstep`` every robot's frames at
+    the same times (as a synced show plays them), not each robot 3.7 ms after the previous."""
+    schedule = rt.make_schedule(args.seconds, 50.0)
+    if not args.lockstep:
+        return schedule
+    performers = []
+    for perf in schedule.performers:
+        phase = perf.frames[0].t
+        frames = tuple(ScheduledFrame(f.t - phase, f.data) for f in perf.frames)
+        performers.append(dataclasses.replace(perf, frames=frames, end=perf.end - phase))
+    return dataclasses.replace(schedule, performers=tuple(performers))
+
+
 def _tasks(pid: int) -> dict[int, str]:
     """A process's threads: id -> its name (comm), {} once it has gone."""
     out = {}
@@ -592,8 +695,16 @@ def main() -> None:
     parser.add_argument("--relays", action="store_true",
                         help="then play the same robots through 4 relay processes, one robot each")
     parser.add_argument("--only-relays", action="store_true", help="the relays alone")
+    parser.add_argument("--processes", action="store_true",
+                        help="also one local process per robot (the relays' shape, no Zenoh)")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="every robot's frames at the same times (as a synced show)")
+    parser.add_argument("--play-child", metavar="NAME=PTY", help=argparse.SUPPRESS)
     args = parser.parse_args()
-    schedule = rt.make_schedule(args.seconds, 50.0)
+    if args.play_child:
+        play_child(args.play_child, args)
+        return
+    schedule = make_schedule(args)
     print(f"load average {os.getloadavg()[0]:.2f}; sims {args.sim}; writers "
           f"{'normal' if args.no_realtime else 'SCHED_FIFO 10'}; "
           f"{'one CPU busy' if args.busy else 'no extra load'}; {args.seconds:g} s")
@@ -605,6 +716,9 @@ def main() -> None:
             if not args.only_relays:
                 played.append(play_local(args, schedule, sims, tracer))
                 print(f"local runner done, load average {os.getloadavg()[0]:.2f}")
+            if args.processes:
+                played.append(play_processes(args, schedule, sims, tracer))
+                print(f"local processes done, load average {os.getloadavg()[0]:.2f}")
             if args.relays or args.only_relays:
                 played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir)))
                 print(f"relays done, load average {os.getloadavg()[0]:.2f}")

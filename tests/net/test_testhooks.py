@@ -187,3 +187,35 @@ def test_the_start_tracer_ignores_frames_outside_a_show_and_numbers_unindexed_on
     assert bus.listener_errors == 0
     assert logged[-1] == ("frames_host", {"start_host": 101.0,
                                           "frames": {"a": [(-1, 101.0, 101.0, 100.0)]}})
+
+
+def test_the_start_tracer_converts_each_frame_by_the_mapping_it_was_timed_by() -> None:
+    # The writer only keeps a row (no conversion right after its write); the conversion at
+    # the show's end must still use the relay clock's mapping of that frame's time, not the
+    # one a later estimate put in force (here 125 us apart).
+    from xgo_show.net.offset import Timebase
+    from xgo_show.net.slew import SlewingClock
+    from xgo_show.net.testhooks import StartTracer, host_time
+    from xgo_show.runtime.events import EventBus, FrameSent, ShowEnded, ShowStarted
+
+    host = FakeClock(100.0)
+    show = SlewingClock(SkewedClock(host, offset=40.0, ppm=50.0))
+    show.follow(Timebase(offset=39.9, rate=50e-6, ref=100.0))
+    bus = EventBus()
+    logged: list[tuple[str, dict[str, object]]] = []
+    tracer = StartTracer(bus, show, lambda event, **fields: logged.append((event, fields)))
+    start = show.now() + 0.1
+    bus.publish(ShowStarted(show.now(), "s", 0.0, start, ("a",), "halt_all", 0.0))
+    host.advance(0.1)
+    t = show.now()
+    want = (host_time(show, start), host_time(show, t), host.now())
+    bus.publish(FrameSent(t, "a", "frame", 0, start, b"\x00", "", 0.0, t - start))
+    host.advance(0.25)
+    show.follow(Timebase(offset=39.8, rate=50e-6, ref=100.0))  # 0.1 s off: slews from now
+    assert abs(host_time(show, t) - want[1]) > 1e-4  # the new mapping puts t elsewhere
+    bus.publish(ShowEnded(show.now(), True, "completed"))
+    tracer.close()
+    fields = dict(logged)["frames_host"]
+    frames = fields["frames"]
+    assert isinstance(frames, dict) and len(frames["a"]) == 1 and frames["a"][0][0] == 0
+    assert frames["a"][0][1:] == pytest.approx(want, abs=1e-9)

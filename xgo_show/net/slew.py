@@ -82,9 +82,14 @@ class SlewingClock:
             return self._segment.target if self._set else None
 
     def now(self) -> float:
-        b = self.base.now()
-        with self._lock:
-            return self._segment.at(b)
+        # No lock: the segment is immutable and replaced whole (one attribute read). A writer
+        # reads this clock several times per frame, some of them right after its write.
+        return self._segment.at(self.base.now())
+
+    def mapping(self) -> _Segment:
+        """The mapping in force now, as a value: its ``base_time(t)`` is :meth:`to_base` as
+        things stand now, and stays so (a tracer converts times with it later)."""
+        return self._segment
 
     def error(self) -> float:
         """How far ``now()`` still is from the newest estimate (positive: behind it)."""
@@ -123,8 +128,7 @@ class SlewingClock:
 
     def to_base(self, t: float) -> float:
         """The base clock's reading when this clock will read ``t`` (as things stand now)."""
-        with self._lock:
-            return self._segment.base_time(t)
+        return self._segment.base_time(t)
 
     def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
         base = self.base

@@ -25,6 +25,7 @@ import threading
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 from xgo_show.runtime.clock import Clock, MonotonicClock
 from xgo_show.runtime.events import EventBus, FrameSent, ShowEnded, ShowStarted, Subscription
@@ -162,10 +163,12 @@ def host_time(clock: Clock, t: float) -> float:
 class StartTracer:
     """Records each robot's scheduled frames of each show on ``log(event, **fields)``.
 
-    Every scheduled frame's planned and actual write time is converted to this machine's
-    monotonic clock (:func:`host_time`) in the writer thread after its write (microseconds,
-    while the mapping in force is the one the frame was timed by) and kept; nothing is logged
-    until the show ends, so the writer does no logging work for the trace. Then, per robot, a
+    Every scheduled frame's planned and actual write time is kept with the mapping the frame
+    was timed by (a :class:`~xgo_show.net.slew.SlewingClock`'s :meth:`mapping`, a value) and
+    converted to this machine's monotonic clock (:func:`host_time`) when the show ends: the
+    writer calls this listener right after its write, when the robot's end needs the CPU, so
+    it only appends a row there (2 us, against 15 us for converting it then), and nothing is
+    logged until the show ends. Then, per robot, a
     ``first_frame`` record: ``planned``/``actual`` on ``clock`` (the relay's show clock),
     ``planned_host``/``actual_host`` the same instants on the host clock and ``start_host``
     the start; and one ``frames_host`` record: ``start_host`` and, per robot,
@@ -178,12 +181,16 @@ class StartTracer:
         self, bus: EventBus, clock: Clock, log: Callable[..., object]
     ) -> None:
         self.clock = clock
+        # A slewing clock's mapping changes during a show: keep the one in force with each
+        # frame; any other clock here (fixed rate and offset) converts the same at any time.
+        self._mapping: Callable[[], Any] | None = getattr(clock, "mapping", None)
         self._log = log
         self._lock = threading.Lock()
         self._start: float | None = None
         self._start_host: float | None = None
         self._first: dict[str, tuple[float, float]] = {}  # show-clock planned, actual
-        self._frames: dict[str, list[tuple[int, float, float, float]]] = {}
+        # per robot: (index, planned, actual, seen on the show clock, the mapping in force)
+        self._frames: dict[str, list[tuple[int, float, float, float, Any]]] = {}
         self._sub: Subscription = bus.subscribe(
             self._on_event, ShowStarted, FrameSent, ShowEnded
         )
@@ -201,9 +208,8 @@ class StartTracer:
             return
         if not isinstance(ev, FrameSent) or ev.kind != "frame" or ev.planned is None:
             return
-        seen_host = host_time(self.clock, self.clock.now())
-        planned_host = host_time(self.clock, ev.planned)
-        actual_host = host_time(self.clock, ev.t)
+        seen = self.clock.now()
+        mapping = None if self._mapping is None else self._mapping()
         with self._lock:
             rows = self._frames.get(ev.performer)
             if rows is None:
@@ -211,15 +217,28 @@ class StartTracer:
             if not rows:
                 self._first[ev.performer] = (ev.planned, ev.t)
             index = -1 if ev.index is None else ev.index
-            rows.append((index, planned_host, actual_host, seen_host))
+            rows.append((index, ev.planned, ev.t, seen, mapping))
+
+    def _host(self, t: float, mapping: Any) -> float:
+        """Show-clock time ``t`` on the host clock, by the mapping in force when it was kept."""
+        if mapping is None:
+            return host_time(self.clock, t)
+        return host_time(getattr(self.clock, "base", self.clock), mapping.base_time(t))
 
     def _flush(self) -> None:
         with self._lock:
-            frames, self._frames = self._frames, {}
+            kept, self._frames = self._frames, {}
             first, self._first = self._first, {}
             start, start_host = self._start, self._start_host
         if start is None or start_host is None:
             return
+        frames = {
+            performer: [
+                (index, self._host(p, m), self._host(a, m), self._host(s, m))
+                for index, p, a, s, m in rows
+            ]
+            for performer, rows in kept.items()
+        }
         for performer, (planned, actual) in first.items():
             row = frames[performer][0]
             self._log(
