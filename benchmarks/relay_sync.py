@@ -677,10 +677,20 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
         # --trace-ab: relays without the tracer (XGO_SHOW_TEST_TRACE), in turn with the
         # traced ones: what the instrument itself costs a relayed robot
         quiet = start_relays(rig, n, rng, prefix="quiet") if args.trace_ab else []
-        session = connect([*relays, *plain, *quiet])
-        for relay in [*relays, *plain, *quiet]:
+        # --before REV: relays running REV's xgo_show (traced too), in turn with these
+        before: list[Relay] = []
+        if args.before:
+            old = {**trace, "PYTHONPATH": str(extract(args.before, tmp / "before"))}
+            before = start_relays(rig, n, rng, prefix="before", env=old)
+        session = connect([*relays, *plain, *quiet, *before])
+        for relay in [*relays, *plain, *quiet, *before]:
             claim(session, relay)
-        groups = {"": relays, " --no-realtime": plain, " untraced": quiet}
+        groups = {
+            "": relays,
+            " --no-realtime": plain,
+            " untraced": quiet,
+            f" {args.before}": before,
+        }
         groups = {k: v for k, v in groups.items() if v}
         for _ in range(args.starts):
             runs.append(play(relays, short, "start synced"))
@@ -820,14 +830,30 @@ def report_starts(
     print_per_frame(runs, groups, local_robots, short)
 
 
-def deliveries(robots: Sequence[Relay], run: Run) -> list[float]:
-    """Receive time - write time (ms) of every scheduled frame of ``run``, every robot."""
+def deliveries(robots: Sequence[Relay], run: Run, frames: slice = slice(None)) -> list[float]:
+    """Receive time - write time (ms) of every scheduled frame of ``run`` (or of the
+    ``frames`` of each show), every robot."""
     out = []
     for robot in robots:
         rows = run.frames.get(robot.name, [])
         got = received_in(robot.sim, run)
-        out += [(t - actual) * 1000 for t, (_, actual) in zip(got, rows, strict=False)]
+        pairs = list(zip(got, rows, strict=False))[frames]
+        out += [(t - actual) * 1000 for t, (_, actual) in pairs]
     return out
+
+
+def extract(rev: str, into: Path) -> Path:
+    """``rev``'s xgo_show package under ``into`` (for PYTHONPATH)."""
+    import tarfile
+
+    into.mkdir()
+    archive = into / "src.tar"
+    repo = Path(__file__).resolve().parent.parent
+    with archive.open("wb") as fh:
+        subprocess.run(["git", "-C", str(repo), "archive", rev, "xgo_show"], stdout=fh, check=True)
+    with tarfile.open(archive) as tar:
+        tar.extractall(into, filter="data")
+    return into
 
 
 PerRun = list[list[float]]  # per run (in the order played), its per-frame values (ms)
@@ -876,10 +902,16 @@ def print_per_frame(
     for mode in robots_of:
         name = mode.replace("start synced", "relayed")
         print(f"   {name:34s} {stats([x for run in per_run[mode]['delivery'] for x in run])}")
+        mine = [r for r in runs if r.mode == mode]
+        firsts = [x for r in mine for x in deliveries(robots_of[mode], r, slice(0, 1))]
+        rest = [x for r in mine for x in deliveries(robots_of[mode], r, slice(1, None))]
+        print(f"     {'its first frames':32s} {stats(firsts)}")
+        print(f"     {'the others':32s} {stats(rest)}")
     local = next((m for m in local_robots if m.endswith("processes")), None)
     pairs: list[tuple[str, str]] = [(local, f"start synced{g}") for g in groups if local]
-    if " untraced" in groups:
-        pairs.append(("start synced untraced", "start synced"))
+    pairs += [(f"start synced{g}", "start synced") for g in groups if g and g[1:] not in (
+        "--no-realtime",
+    )]
     print("   p50 differences, 95 % bootstrap interval resampling the start rounds (ms):")
     for a, b in pairs:
         for m in measures:
@@ -1151,6 +1183,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="also relays without the tracer (XGO_SHOW_TEST_TRACE), in turn with the others",
     )
     parser.add_argument("--no-naive", action="store_true", help="no naive starts (time)")
+    parser.add_argument(
+        "--before",
+        metavar="REV",
+        help="also relays running revision REV's xgo_show, in turn with the others",
+    )
     parser.add_argument("--wake-child", metavar="NAME", help=argparse.SUPPRESS)
     parser.add_argument("--local-child", nargs="+", metavar="NAME=PTY", help=argparse.SUPPRESS)
     parser.add_argument("--no-realtime", action="store_true", help=argparse.SUPPRESS)
