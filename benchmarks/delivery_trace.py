@@ -433,6 +433,20 @@ def make_schedule(args: argparse.Namespace) -> Schedule:
     return dataclasses.replace(schedule, performers=tuple(performers))
 
 
+def extract(rev: str, into: Path) -> Path:
+    """``rev``'s xgo_show package under ``into`` (for PYTHONPATH)."""
+    import tarfile
+
+    into.mkdir()
+    archive = into / "src.tar"
+    with archive.open("wb") as fh:
+        subprocess.run(["git", "-C", str(Path(__file__).resolve().parent.parent), "archive",
+                        rev, "xgo_show"], stdout=fh, check=True)
+    with tarfile.open(archive) as tar:
+        tar.extractall(into, filter="data")
+    return into
+
+
 def _tasks(pid: int) -> dict[int, str]:
     """A process's threads: id -> its name (comm), {} once it has gone."""
     out = {}
@@ -444,9 +458,10 @@ def _tasks(pid: int) -> dict[int, str]:
 
 
 def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tracer: Tracer,
-                tmp: Path) -> Played:
+                tmp: Path, rev: str = "") -> Played:
     """The schedule played by one ``xgo-show relay`` process per robot, this process their
-    conductor (heartbeats every 0.1 s, a clock tracker each, as ``run`` does)."""
+    conductor (heartbeats every 0.1 s, a clock tracker each, as ``run`` does); with ``rev``,
+    the relays run that revision's xgo_show."""
     import socket
 
     from xgo_show.compiler.artifact import schedule_to_bytes
@@ -459,18 +474,19 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
 
     procs: list[subprocess.Popen[str]] = []
     ports, logs = [], []
+    paths = {"PYTHONPATH": str(extract(rev, tmp / f"rev-{rev}"))} if rev else {}
     for i, (perf, path) in enumerate(zip(schedule.performers, sims.paths, strict=True)):
         with socket.socket() as sock:
             sock.bind(("127.0.0.1", 0))
             ports.append(int(sock.getsockname()[1]))
-        logs.append(tmp / f"relay{i}.jsonl")
+        logs.append(tmp / f"relay{i}{rev}.jsonl")
         procs.append(subprocess.Popen(
             [sys.executable, "-m", "xgo_show", "relay", "--name", f"trace{i}",
              "--map", f"{perf.name}={path}", "--listen", f"tcp/127.0.0.1:{ports[-1]}",
              "--no-telemetry", "--log", str(logs[-1]),
              *(["--no-realtime"] if args.no_realtime else [])],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-            env={**os.environ, TRACE_ENV: "1"}))
+            env={**os.environ, TRACE_ENV: "1", **paths}))
     roles: dict[int, str] = {}
     sampling = threading.Event()
 
@@ -557,7 +573,8 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
                 if actual - planned > 0.001:
                     late.append((float(planned), float(actual), writer))
     issued.sort()
-    return Played("relays, one process per robot", lines, issued, late, {}, roles,
+    label = "relays, one process per robot" + (f" (revision {rev})" if rev else "")
+    return Played(label, lines, issued, late, {}, roles,
                   (begin, time.monotonic()))
 
 
@@ -699,6 +716,8 @@ def main() -> None:
                         help="also one local process per robot (the relays' shape, no Zenoh)")
     parser.add_argument("--lockstep", action="store_true",
                         help="every robot's frames at the same times (as a synced show)")
+    parser.add_argument("--before", metavar="REV",
+                        help="with --relays: then the relays of revision REV's xgo_show too")
     parser.add_argument("--play-child", metavar="NAME=PTY", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.play_child:
@@ -721,6 +740,10 @@ def main() -> None:
                 print(f"local processes done, load average {os.getloadavg()[0]:.2f}")
             if args.relays or args.only_relays:
                 played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir)))
+                if args.before:
+                    print(f"relays done, load average {os.getloadavg()[0]:.2f}")
+                    played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir),
+                                              args.before))
                 print(f"relays done, load average {os.getloadavg()[0]:.2f}")
         finally:
             tracer.close()
