@@ -433,20 +433,6 @@ def make_schedule(args: argparse.Namespace) -> Schedule:
     return dataclasses.replace(schedule, performers=tuple(performers))
 
 
-def extract(rev: str, into: Path) -> Path:
-    """``rev``'s xgo_show package under ``into`` (for PYTHONPATH)."""
-    import tarfile
-
-    into.mkdir()
-    archive = into / "src.tar"
-    with archive.open("wb") as fh:
-        subprocess.run(["git", "-C", str(Path(__file__).resolve().parent.parent), "archive",
-                        rev, "xgo_show"], stdout=fh, check=True)
-    with tarfile.open(archive) as tar:
-        tar.extractall(into, filter="data")
-    return into
-
-
 def _tasks(pid: int) -> dict[int, str]:
     """A process's threads: id -> its name (comm), {} once it has gone."""
     out = {}
@@ -474,6 +460,8 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
 
     procs: list[subprocess.Popen[str]] = []
     ports, logs = [], []
+    from relay_sync import extract
+
     paths = {"PYTHONPATH": str(extract(rev, tmp / f"rev-{rev}"))} if rev else {}
     for i, (perf, path) in enumerate(zip(schedule.performers, sims.paths, strict=True)):
         with socket.socket() as sock:
