@@ -782,7 +782,7 @@ def report_starts(
         f"load average (1 min) during the starts {min(loads):.2f}-{max(loads):.2f}"
     )
     print(f"\n1. start skew: spread of the first frame across the robots, {args.starts} starts, ms")
-    for mode in [f"synced{g}" for g in groups] + ["naive"]:
+    for mode in [f"synced{g}" for g in groups] + ([] if args.no_naive else ["naive"]):
         group = groups[mode[6:]] if mode.startswith("synced") else relays
         values = [skew(group, r, 0) for r in runs if r.mode == f"start {mode}"]
         print(f"   {'relayed, ' + mode:34s} {stats([v for v in values if v is not None])}")
