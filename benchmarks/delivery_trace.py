@@ -61,7 +61,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import runtime_timing as rt
 
 from xgo_show.compiler.schedule import Schedule, ScheduledFrame
-from xgo_show.runtime import realtime
+from xgo_show.runtime import clock, realtime
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import Event, FrameSent
 from xgo_show.runtime.launch import local_runner
@@ -345,6 +345,7 @@ def play_processes(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
         procs.append(subprocess.Popen(
             [sys.executable, __file__, "--play-child", f"{perf.name}={path}",
              "--seconds", str(args.seconds), *(["--lockstep"] if args.lockstep else []),
+             *(["--handoff-us", str(args.handoff_us)] if args.handoff_us else []),
              *(["--no-realtime"] if args.no_realtime else [])],
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True))
     issued: list[tuple[float, str, int]] = []
@@ -433,6 +434,15 @@ def make_schedule(args: argparse.Namespace) -> Schedule:
     return dataclasses.replace(schedule, performers=tuple(performers))
 
 
+def _xgo_show(args: argparse.Namespace) -> list[str]:
+    """The command that runs ``xgo-show`` (with ``--handoff-us``: with that hand-off)."""
+    if not args.handoff_us:
+        return [sys.executable, "-m", "xgo_show"]
+    code = ("import sys, xgo_show.runtime.clock as c; c.HANDOFF = float(sys.argv.pop(1)) * 1e-6; "
+            "from xgo_show.cli.main import program; sys.argv[0] = 'xgo-show'; program()")
+    return [sys.executable, "-c", code, str(args.handoff_us)]
+
+
 def _tasks(pid: int) -> dict[int, str]:
     """A process's threads: id -> its name (comm), {} once it has gone."""
     out = {}
@@ -469,7 +479,7 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
             ports.append(int(sock.getsockname()[1]))
         logs.append(tmp / f"relay{i}{rev}.jsonl")
         procs.append(subprocess.Popen(
-            [sys.executable, "-m", "xgo_show", "relay", "--name", f"trace{i}",
+            [*_xgo_show(args), "relay", "--name", f"trace{i}",
              "--map", f"{perf.name}={path}", "--listen", f"tcp/127.0.0.1:{ports[-1]}",
              "--no-telemetry", "--log", str(logs[-1]),
              *(["--no-realtime"] if args.no_realtime else [])],
@@ -706,8 +716,13 @@ def main() -> None:
                         help="every robot's frames at the same times (as a synced show)")
     parser.add_argument("--before", metavar="REV",
                         help="with --relays: then the relays of revision REV's xgo_show too")
+    parser.add_argument("--handoff-us", type=float, default=0.0,
+                        help="an experiment: the writers' hand-off after a write (runtime/clock"
+                        ".py's HANDOFF, 50 us) in the local processes and relays")
     parser.add_argument("--play-child", metavar="NAME=PTY", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.handoff_us:
+        clock.HANDOFF = args.handoff_us * 1e-6
     if args.play_child:
         play_child(args.play_child, args)
         return
