@@ -126,6 +126,12 @@ def _prepare(work: Path, module: str, base: dict[str, object], tests: list[str])
     for rel in files:
         (work / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copy2(ROOT / rel, work / rel)
+    _configure(work, module, base, tests, files)
+
+
+def _configure(work: Path, module: str, base: dict[str, object], tests: list[str],
+               files: list[str]) -> None:
+    """The scratch copy's pyproject.toml: pytest's options and mutmut's, with ``tests``."""
     ini = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
     ini = ini["tool"]["pytest"]["ini_options"]
     # mutmut runs the tests in its mutants/ copy: everything at the top is copied there too.
@@ -219,6 +225,8 @@ def run_module(module: str, work_root: Path, base: dict[str, object],
             again = [name for name, status in _statuses(work) if status not in CAUGHT]
             if again:
                 _refresh_tests(work)
+                # The tests named for the module now (a test file added since the full run).
+                _configure(work, module, base, test_folders(module, named), _project_files())
                 _mutmut(work, "run", "--max-children", str(children), *again,
                         log=work / "rerun.log")
         _mutmut(work, "export-cicd-stats")
