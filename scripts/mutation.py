@@ -180,10 +180,16 @@ def _diffs(work: Path, names: list[str]) -> dict[str, str]:
     return diffs
 
 
+CARRIED = "caught-before.json"  # in a scratch copy: mutants caught by an earlier run
+
+
 def _statuses(work: Path) -> list[tuple[str, str]]:
-    """(mutant, status) for every mutant of the last run in ``work``."""
+    """(mutant, status) for every mutant of the last run in ``work`` (those a survivors run did
+    not run again: as an earlier run left them)."""
     results = _mutmut(work, "results", "--all", "true")
-    return [(name, status) for name, status in
+    carried = (json.loads((work / CARRIED).read_text()) if (work / CARRIED).exists() else {})
+    return [(name, carried.get(name, status) if status == "not checked" else status)
+            for name, status in
             (line.strip().rsplit(": ", 1) for line in results.splitlines() if ": " in line)]
 
 
@@ -222,16 +228,23 @@ def run_module(module: str, work_root: Path, base: dict[str, object],
         elif mode == "survivors":
             if _module_changed(work, module):
                 raise RuntimeError("the module changed since the last full run: run it in full")
-            again = [name for name, status in _statuses(work) if status not in CAUGHT]
+            before = dict(_statuses(work))
+            again = [name for name, status in before.items() if status not in CAUGHT]
             if again:
                 _refresh_tests(work)
                 # The tests named for the module now (a test file added since the full run).
                 _configure(work, module, base, test_folders(module, named), _project_files())
+                # mutmut makes its mutants afresh when its configuration changed (the tests
+                # named for the module), forgetting earlier results: those caught stay caught
+                # (tests were only added since).
+                (work / CARRIED).write_text(json.dumps(
+                    {name: status for name, status in before.items() if status in CAUGHT}))
                 _mutmut(work, "run", "--max-children", str(children), *again,
                         log=work / "rerun.log")
         _mutmut(work, "export-cicd-stats")
         stats = json.loads((work / "mutants" / "mutmut-cicd-stats.json").read_text())
         statuses = _statuses(work)
+
     except RuntimeError as exc:
         outcome.error = str(exc)
         return outcome
