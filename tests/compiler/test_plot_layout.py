@@ -263,9 +263,11 @@ def test_plot_schedule_writes_at_110_dpi_and_names_a_path_it_cannot_write(tmp_pa
     height, width = imread(path).shape[:2]
     assert width == 14 * 110
     assert plt.get_fignums() == before  # the figure is closed
+    folder = tmp_path / "taken.png"
+    folder.mkdir()
     with pytest.raises(PlotError) as err:
-        plot_schedule(schedule, tmp_path)
-    assert str(err.value) == f"cannot write plot {tmp_path}: Is a directory"
+        plot_schedule(schedule, folder)
+    assert str(err.value) == f"cannot write plot {folder}: Is a directory"
     assert plt.get_fignums() == before
 
 
