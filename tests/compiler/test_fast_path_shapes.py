@@ -1,0 +1,93 @@
+"""The fast road for sample ticks on the shapes the random tracks of test_fast_path rarely
+draw: a group of fades (one source over several 3-byte LEDs) sharing ticks with a move, sources
+joining and leaving such ticks, several moves at once in both cue orders; both roads must give
+the same frames. And what the de-duplication must never drop: a setting sent again, a value
+after a preset action (the robot moved on its own)."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.compiler.conftest import origin as o
+from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
+from xgo_show.compiler.frames import PlannedFrame, TrackPlan
+from xgo_show.compiler.planner import plan_xgo_track
+from xgo_show.compiler.state import layout_of
+from xgo_show.profiles import get_profile
+
+
+def _plan(track: ResolvedTrack, *, details: bool) -> TrackPlan:
+    profile = get_profile(track.model)
+    return plan_xgo_track(layout_of(profile), track, rate=50.0, link=profile.link,
+                          gap=profile.link.gap, details=details)
+
+
+def _essence(f: PlannedFrame) -> tuple[object, ...]:
+    return (f.t_us, f.data, f.origin, f.order, f.droppable, f.action, f.duration)
+
+
+SHAPES = {
+    # A group of fades (one origin, start and length: one source of two LEDs) with a move on
+    # two registers: every tick is several sources, compared with their previous samples.
+    "group and move": ("rider", (
+        FadeCue(0.0, o("g", 2), "led1", (255, 0, 0), 2.0),
+        FadeCue(0.0, o("g", 2), "led2", (0, 0, 255), 2.0),
+        MotionCue(0.0, o("m", 3), {"roll": 8.0, "body_z": 0.07}, 2.0),
+    )),
+    # Sources joining (a fade from 1 s) and leaving (the move ends first) the shared ticks,
+    # then a setting on a faded LED, then the group alone.
+    "join and leave": ("rider", (
+        FadeCue(0.0, o("g", 2), "led1", (255, 0, 0), 3.0),
+        FadeCue(0.0, o("g", 2), "led2", (0, 90, 255), 3.0),
+        MotionCue(0.3, o("m", 3), {"roll": -8.0}, 1.0),
+        FadeCue(1.0, o("f", 4), "led3", (9, 200, 9), 1.5),
+        SetCue(2.0, o("s", 5), {"led4": (1, 2, 3)}),
+        MotionCue(2.2, o("n", 6), {"vx": 0.4}, 0.5),
+    )),
+    # Two moves at once, the later cue on the lower addresses, then the earlier: the frames
+    # are filed by cue order, not address.
+    "cue order": ("mini", (
+        MotionCue(0.0, o("a", 2), {"yaw": 9.0, "pitch": -6.0}, 1.5),
+        MotionCue(0.0, o("b", 3), {"body_z": 110.0, "vx": 5.0}, 1.0),
+        MotionCue(0.5, o("c", 4), {"roll": 5.0}, 1.0),
+        MotionCue(2.0, o("d", 5), {"leg1_x": 10.0}, 1.0),
+        MotionCue(2.0, o("e", 6), {"body_y": 5.0, "leg1_z": 80.0}, 1.0),
+    )),
+}
+
+
+@pytest.mark.parametrize("shape", sorted(SHAPES))
+def test_crowded_shapes_give_the_same_frames_on_both_roads(shape: str) -> None:
+    model, cues = SHAPES[shape]
+    track = ResolvedTrack("p", model, cues)
+    reference = _plan(track, details=True)
+    fast = _plan(track, details=False)
+    assert len(fast.frames) > 20
+    assert [_essence(f) for f in fast.frames] == [_essence(f) for f in reference.frames]
+    assert fast.samples == reference.samples
+    assert {f.origin for f in fast.frames} <= {c.origin for c in cues}
+
+
+def test_a_setting_sent_again_is_sent_again() -> None:
+    # Settings are commands, not samples: the same value twice goes out twice.
+    track = ResolvedTrack("p", "mini", (
+        SetCue(0.0, o("a"), {"gait": "trot"}),
+        SetCue(1.0, o("b"), {"gait": "trot"}),
+    ))
+    for details in (True, False):
+        frames = _plan(track, details=details).frames
+        assert [(f.t_us, f.origin) for f in frames] == [(0, o("a")), (1_000_000, o("b"))]
+        assert frames[0].data == frames[1].data
+
+
+def test_after_a_preset_action_a_value_is_sent_even_if_sent_before() -> None:
+    # The action moves the robot on its own: the setting before it no longer holds.
+    track = ResolvedTrack("p", "mini", (
+        SetCue(0.0, o("a"), {"pitch": 4.0}),
+        ActionCue(1.0, o("w"), 13, "wave", 2.0),
+        MotionCue(4.0, o("m"), {"pitch": 4.0}, 1.0),
+    ))
+    for details in (True, False):
+        frames = _plan(track, details=details).frames
+        after = [f for f in frames if f.origin == o("m")]
+        assert after and after[0].t_us == 4_000_000
