@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from xgo_show.choreo.music import Music
+from xgo_show.choreo.sections import Section, Wait
 from xgo_show.compiler import load_schedule, save_schedule
 from xgo_show.compiler.artifact import (
     _canonical,
@@ -105,15 +107,20 @@ def test_frames_out_of_time_order_are_not_written() -> None:
 
 
 def test_the_body_is_its_document_compact_with_sorted_keys_in_utf8() -> None:
-    # Whatever version the object says, the writer writes its own format's.
-    schedule = _schedule(_rex(), version=1)
+    # Whatever version the object says, the writer writes its own format's. Sections and
+    # music are objects whose fields are not made in sorted order.
+    sections = (Section("intro", 0.0, None, CUE),
+                Section("drop", 1.0, Wait("go", 5.0, "end"), OTHER))
+    music = Music("song.ogg", "/music/song.ogg", 0.25)
+    schedule = _schedule(_rex(), version=1, sections=sections, music=music)
     doc, text, _ = _body(schedule)
     assert text.decode("utf-8") == json.dumps(doc, sort_keys=True, ensure_ascii=False,
                                               separators=(",", ":"))
     assert "élan".encode() in text and b"\\u" not in text
     assert sorted(doc) == ["format", "origins", "performers", "show", "version", "warnings"]
     assert doc["version"] == 2
-    assert schedule_from_bytes(schedule_to_bytes(schedule)) == _schedule(_rex())
+    assert schedule_from_bytes(schedule_to_bytes(schedule)) == _schedule(
+        _rex(), sections=sections, music=music)
     # The envelope: the body deflated at level 1 (the fast level), in base64, and its digest.
     body = _canonical(schedule)
     envelope = json.loads(schedule_to_bytes(schedule))
@@ -286,16 +293,38 @@ def _variants(frame: bytes) -> list[bytes]:
     return out
 
 
+def _checked(frame: bytes) -> bytes:
+    """``frame`` with its checksum made right for its other bytes."""
+    return frame[:-3] + bytes(((~sum(frame[2:-3])) & 0xFF,)) + frame[-2:]
+
+
+def _fields_changed(frame: bytes) -> list[bytes]:
+    """``frame`` with each byte between header and checksum set to every other value, the
+    checksum made right; and its length and type bytes changed together."""
+    out = []
+    for i in range(2, len(frame) - 3):
+        out += [_checked(frame[:i] + bytes((v,)) + frame[i + 1:]) for v in range(256)
+                if v != frame[i]]
+    out += [_checked(frame[:2] + bytes((n, t)) + frame[4:]) for n in range(256)
+            for t in range(16)]
+    return out
+
+
 def test_a_frame_is_accepted_exactly_when_it_is_one_valid_frame() -> None:
     # The loader's quick check of a performer's frames must agree with frame_problem on
     # every frame, valid or not.
-    for frame in (_z(100.0), write_frame(PITCH.address, bytes((PITCH.to_byte(-5.0),)))):
-        assert _first_bad_frame(MINI, [frame]) is None
-        for bad in _variants(frame):
-            problem = frame_problem(MINI, bad)
-            assert _first_bad_frame(MINI, [bad]) == (None if problem is None else (0, problem))
-            assert _first_bad_frame(MINI, [frame, bad]) == (None if problem is None
-                                                             else (1, problem))
+    rider = get_profile("rider")
+    white = write_frame(rider.register("led1").address, bytes((255, 255, 255)))
+    for profile, frame in ((MINI, _z(100.0)),
+                           (MINI, write_frame(PITCH.address, bytes((PITCH.to_byte(-5.0),)))),
+                           (rider, white)):
+        assert _first_bad_frame(profile, [frame]) is None
+        for bad in _variants(frame) + _fields_changed(frame):
+            problem = frame_problem(profile, bad)
+            assert _first_bad_frame(profile, [bad]) == (None if problem is None
+                                                        else (0, problem))
+            assert _first_bad_frame(profile, [frame, bad]) == (None if problem is None
+                                                                else (1, problem))
 
 
 V1_FRAME = {"t_us": 0, "hex": _z(90.0).hex(), "origin": None, "duration_us": 0}
