@@ -91,3 +91,15 @@ def test_after_a_preset_action_a_value_is_sent_even_if_sent_before() -> None:
         frames = _plan(track, details=details).frames
         after = [f for f in frames if f.origin == o("m")]
         assert after and after[0].t_us == 4_000_000
+
+
+def test_the_frames_holding_only_samples_are_counted_exactly() -> None:
+    # A move alone: every frame is its samples; a setting's frame is not one.
+    move = MotionCue(0.0, o("m"), {"body_z": 110.0}, 1.0)
+    alone = ResolvedTrack("p", "mini", (move,))
+    with_setting = ResolvedTrack("p", "mini", (move, SetCue(3.0, o("s"), {"gait": "trot"})))
+    for details in (True, False):
+        plan = _plan(alone, details=details)
+        assert plan.samples == len(plan.frames) > 10
+        plan = _plan(with_setting, details=details)
+        assert plan.samples == len(plan.frames) - 1
