@@ -589,8 +589,9 @@ if TYPE_CHECKING:  # what the checker sees; pydantic gets the union built from t
 else:
     CueModel = tagged_union(_CUE_CLASSES, _cue_tag, suffix="-cue", error_type="cue_kind",
                             message="a cue needs exactly one kind key")
-
-RepeatCueModel.model_rebuild()
+# RepeatCueModel's cues (CueModel, defined after it) resolve when its validator is first made:
+# a routine's is ShowFile's, which holds every cue model once (a rebuild here made them all at
+# import, then again in ShowFile's).
 
 
 # -- show -------------------------------------------------------------------------------------
@@ -756,7 +757,9 @@ class ShowFile(_Model):
     show: Annotated[str, Field(min_length=1)] = Field(description="The show's name.")
     tempo: Tempo | None = None
     music: MusicModel | None = None
-    settings: SettingsModel = SettingsModel.model_validate({})
+    # The defaults as they are (model_construct): a validator made for them alone would be
+    # made again inside ShowFile's.
+    settings: SettingsModel = SettingsModel.model_construct()
     performers: Annotated[dict[Name, PerformerModel], Field(min_length=1)]
     include: list[Annotated[str, Field(min_length=1)]] = Field(
         default_factory=list, description="Files whose phrases this show may use."

@@ -8,6 +8,7 @@ and a duplicate key is an error. Only the safe YAML subset is understood (no Pyt
 
 from __future__ import annotations
 
+import functools
 import math
 import re
 from collections.abc import Sequence
@@ -79,6 +80,15 @@ _Loader.yaml_implicit_resolvers = {
 _Loader.add_implicit_resolver(_INT_TAG, _INT_12, list("-+0123456789"))
 _Loader.add_implicit_resolver(_FLOAT_TAG, _FLOAT_12, list("-+0123456789."))
 _Loader.add_implicit_resolver(_BOOL_TAG, _BOOL_12, list("tTfF"))
+
+
+class _Resolver(yaml.resolver.Resolver):
+    """:class:`_Loader`'s tags alone (they depend on its class attributes only)."""
+
+    yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
+
+
+_RESOLVER = _Resolver()
 
 
 @dataclass(frozen=True)
@@ -192,6 +202,10 @@ class Refused:
 REFUSED = Refused()
 
 
+class _TooDeep(Exception):
+    """A list or mapping nested past :data:`MAX_DEPTH` holds something (the builder stops)."""
+
+
 class _Builder:
     def __init__(self, doc: Document, *, aliases: bool = True) -> None:
         self.doc = doc
@@ -205,6 +219,12 @@ class _Builder:
         # routine repeats its keys and many of its numbers, each read once (a problem is
         # reported at every place it occurs, so only values are kept).
         self._plain: dict[tuple[str, str], object] = {}
+        # A node left unbuilt (a duplicate key's value, a key that is no name, a merge):
+        # the values built are then not all the nodes, and the depth of those is unknown.
+        self.inexact = False
+        # Nesting is bounded here only without aliases (with them, the walk bounded it first,
+        # along the first path to each node).
+        self._deepest_loc = MAX_DEPTH - 1 if not aliases else math.inf
 
     def error(self, node: Node, loc: Loc, message: str) -> None:
         mark = node.start_mark
@@ -229,6 +249,8 @@ class _Builder:
             active.discard(id(node))
 
     def collection(self, node: Node, loc: Loc) -> object:
+        if len(loc) >= self._deepest_loc and node.value:  # its items would be past MAX_DEPTH
+            raise _TooDeep
         if isinstance(node, SequenceNode):
             if node.tag != _SEQ_TAG:
                 self.error(node, loc, f"unsupported YAML tag {node.tag}")
@@ -248,6 +270,7 @@ class _Builder:
         merged: dict[str | int, object] = {}
         for key_node, value_node in node.value:
             if key_node.tag == _MERGE_TAG:
+                self.inexact = True
                 sources = value_node.value if isinstance(value_node, SequenceNode) else [
                     value_node]
                 for src in sources:
@@ -264,17 +287,20 @@ class _Builder:
                 continue
             if not isinstance(key_node, ScalarNode):
                 self.error(key_node, loc, "a mapping key must be a plain value, not a list or map")
+                self.inexact = True
                 continue
             key = plain.get((tag, key_node.value))  # a key read before
             if key.__class__ is not str and key.__class__ is not int:  # or not a name
                 key = self.build_key(key_node, loc)
                 if key is None:
+                    self.inexact = True
                     continue
             here: Loc = (*loc, key)
             if key in out:
                 first = key_marks.get(here)
                 where = f" (first at line {first[0]})" if first else ""
                 self.error(key_node, here, f"duplicate key {key!r}{where}")
+                self.inexact = True
                 continue
             mark = key_node.start_mark
             key_marks[here] = (mark.line + 1, mark.column + 1)
@@ -417,25 +443,41 @@ def _parse(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         return doc, [Diagnostic("error", f"YAML: {printable(str(exc))}", Origin(file, 1, 1))]
     if isinstance(composed, int):  # past libyaml's 1000 levels: the 65th comes before
         return doc, [_too_deep(text[:composed], file)]
-    nodes = composed.nodes
+    nodes = composed
     if not nodes:
         return doc, [Diagnostic("error", "the file is empty", Origin(file, 1, 1))]
     if len(nodes) > 1:
         mark = nodes[1].start_mark
         origin = Origin(file, mark.line + 1, mark.column + 1)
         return doc, [Diagnostic("error", "one YAML document per file, found several", origin)]
-    # Without an alias ('*name'), libyaml's counts say all a walk of the nodes would: the
-    # values built are the nodes made, none is reached twice, and none is nested too deep.
-    aliases = "*" in text
-    if aliases or not composed.within_limits():
-        deep, count, shared = _walk(nodes[0])
+    root = nodes[0]
+    # With an alias ('*name') a value may be built many times over (or contain itself): the
+    # nodes are walked first, counting what they expand to. Without one, the builder counts
+    # and bounds them itself (a walk of 10^5 nodes is a tenth of reading a long routine).
+    if "*" in text:
+        deep, count, shared = _walk(root)
         if deep is not None:
             return doc, [_too_deep_at(deep, file)]
         # Without a list or mapping used twice (an alias), the values built are the nodes.
-        if (_expanded_size(nodes[0], {}, set()) if shared else count) > MAX_NODES:
+        if (_expanded_size(root, {}, set()) if shared else count) > MAX_NODES:
             return doc, [_too_big(text, file)]
-    builder = _Builder(doc, aliases=aliases)
-    doc.data = builder.build(nodes[0], ())
+        builder = _Builder(doc, aliases=True)
+        doc.data = builder.build(root, ())
+        return doc, builder.errors
+    builder = _Builder(doc, aliases=False)
+    try:
+        data = builder.build(root, ())
+    except _TooDeep:
+        builder.inexact = True
+    if builder.inexact:  # a node it did not build, or nesting too deep: the walk says exactly
+        deep, count, _ = _walk(root)
+        if deep is not None:
+            return Document(file, None), [_too_deep_at(deep, file)]
+    else:  # every node built once: a value, or a mapping's key
+        count = len(doc.marks) + len(doc.key_marks)
+    if count > MAX_NODES:
+        return Document(file, None), [_too_big(text, file)]
+    doc.data = data
     return doc, builder.errors
 
 
@@ -448,56 +490,25 @@ if _C_LOADER is not None:
         """libyaml's parser with the same YAML 1.2 number resolvers as :class:`_Loader`."""
 
         # libyaml's composer calls these for every node it makes (aliases aside); they only
-        # serve path resolvers, which no loader here has. They count the nodes and how deep
-        # they nest instead, so that a file without aliases need not be walked again for that.
-        def descend_resolver(self, current_node: Node | None, current_index: object) -> None:
-            self.count += 1
-            self.depth += 1
-            if self.depth > self.deepest:
-                self.deepest = self.depth
-
-        def ascend_resolver(self) -> None:
-            self.depth -= 1
-
-        # The tag of a node depends only on these arguments (no path resolvers here), and a
-        # routine repeats its values (keys, durations, the same numbers): each is resolved
-        # once, not by the regular expressions again for every node (a fifth of composing).
-        def resolve(self, kind: type[Node], value: str | None, implicit: object) -> str:
-            key = (kind, value, implicit)
-            tag = self._tags.get(key)
-            if tag is None:
-                tag = self._tags[key] = super().resolve(kind, value, implicit)
-            return tag
-
-        count: int  # nodes made
-        depth: int  # of the node being made
-        deepest: int
+        # serve path resolvers, which no loader here has. Builtins that take the same
+        # arguments and do nothing cost a tenth of a Python method's call (a quarter of
+        # composing a long routine was spent in the two).
+        descend_resolver = staticmethod(slice)  # slice(current_node, current_index)
+        ascend_resolver = staticmethod(tuple)  # tuple()
 
         def __init__(self, stream: str) -> None:
             super().__init__(stream)
-            self._tags: dict[tuple[type[Node], str | None, object], str] = {}
-            self.count = self.depth = self.deepest = 0
+            # The tag of a node depends only on resolve's arguments (no path resolvers here),
+            # and a routine repeats its values (keys, durations, the same numbers): each is
+            # resolved once, not by the regular expressions again for every node. The cache
+            # is C's (no Python call when it answers) and this loader's (it ends with it).
+            self.resolve = functools.lru_cache(maxsize=None)(_RESOLVER.resolve)
 
     _CLoader.yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
     _FAST_LOADER = _CLoader
 
 
-@dataclass
-class _Composed:
-    """The documents' nodes; with libyaml, also how many nodes it made and how deep the
-    deepest is (None: unknown)."""
-
-    nodes: list[Node]
-    count: int | None = None
-    deepest: int | None = None
-
-    def within_limits(self) -> bool:
-        """Whether the counts are known and within :data:`MAX_NODES` and :data:`MAX_DEPTH`."""
-        return (self.count is not None and self.count <= MAX_NODES
-                and self.deepest is not None and self.deepest <= MAX_DEPTH)
-
-
-def _compose(text: str) -> _Composed | int:
+def _compose(text: str) -> list[Node] | int:
     """The documents' nodes; a YAML error is raised by the pure-Python parser, whose messages
     (and marks) the diagnostics are written for, even when libyaml found it first.
 
@@ -507,20 +518,20 @@ def _compose(text: str) -> _Composed | int:
     if _FAST_LOADER is not None:
         try:
             loader: Any = _FAST_LOADER(text)  # a _CLoader
-            try:  # yaml.compose_all, keeping the loader's counts
+            try:  # yaml.compose_all
                 nodes: list[Node] = []
                 while loader.check_node():
                     nodes.append(loader.get_node())
             finally:
                 loader.dispose()
-            return _Composed(nodes, loader.count, loader.deepest)
+            return nodes
         except yaml.MarkedYAMLError as exc:
             mark = exc.problem_mark
             if mark is not None and "maximum nesting depth" in str(exc.problem):
                 return _offset(text, mark.line, mark.column)
         except yaml.YAMLError:
             pass  # said again below, in the pure-Python parser's words
-    return _Composed(list(yaml.compose_all(text, Loader=_Loader)))
+    return list(yaml.compose_all(text, Loader=_Loader))
 
 
 def _offset(text: str, line: int, column: int) -> int:
