@@ -106,6 +106,36 @@ def test_absurd_nesting_is_an_error_not_a_crash() -> None:
     assert [e.message for e in errors] == ["the YAML is nested more than 64 levels deep here"]
 
 
+@pytest.mark.parametrize("text", [
+    "a: 1\na: " + "[" * 70 + "]" * 70 + "\n",  # the second 'a' is a duplicate: left unbuilt
+    "? [" + "[" * 70 + "]" * 70 + "]\n: 1\n",  # a key that is a list: left unbuilt
+    "a: {<<: {b: " + "[" * 70 + "]" * 70 + "}}\n",  # in a merge
+])
+def test_nesting_too_deep_in_a_node_left_unbuilt_is_still_the_one_error(text: str) -> None:
+    # Without aliases the builder bounds the nesting; what it does not build is walked.
+    _, errors = parse_yaml(text, "f")
+    assert [e.message for e in errors] == ["the YAML is nested more than 64 levels deep here"]
+
+
+def test_nesting_at_the_limit_is_read_and_one_more_level_is_not() -> None:
+    at_limit = "[" * 63 + "1" + "]" * 63  # 63 lists and the number: 64 levels
+    doc, errors = parse_yaml(at_limit, "f")
+    assert errors == [] and doc.marks[(0,) * 63] == (1, 64)
+    _, errors = parse_yaml("[" + at_limit + "]", "f")
+    assert [(e.origin.line, e.origin.column) for e in errors if e.origin] == [(1, 65)]
+    assert parse_yaml("[" * 64 + "]" * 64, "f")[1] == []  # 64 levels, the deepest empty
+
+
+def test_the_cap_counts_the_nodes_left_unbuilt_too(monkeypatch: pytest.MonkeyPatch) -> None:
+    import xgo_show.choreo.source as source
+
+    text = "{a: 1, a: [1, 2, 3]}\n"  # 1 + 2 + (1 + 1 + 3): the duplicate's list counts
+    monkeypatch.setattr(source, "MAX_NODES", 8)
+    assert [e.message for e in parse_yaml(text, "f")[1]] == ["duplicate key 'a' (first at line 1)"]
+    monkeypatch.setattr(source, "MAX_NODES", 7)
+    assert parse_yaml(text, "f")[1][0].message.startswith("the file makes")
+
+
 def _laughs(levels: int, width: int = 10) -> str:
     lines = [f"a0: &a0 [{', '.join(['lol'] * width)}]"]
     for i in range(1, levels):
