@@ -12,8 +12,9 @@ two roads give the same frames on random tracks (``details=True`` takes the gene
 from __future__ import annotations
 
 from collections.abc import Container, Mapping, Sequence
-from operator import ne
-from typing import NamedTuple
+from itertools import compress, groupby, repeat
+from operator import itemgetter, ne
+from typing import NamedTuple, cast
 
 from xgo_show.compiler.frames import BYTES, PlannedFrame, Write
 from xgo_show.compiler.layout import Layout
@@ -23,6 +24,8 @@ from xgo_show.profiles.model import Link, Register
 from xgo_show.wire.xgo import TAIL
 
 __all__ = ["Piece", "SampleFrame", "TickFrames", "frames_from_ticks", "sample_plan"]
+
+_HEAD, _SAMPLE = itemgetter(0), itemgetter(1)
 
 
 class Piece(NamedTuple):
@@ -220,6 +223,18 @@ class TickFrames:
                 value, len(self.shape_numbers))
         self.build(t_us, (shape, tuple(masks)), chunks, masks, sources)
 
+    def plan(
+        self, key: object, chunks: Sequence[tuple[Source, bytes]],
+        masks: Sequence[tuple[bool, ...]],
+    ) -> tuple[SampleFrame, ...]:
+        """Make and keep the sample plan for ``key`` (see :meth:`build`)."""
+        plan = self.sample_plans[key] = sample_plan(self.merger, chunks, masks, self.known)
+        if len(chunks) == 1:
+            one = plan[0].one if len(plan) == 1 else None
+            self.slices[key] = (None if one is None else
+                                (plan[0].prefix, plan[0].check_base, one.begin, one.end))
+        return plan
+
     def build(
         self,
         t_us: int,
@@ -229,14 +244,9 @@ class TickFrames:
         sources: Sequence[Source],
     ) -> None:
         """The frames of a tick only sources write, by the sample plan cached under ``key``."""
-        plans = self.sample_plans
-        plan = plans.get(key)
+        plan = self.sample_plans.get(key)
         if plan is None:
-            plan = plans[key] = sample_plan(self.merger, chunks, masks, self.known)
-            if len(chunks) == 1:
-                one = plan[0].one if len(plan) == 1 else None
-                self.slices[key] = (None if one is None else
-                                    (plan[0].prefix, plan[0].check_base, one.begin, one.end))
+            plan = self.plan(key, chunks, masks)
         append, new = self.frames.append, tuple.__new__
         # Each SampleFrame unpacked at once (cheaper than reading its fields one by one).
         for _, one, pieces, prefix, check_base, lead_chunk, refills in plan:
@@ -258,6 +268,81 @@ class TickFrames:
                 (), (), lead.origin, lead.order, True, False, 0.0,
             )))
         self.samples += len(plan)
+
+    def source_sample(self, t_us: int, src: Source, sample: bytes) -> None:
+        """A tick only ``src`` writes."""
+        prev = src.prev
+        # prev is set exactly while src is live: else src is not the one live source.
+        if prev is None or len(self.live) != 1:
+            self.source_tick(t_us, src, sample)
+            return
+        # The next sample of the one live source.
+        if sample == prev:
+            return
+        src.prev = sample
+        mask = tuple(map(ne, sample, prev)) if src.unit else changes(src, sample, prev)
+        self.build(t_us, (src.addresses, mask), ((src, sample),), (mask,), (src,))
+
+    def stretch(self, times: Sequence[int], pairs: Sequence[tuple[Source, bytes]]) -> None:
+        """Consecutive ticks only one source writes (``pairs``: its samples at ``times``).
+
+        :meth:`source_sample` of each, list by list: after the first tick the source is the
+        one live source, each sample is compared with the one before, and the frames whose
+        plan is one slice of the sample (nearly all) are made in one comprehension.
+        """
+        src, first = pairs[0]
+        self.source_sample(times[0], src, first)
+        samples = list(map(_SAMPLE, pairs))
+        rest, prevs, ts = samples[1:], samples[:-1], times[1:]
+        src.prev = samples[-1]  # or an equal sample (a tick repeating it sends nothing)
+        changed = list(map(ne, rest, prevs))
+        if not all(changed):
+            rest = list(compress(rest, changed))
+            prevs = list(compress(prevs, changed))
+            ts = list(compress(ts, changed))
+            if not rest:
+                return
+        if src.unit:
+            masks: list[tuple[bool, ...]] = list(map(tuple, map(map, repeat(ne), rest, prevs)))
+        else:
+            masks = list(map(changes, repeat(src), rest, prevs))
+        keys = list(zip(repeat(src.addresses), masks))
+        slices = self.slices
+        cuts = list(map(slices.get, keys))
+        if None in cuts:  # plans not made yet, or not one slice (build() makes those frames)
+            at = cuts.index(None)
+            while True:
+                key = keys[at]
+                if key not in slices:
+                    self.plan(key, ((src, rest[at]),), (masks[at],))
+                    cuts = list(map(slices.get, keys))
+                try:
+                    at = cuts.index(None, at + 1)
+                except ValueError:
+                    break
+        frames, origin, order = self.frames, src.origin, src.order
+        at, count = 0, len(cuts)
+        while at < count:
+            try:
+                stop = cuts.index(None, at)
+            except ValueError:
+                stop = count
+            if stop > at:
+                # build() for a one-slice plan, inlined, tick after tick (see frames_from_ticks)
+                wire = [
+                    b"".join((prefix, data := sample[begin:end],
+                              BYTES[~(check_base + sum(data)) & 0xFF], TAIL))
+                    for sample, (prefix, check_base, begin, end) in zip(
+                        rest[at:stop], cast(list[tuple[bytes, int, int, int]], cuts[at:stop]),
+                        strict=True)
+                ]
+                frames.extend(map(tuple.__new__, repeat(PlannedFrame), zip(
+                    ts[at:stop], wire, repeat(()), repeat(()), repeat(origin), repeat(order),
+                    repeat(True), repeat(False), repeat(0.0))))
+                self.samples += stop - at
+            if stop < count:
+                self.build(ts[stop], keys[stop], ((src, rest[stop]),), (masks[stop],), (src,))
+            at = stop + 1
 
     def writes_tick(self, t_us: int, bucket: list[Write], mixed: bool) -> None:
         """A tick of Writes: keep the last write per register, drop unchanged samples, merge.
@@ -312,45 +397,27 @@ def frames_from_ticks(
     decimate); with it, every tick goes through Writes.
     """
     out = TickFrames(layout, link, gap, action_reg)
-    source_tick, sources_tick, writes_tick = out.source_tick, out.sources_tick, out.writes_tick
-    build = out.build
-    # Held across the loop: TickFrames updates these in place.
-    live, slices, append = out.live, out.slices, out.frames.append
-    new = tuple.__new__  # PlannedFrame(...) without its Python-level __new__
-    quick = 0  # frames made on the one-slice road below
-    for t_us in sorted(ticks):
-        entry = ticks[t_us]
-        if details:
-            writes_tick(t_us, entry_writes(entry),
-                        t_us in mixed or isinstance(entry, Samples))
-        elif isinstance(entry, tuple):  # one source's sample: nearly every tick
-            src, sample = entry
-            prev = src.prev
-            # prev is set exactly while src is live: else src is not the one live source.
-            if prev is None or len(live) != 1:
-                source_tick(t_us, src, sample)
-                continue
-            # The commonest tick of all: the next sample of the one live source.
-            if sample == prev:
-                continue
-            src.prev = sample
-            mask = tuple(map(ne, sample, prev)) if src.unit else changes(src, sample, prev)
-            key = (src.addresses, mask)
-            cut = slices.get(key)
-            if cut is not None:
-                # build() for its commonest plan, inlined: one frame, one slice of the sample.
-                prefix, check_base, begin, end = cut
-                data = sample[begin:end]
-                append(new(PlannedFrame, (
-                    t_us, b"".join((prefix, data, BYTES[~(check_base + sum(data)) & 0xFF], TAIL)),
-                    (), (), src.origin, src.order, True, False, 0.0,
-                )))
-                quick += 1
-            else:
-                build(t_us, key, ((src, sample),), (mask,), (src,))
-        elif isinstance(entry, Samples):
-            sources_tick(t_us, entry)
+    times = sorted(ticks)
+    entries = list(map(ticks.__getitem__, times))
+    if details:
+        writes_tick = out.writes_tick
+        for t_us, entry in zip(times, entries, strict=True):
+            writes_tick(t_us, entry_writes(entry), t_us in mixed or isinstance(entry, Samples))
+        return out.frames, out.samples
+    at = 0
+    # Runs of consecutive ticks by their entry's first item: a run of one Source is a stretch
+    # of ticks only that source writes (a move alone: nearly every tick of a long show).
+    for head, run in groupby(map(_HEAD, entries)):
+        n = len(list(run))
+        if n > 1 and type(head) is Source:
+            out.stretch(times[at:at + n], entries[at:at + n])  # type: ignore[arg-type]
         else:
-            writes_tick(t_us, entry, t_us in mixed)
-    out.samples += quick
+            for t_us, entry in zip(times[at:at + n], entries[at:at + n], strict=True):
+                if isinstance(entry, tuple):
+                    out.source_sample(t_us, *entry)
+                elif isinstance(entry, Samples):
+                    out.sources_tick(t_us, entry)
+                else:
+                    out.writes_tick(t_us, entry, t_us in mixed)
+        at += n
     return out.frames, out.samples
