@@ -11,7 +11,7 @@ two roads give the same frames on random tracks (``details=True`` takes the gene
 
 from __future__ import annotations
 
-from collections.abc import Container, Mapping, Sequence
+from collections.abc import Container, Iterable, Mapping, Sequence
 from itertools import compress, groupby, repeat
 from operator import itemgetter, ne
 from typing import NamedTuple, cast
@@ -137,13 +137,18 @@ class TickFrames:
         # Of those for one source, the plans that are one frame of one slice of the sample, as
         # (prefix, check_base, begin, end); None: another plan. frames_from_ticks's own road.
         self.slices: dict[object, tuple[bytes, int, int, int] | None] = {}
+        # Of those for several sources, the plans whose every frame is one slice of one of the
+        # tick's samples, as (chunk, begin, end, prefix, check_base, lead chunk) a frame; None:
+        # another plan. samples_stretch's road.
+        self.rows: dict[object, tuple[tuple[int, int, int, bytes, int, int], ...] | None] = {}
 
     def _known_changed(self) -> None:
         if len(self.known) != self.n_known:  # fillers depend on which registers are known
             self.n_known = len(self.known)
             self.merger.forget_plans()
-            self.sample_plans.clear()  # in place: frames_from_ticks holds these
+            self.sample_plans.clear()
             self.slices.clear()
+            self.rows.clear()
 
     def flush(self, keep: Container[Source] = ()) -> None:
         """Tell sent/known the live sources' samples (but those in ``keep``, which stay live)."""
@@ -344,6 +349,69 @@ class TickFrames:
                 self.build(ts[stop], keys[stop], ((src, rest[stop]),), (masks[stop],), (src,))
             at = stop + 1
 
+    def samples_stretch(self, sources: tuple[Source, ...], times: Sequence[int],
+                        rows: Sequence[Samples]) -> None:
+        """Consecutive ticks the same several sources write (``rows``, at ``times``).
+
+        :meth:`sources_tick` of each, list by list: after the first tick every source is live,
+        each one's samples are compared with the ones before, and the ticks whose plan makes
+        each frame of one slice of one sample (nearly all) are made in one comprehension.
+        """
+        self.sources_tick(times[0], rows[0])
+        rest, ts = rows[1:], times[1:]
+        if not rest:
+            return
+        columns: list[Iterable[tuple[bool, ...]]] = []
+        for j, src in enumerate(sources):
+            column = list(map(_SAMPLE, map(itemgetter(j), rows)))
+            after, before = column[1:], column[:-1]
+            columns.append(map(tuple, map(map, repeat(ne), after, before)) if src.unit
+                           else zip(map(ne, after, before)) if src.one
+                           else map(changes, repeat(src), after, before))
+            src.prev = column[-1]
+        masks = list(zip(*columns, strict=True))
+        keys = list(zip(repeat(self.shapes[sources]), masks))
+        fast = self.rows
+        plans = list(map(fast.get, keys))
+        if None in plans:  # plans not made yet, or not of one slice a frame
+            at = plans.index(None)
+            while True:
+                key = keys[at]
+                if key not in fast:
+                    plan = self.sample_plans.get(key)
+                    if plan is None:
+                        plan = self.plan(key, rest[at], masks[at])
+                    fast[key] = _row_plan(plan)
+                    plans = list(map(fast.get, keys))
+                try:
+                    at = plans.index(None, at + 1)
+                except ValueError:
+                    break
+        frames = self.frames
+        origins = [src.origin for src in sources]
+        orders = [src.order for src in sources]
+        at, count = 0, len(plans)
+        while at < count:
+            try:
+                stop = plans.index(None, at)
+            except ValueError:
+                stop = count
+            if stop > at:
+                # build() for each tick, inlined (its one-slice frames only)
+                frames.extend([
+                    tuple.__new__(PlannedFrame, (
+                        t_us, b"".join((prefix, data := row[chunk][1][begin:end],
+                                        BYTES[~(check_base + sum(data)) & 0xFF], TAIL)),
+                        (), (), origins[lead], orders[lead], True, False, 0.0))
+                    for t_us, row, plan in zip(ts[at:stop], rest[at:stop], plans[at:stop],
+                                               strict=True)
+                    for chunk, begin, end, prefix, check_base, lead in plan  # type: ignore[union-attr]
+                ])
+                self.samples += sum(map(len, plans[at:stop]))  # type: ignore[arg-type]
+            if stop < count:
+                self.build(ts[stop], keys[stop], rest[stop], masks[stop], sources)
+            at = stop + 1
+
     def writes_tick(self, t_us: int, bucket: list[Write], mixed: bool) -> None:
         """A tick of Writes: keep the last write per register, drop unchanged samples, merge.
 
@@ -381,6 +449,20 @@ class TickFrames:
         self._known_changed()
 
 
+def _row_plan(plan: tuple[SampleFrame, ...]) -> tuple[tuple[int, int, int, bytes, int, int],
+                                                      ...] | None:
+    """A sample plan of several sources as samples_stretch reads it (None: not every frame is
+    one slice of one sample). The plan serves any sources of its shape: a frame names its lead
+    by chunk."""
+    out = []
+    for frame in plan:
+        if frame.one is None or frame.one.chunk is None:
+            return None
+        out.append((frame.one.chunk, frame.one.begin, frame.one.end, frame.prefix,
+                    frame.check_base, frame.lead))
+    return tuple(out)
+
+
 def frames_from_ticks(
     layout: Layout,
     link: Link,
@@ -405,19 +487,34 @@ def frames_from_ticks(
             writes_tick(t_us, entry_writes(entry), t_us in mixed or isinstance(entry, Samples))
         return out.frames, out.samples
     at = 0
-    # Runs of consecutive ticks by their entry's first item: a run of one Source is a stretch
-    # of ticks only that source writes (a move alone: nearly every tick of a long show).
-    for head, run in groupby(map(_HEAD, entries)):
+    # Runs of consecutive ticks of one kind, then within them of the same sources: a stretch
+    # of ticks only one move writes (nearly every tick of a long show), or the same move and
+    # fades, is made into frames list by list.
+    for kind, run in groupby(map(type, entries)):
         n = len(list(run))
-        if n > 1 and type(head) is Source:
-            out.stretch(times[at:at + n], entries[at:at + n])  # type: ignore[arg-type]
-        else:
-            for t_us, entry in zip(times[at:at + n], entries[at:at + n], strict=True):
-                if isinstance(entry, tuple):
-                    out.source_sample(t_us, *entry)
-                elif isinstance(entry, Samples):
-                    out.sources_tick(t_us, entry)
-                else:
-                    out.writes_tick(t_us, entry, t_us in mixed)
+        stamps, block = times[at:at + n], entries[at:at + n]
         at += n
+        if kind is tuple:
+            sub = 0
+            for _, same in groupby(map(_HEAD, block)):
+                m = len(list(same))
+                if m > 1:
+                    out.stretch(stamps[sub:sub + m], block[sub:sub + m])  # type: ignore[arg-type]
+                else:
+                    out.source_sample(stamps[sub], *block[sub])
+                sub += m
+        elif kind is Samples:
+            sub = 0
+            heads = map(map, repeat(_HEAD), block)  # type: ignore[arg-type]
+            for sources, same in groupby(map(tuple, heads)):
+                m = len(list(same))
+                if m > 1:
+                    out.samples_stretch(sources, stamps[sub:sub + m],
+                                        block[sub:sub + m])  # type: ignore[arg-type]
+                else:
+                    out.sources_tick(stamps[sub], block[sub])  # type: ignore[arg-type]
+                sub += m
+        else:
+            for t_us, entry in zip(stamps, block, strict=True):
+                out.writes_tick(t_us, entry, t_us in mixed)  # type: ignore[arg-type]
     return out.frames, out.samples
