@@ -174,3 +174,45 @@ def test_cues_on_other_registers_at_the_same_ticks_change_nothing(o) -> None:  #
             alone.update(_timeline(model, _plan(ResolvedTrack("p", model, (cue,)),
                                                 details=False)))
         assert together == alone
+
+
+@st.composite
+def chained_tracks(draw: st.DrawFn) -> ResolvedTrack:
+    """Moves one after another on the same registers (a Rider's with LED fades beside them),
+    as long shows are: long stretches of ticks the same sources write, cue after cue, which
+    the fast road makes into frames list by list (fastpath.TickFrames.stretch and
+    samples_stretch)."""
+    model = draw(st.sampled_from(["mini", "rider"]))
+    profile = get_profile(model)
+    names = draw(st.lists(st.sampled_from(MOVABLE[model][1:]), min_size=1, max_size=4,
+                          unique=True))
+    leds = draw(st.lists(st.sampled_from(["led1", "led2", "led3"]), max_size=2, unique=True)
+                ) if model == "rider" else []
+    cues: list[Cue] = []
+    t = draw(st.integers(0, 30)) / 50
+    for n in range(draw(st.integers(2, 5))):
+        o = origin(f"c{n}", n + 1)
+        duration = draw(st.integers(50, 120)) / 50 + draw(st.sampled_from([0.0, 0.007]))
+        targets = {}
+        for name in names:
+            reg = profile.register(name)
+            assert reg.minimum is not None and reg.maximum is not None
+            fraction = draw(st.floats(0.2, 0.8))
+            targets[name] = round(reg.minimum + (reg.maximum - reg.minimum) * fraction, 1)
+        cues.append(MotionCue(t, o, targets, duration))
+        for led in leds:  # one led: cue, as the resolver makes it: a fade per LED
+            colour = draw(st.tuples(*[st.integers(0, 255)] * 3))
+            cues.append(FadeCue(t, o, led, colour, duration))
+        t += duration + draw(st.sampled_from([0.0, 0.0, 0.02, 0.5]))
+    return ResolvedTrack("p", model, tuple(cues))
+
+
+@settings(max_examples=60, deadline=None)
+@given(chained_tracks())
+def test_stretches_of_the_same_sources_give_the_same_frames_as_writes(
+    track: ResolvedTrack,
+) -> None:
+    reference = _plan(track, details=True)
+    fast = _plan(track, details=False)
+    assert [_essence(f) for f in fast.frames] == [_essence(f) for f in reference.frames]
+    assert fast.samples == reference.samples
