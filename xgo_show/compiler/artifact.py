@@ -118,26 +118,21 @@ def _column(code: str, values: Sequence[int]) -> bytes:
 
 
 def _performer_columns(p: PerformerSchedule, ref: OriginRef) -> bytes:
-    # The columns as the compiler made them (frame_columns: no frame objects made), C-level
-    # maps where they do, and the last origin's index reused: these run once per frame, and a
-    # cue's frames mostly follow one another.
+    # The columns as the compiler made them (frame_columns: no frame objects made), and C-level
+    # maps where they do: these run once per frame.
     times, data, frame_origins, durations, _ = frame_columns(p.frames)
     deltas = list(map(sub, times, itertools.chain((0,), times)))
     if min(deltas, default=0) < 0:
         raise ScheduleError(f"performer {p.name}: frames are not in time order")
-    origins: list[int] = []
-    last: object = None
-    index = 0
-    for origin in frame_origins:
-        if origin is not last:
-            last = origin
-            found = ref(origin)
-            index = 0 if found is None else found + 1
-        origins.append(index)
+    # Each origin object once (by identity: an Origin hashes in Python), in the order frames
+    # first name it, filed in the table as ref() is told of them; then every frame's index.
+    distinct = dict(zip(map(id, frame_origins), frame_origins, strict=True))
+    index = {key: 0 if (found := ref(origin)) is None else found + 1
+             for key, origin in distinct.items()}
     return b"".join((
         _column(_U64, deltas),
         _column(_U16, list(map(len, data))),
-        _column(_U32, origins),
+        _column(_U32, list(map(index.__getitem__, map(id, frame_origins)))),
         _column(_U64, [round(d * 1_000_000) if d else 0 for d in durations]
                 if any(durations) else [0] * len(durations)),
         *data,
