@@ -307,3 +307,15 @@ def test_move_samples_lie_on_the_grid_and_the_target_lands_at_the_end(
     mini = get_profile("mini")
     assert robot.raw("roll")[0] == mini.register("roll").to_byte(15.0)
     assert robot.raw("body_z")[0] == mini.register("body_z").to_byte(80.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.one_of(st.sampled_from([50.0, 60.0, 62.5, 100.0, 25.0, 1000.0, 7.0, 1e6, 3e6, 0.5]),
+                 st.integers(1, 2000).map(float), st.floats(0.1, 5000.0)),
+       st.integers(0, 10**10), st.integers(-3, 400))
+def test_tick_times_are_each_ticks_time(rate: float, k0: int, count: int) -> None:
+    # A range at rates of a whole-microsecond period, round() a tick otherwise: the same.
+    from xgo_show.compiler.frames import tick_times, tick_us
+
+    assert tick_times(k0, k0 + count, rate) == [tick_us(k, rate)
+                                                for k in range(k0, k0 + count)]

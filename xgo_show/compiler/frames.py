@@ -40,6 +40,7 @@ __all__ = [
     "Write",
     "cue_label",
     "first_tick",
+    "tick_times",
     "tick_us",
     "to_us",
 ]
@@ -51,6 +52,20 @@ TIME_EPS = 1e-9  # seconds of float noise ignored when comparing times
 def tick_us(k: int, rate: float) -> int:
     """Time of control tick ``k`` in integer microseconds."""
     return round(k * 1_000_000 / rate)
+
+
+def tick_times(k0: int, k1: int, rate: float) -> list[int]:
+    """:func:`tick_us` of ticks ``k0`` to ``k1`` (excluded).
+
+    At a rate whose period is a whole number of microseconds (50 Hz: 20,000), every tick's
+    time is exact in floats (``k * 1e6`` and its quotient are integers well below 2**53), so
+    ``tick_us(k)`` is ``k`` periods: a range, not a ``round`` a tick.
+    """
+    if (rate.is_integer() and 0 < rate <= 1_000_000 and 1_000_000 % int(rate) == 0
+            and k0 >= 0 and k1 * 1_000_000 < 2**53):
+        period = 1_000_000 // int(rate)
+        return list(range(k0 * period, k1 * period, period))
+    return [round(k * 1_000_000 / rate) for k in range(k0, k1)]
 
 
 def first_tick(t: float, rate: float) -> int:

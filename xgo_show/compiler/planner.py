@@ -17,7 +17,8 @@ import math
 from bisect import bisect_right
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from itertools import repeat
+from itertools import compress, repeat
+from operator import is_, itemgetter, ne, not_
 
 from xgo_show.choreo.resolved import ActionCue, FadeCue, MotionCue, ResolvedTrack, SetCue
 from xgo_show.compiler.fastpath import frames_from_ticks
@@ -28,6 +29,7 @@ from xgo_show.compiler.frames import (
     Write,
     cue_label,
     first_tick,
+    tick_times,
     tick_us,
     to_us,
 )
@@ -46,6 +48,8 @@ from xgo_show.families.xgo.posture import posture_after
 from xgo_show.profiles.model import Encoding, Limits, Link, Register
 
 __all__ = ["XgoPlanner", "plan_xgo_track"]
+
+_HEAD = itemgetter(0)
 
 
 class _Diag:
@@ -140,14 +144,12 @@ def _tick_samples(at_time: Callable[[float], tuple[list[float], ...]], tables: l
     return list(map(bytes, zip(*columns, strict=True)))
 
 
-def _fade_colours(k: int, end: int, rate: float, t0: float, duration: float,
-                  start: tuple[int, int, int], delta: tuple[int, int, int]) -> list[bytes]:
-    """The colour of a fade at each tick from ``k`` to ``end`` (excluded), as bytes: the
-    arithmetic of :meth:`_Fade.colour_at`, one list comprehension a step (cheaper than a call
-    a tick; C-level maps of operator functions cost more instructions still)."""
+def _fade_fractions(k: int, end: int, rate: float, t0: float, duration: float) -> list[float]:
+    """How far a fade of ``duration`` from ``t0`` is at each tick from ``k`` to ``end``
+    (excluded), clamped to 0..1 as :meth:`_Fade.colour_at` does."""
     fracs = [(j / rate - t0) / duration for j in range(k, end)]
-    # Clamped to 0..1 as colour_at does: the fractions grow with j, so only a few at either
-    # end may lie outside (float noise at the start and the stop).
+    # The fractions grow with j, so only a few at either end may lie outside (float noise at
+    # the start and the stop).
     for i in range(len(fracs)):
         if fracs[i] >= 0.0:
             break
@@ -156,10 +158,24 @@ def _fade_colours(k: int, end: int, rate: float, t0: float, duration: float,
         if fracs[i] <= 1.0:
             break
         fracs[i] = 1.0
+    return fracs
+
+
+def _fade_channels(fracs: list[float], start: tuple[int, int, int],
+                   delta: tuple[int, int, int]) -> list[list[int]]:
+    """A fade's red, green and blue at each of ``fracs``: the arithmetic of
+    :meth:`_Fade.colour_at`, one list comprehension a channel (cheaper than a call a tick;
+    C-level maps of operator functions cost more instructions still)."""
     (r0, g0, b0), (dr, dg, db) = start, delta
-    return list(map(bytes, zip([round(r0 + dr * f) for f in fracs],
-                               [round(g0 + dg * f) for f in fracs],
-                               [round(b0 + db * f) for f in fracs], strict=True)))
+    return [[round(r0 + dr * f) for f in fracs], [round(g0 + dg * f) for f in fracs],
+            [round(b0 + db * f) for f in fracs]]
+
+
+def _fade_colours(k: int, end: int, rate: float, t0: float, duration: float,
+                  start: tuple[int, int, int], delta: tuple[int, int, int]) -> list[bytes]:
+    """The colour of a fade at each tick from ``k`` to ``end`` (excluded), as bytes."""
+    channels = _fade_channels(_fade_fractions(k, end, rate, t0, duration), start, delta)
+    return list(map(bytes, zip(*channels, strict=True)))
 
 
 class XgoPlanner:
@@ -404,19 +420,42 @@ class XgoPlanner:
         stop_us = to_us(cue.start + cue.duration)
         src = Source(tuple(f.reg for f in group), cue.origin, first.order)
         k, end = self._fade_ticks(cue, stop_us)
-        columns = []
+        # One start and length: the same fractions for every fade of the group.
+        fracs = _fade_fractions(k, end, rate, cue.start, cue.duration)
+        channels = []
         for fade in group:
             (r0, g0, b0), (r1, g1, b1) = fade.start, fade.cue.to
-            columns.append(_fade_colours(k, end, rate, cue.start, cue.duration, fade.start,
-                                         (r1 - r0, g1 - g0, b1 - b0)))
-        colours = list(map(b"".join, zip(*columns, strict=True)))
-        # Only the ticks whose colours differ from the tick before's.
-        self._emit_samples(src, [
-            (round(j * 1_000_000 / rate), sample)  # tick_us(j, rate)
-            for j, sample, before in zip(range(k, end), colours, [b"", *colours], strict=False)
-            if sample != before
-        ])
+            channels += _fade_channels(fracs, fade.start, (r1 - r0, g1 - g0, b1 - b0))
+        self._emit_changes(src, k, end, list(map(bytes, zip(*channels, strict=True))))
         self._emit_sample(stop_us, src, b"".join([bytes(f.cue.to) for f in group]))
+
+    def _emit_changes(self, src: Source, k: int, end: int, colours: list[bytes]) -> None:
+        """File a fade's colours at ticks ``k`` to ``end`` (excluded): only those that differ
+        from the tick before's (a tick repeating the colour sends nothing)."""
+        rate = self.rate
+        times = tick_times(k, end, rate)
+        changed = list(map(ne, colours, [b"", *colours]))
+        if not all(changed):
+            times = list(compress(times, changed))
+            colours = list(compress(colours, changed))
+        ticks = self.ticks
+        held = list(map(ticks.get, times))
+        # _emit_samples list by list where a tick holds one other source's sample on other
+        # registers (a Rider's LEDs beside its move: nearly every tick), tick by tick elsewhere.
+        one = list(map(is_, map(type, held), repeat(tuple)))
+        if any(one):
+            mine = src.address_set
+            others = set(map(_HEAD, compress(held, one)))  # type: ignore[arg-type]
+            if all(mine.isdisjoint(other.addresses) for other in others):
+                pairs = zip(compress(held, one), zip(repeat(src), compress(colours, one)),
+                            strict=False)
+                ticks.update(zip(compress(times, one), map(Samples, pairs),  # type: ignore[arg-type]
+                                 strict=False))
+                if all(one):
+                    return
+                rest = list(map(not_, one))
+                times, colours = list(compress(times, rest)), list(compress(colours, rest))
+        self._emit_samples(src, zip(times, colours, strict=True))
 
     def _sample_fade(self, fade: _Fade) -> None:
         """Steps on the tick grid strictly before the end, then the exact colour at the end
@@ -443,14 +482,8 @@ class XgoPlanner:
         if (abs(dr) + abs(dg) + abs(db)) * 2 >= end - k:
             # The colour changes about every tick (a short fade, or a wide one): every tick's
             # colour at once, list by list, is cheaper than galloping over runs of one.
-            colours = _fade_colours(k, end, rate, t0, duration, fade.start, (dr, dg, db))
-            # Only the ticks whose colour differs from the tick before's.
-            self._emit_samples(src, [
-                (round(j * 1_000_000 / rate), sample)  # tick_us(j, rate)
-                for j, sample, before in zip(range(k, end), colours, [b"", *colours],
-                                             strict=False)
-                if sample != before
-            ])
+            self._emit_changes(src, k, end, _fade_colours(k, end, rate, t0, duration,
+                                                          fade.start, (dr, dg, db)))
         else:
             sample = colour(k) if k < end else b""
             while k < end:
@@ -578,7 +611,7 @@ class XgoPlanner:
                 break
             times[i] = 0.0
         samples = _tick_samples(at_time, padded, times)
-        entries = dict(zip([round(k * 1_000_000 / rate) for k in ks],  # tick_us(k, rate)
+        entries = dict(zip(tick_times(ks.start, ks.stop, rate),
                            zip(repeat(src), samples, strict=False), strict=True))
         # The ticks another cue's sample or writes hold already, then the others at once.
         self._emit_samples(src, [(t_us, entries.pop(t_us)[1])
