@@ -4,9 +4,12 @@ as Writes, and which registers changed since the last sample (byte by byte, whol
 
 from __future__ import annotations
 
+from hypothesis import given
+from hypothesis import strategies as st
+
 from tests.compiler.conftest import origin
 from xgo_show.compiler.frames import Write
-from xgo_show.compiler.sources import Samples, Source, changes, entry_writes
+from xgo_show.compiler.sources import Samples, Source, change_masks, changes, entry_writes
 from xgo_show.profiles import get_profile
 
 MINI = get_profile("mini")
@@ -63,3 +66,18 @@ def test_changes_name_the_registers_that_differ_from_the_last_sample() -> None:
         False, True)
     assert changes(leds, b"\x01\x02\x03\x04\x05\x06", b"\x00\x02\x03\x04\x05\x06") == (
         True, False)
+
+
+@given(st.sampled_from([(ROLL, PITCH, YAW), (LED1,), (LED1, LED2), (YAW,)]),
+       st.lists(st.binary(min_size=6, max_size=6), min_size=1, max_size=12))
+def test_change_masks_are_changes_sample_by_sample(regs, raw) -> None:  # type: ignore[no-untyped-def]
+    # Each of a stretch's samples against the one before, in C-level maps: changes() of each
+    # (unit, one-register and spanned sources alike).
+    src = Source(regs, None, 0)
+    size = src.spans[-1][1]
+    samples = [r[:size] for r in raw]
+    # Repeats, and samples differing in one register only, as well as random ones.
+    samples += [samples[-1], samples[-1][:1] + bytes(size - 1)]
+    after, before = samples[1:], samples[:-1]
+    assert list(change_masks(src, after, before)) == [
+        changes(src, a, b) for a, b in zip(after, before, strict=True)]

@@ -19,7 +19,14 @@ from typing import NamedTuple, cast
 from xgo_show.compiler.frames import BYTES, PlannedFrame, Write
 from xgo_show.compiler.layout import Layout
 from xgo_show.compiler.merge import Merger, by_address, by_order
-from xgo_show.compiler.sources import Entry, Samples, Source, changes, entry_writes
+from xgo_show.compiler.sources import (
+    Entry,
+    Samples,
+    Source,
+    change_masks,
+    changes,
+    entry_writes,
+)
 from xgo_show.profiles.model import Link, Register
 from xgo_show.wire.xgo import TAIL
 
@@ -307,10 +314,7 @@ class TickFrames:
             ts = list(compress(ts, changed))
             if not rest:
                 return
-        if src.unit:
-            masks: list[tuple[bool, ...]] = list(map(tuple, map(map, repeat(ne), rest, prevs)))
-        else:
-            masks = list(map(changes, repeat(src), rest, prevs))
+        masks = list(change_masks(src, rest, prevs))
         keys = list(zip(repeat(src.addresses), masks))
         slices = self.slices
         cuts = list(map(slices.get, keys))
@@ -365,9 +369,7 @@ class TickFrames:
         for j, src in enumerate(sources):
             column = list(map(_SAMPLE, map(itemgetter(j), rows)))
             after, before = column[1:], column[:-1]
-            columns.append(map(tuple, map(map, repeat(ne), after, before)) if src.unit
-                           else zip(map(ne, after, before)) if src.one
-                           else map(changes, repeat(src), after, before))
+            columns.append(change_masks(src, after, before))
             src.prev = column[-1]
         masks = list(zip(*columns, strict=True))
         keys = list(zip(repeat(self.shapes[sources]), masks))

@@ -28,6 +28,7 @@ from __future__ import annotations
 import heapq
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from operator import attrgetter, sub
 from typing import NamedTuple
 
 from xgo_show.compiler.frames import PlannedFrame, Write
@@ -35,6 +36,8 @@ from xgo_show.diagnostics import Origin
 from xgo_show.profiles.model import Link
 
 __all__ = ["PaceResult", "Paced", "pace", "wire_us"]
+
+_T_US, _DATA = attrgetter("t_us"), attrgetter("data")
 
 
 def wire_us(link: Link, nbytes: int) -> int:
@@ -138,17 +141,22 @@ def pace(
 
     if not decimate:
         # send() without decimation (so nothing pending, nothing to flush, and every planned
-        # frame sent), inlined with wire_us: this loop runs once per frame of the show.
+        # frame sent): this loop runs once per frame of the show, so it reads two columns made
+        # by C-level maps, each frame's planned time and the link time it takes (its wire
+        # time, one per frame length, plus the gap), and finds the late frames afterwards.
         result.sent = frames
-        late, append = result.late, starts.append
-        bits, baud = link.bits_per_byte * 1_000_000, link.baud
-        for frame in frames:
-            t_us = frame.t_us
+        append = starts.append
+        planned = list(map(_T_US, frames))
+        lengths = list(map(len, map(_DATA, frames)))
+        cost = {n: wire_us(link, n) + gap_us for n in set(lengths)}
+        for t_us, busy in zip(planned, map(cost.__getitem__, lengths), strict=True):
             start = t_us if t_us > free_us else free_us
             append(start)
-            if start - t_us > period_us:
-                late.append(Paced(start, frame))
-            free_us = start + -(-len(frame.data) * bits // baud) + gap_us
+            free_us = start + busy
+        if frames and max(map(sub, starts, planned)) > period_us:
+            result.late = [Paced(start, frame) for start, t_us, frame
+                           in zip(starts, planned, frames, strict=True)
+                           if start - t_us > period_us]
         return result
     for frame in frames:
         if flushes:

@@ -8,14 +8,15 @@ samples or two samples of one register meet).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from operator import ne
+from collections.abc import Iterator, Sequence
+from itertools import repeat
+from operator import getitem, ne
 
 from xgo_show.compiler.frames import Write
 from xgo_show.diagnostics import Origin
 from xgo_show.profiles.model import Register
 
-__all__ = ["Entry", "Samples", "Source", "changes", "entry_writes"]
+__all__ = ["Entry", "Samples", "Source", "change_masks", "changes", "entry_writes"]
 
 
 class Source:
@@ -71,6 +72,20 @@ def entry_writes(entry: Entry) -> list[Write]:
     if isinstance(entry, Samples):
         return [w for src, sample in entry for w in src.writes(sample)]
     return entry
+
+
+def change_masks(
+    src: Source, samples: Sequence[bytes], prevs: Sequence[bytes]
+) -> Iterator[tuple[bool, ...]]:
+    """:func:`changes` of each sample and the one before it, in C-level maps (no Python call
+    a tick): the column of each register's bytes compared with the column before."""
+    if src.unit:
+        return map(tuple, map(map, repeat(ne), samples, prevs))
+    if src.one:
+        return zip(map(ne, samples, prevs))
+    columns = [map(ne, map(getitem, samples, repeat(part)), map(getitem, prevs, repeat(part)))
+               for part in (slice(b, e) for b, e in src.spans)]
+    return zip(*columns, strict=True)
 
 
 def changes(src: Source, sample: bytes, prev: bytes) -> tuple[bool, ...]:
