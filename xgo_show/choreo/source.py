@@ -202,10 +202,6 @@ class Refused:
 REFUSED = Refused()
 
 
-class _TooDeep(Exception):
-    """A list or mapping nested past :data:`MAX_DEPTH` holds something (the builder stops)."""
-
-
 class _Builder:
     def __init__(self, doc: Document, *, aliases: bool = True) -> None:
         self.doc = doc
@@ -250,7 +246,8 @@ class _Builder:
 
     def collection(self, node: Node, loc: Loc) -> object:
         if len(loc) >= self._deepest_loc and node.value:  # its items would be past MAX_DEPTH
-            raise _TooDeep
+            self.inexact = True  # the walk then finds where, and nothing built is kept
+            return REFUSED
         if isinstance(node, SequenceNode):
             if node.tag != _SEQ_TAG:
                 self.error(node, loc, f"unsupported YAML tag {node.tag}")
@@ -465,10 +462,7 @@ def _parse(text: str, file: str) -> tuple[Document, list[Diagnostic]]:
         doc.data = builder.build(root, ())
         return doc, builder.errors
     builder = _Builder(doc, aliases=False)
-    try:
-        data = builder.build(root, ())
-    except _TooDeep:
-        builder.inexact = True
+    data = builder.build(root, ())
     if builder.inexact:  # a node it did not build, or nesting too deep: the walk says exactly
         deep, count, _ = _walk(root)
         if deep is not None:
