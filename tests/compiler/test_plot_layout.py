@@ -280,3 +280,19 @@ def test_without_matplotlib_the_plot_says_how_to_get_it(monkeypatch: pytest.Monk
         _pyplot()
     assert str(err.value) == ("plotting needs matplotlib: pip install 'xgo-show[plot]' (or pip "
                               "install matplotlib)")
+
+
+def test_label_widths_are_measured_on_the_font_with_a_pad() -> None:
+    from xgo_show.compiler.plot import _text_width
+
+    _text_width.cache_clear()  # measured here, not remembered from another test
+    assert _text_width("") == pytest.approx(4.0 / 72)  # the pad alone: 4 points
+    fig = plt.figure(dpi=72)
+    try:
+        for text in ("wave (action 13)", "gait=trot", "W"):
+            label = fig.text(0, 0, text, fontsize=7)
+            fig.canvas.draw()
+            points = label.get_window_extent().width  # at 72 dpi, one pixel a point
+            assert _text_width(text) * 72 - 4 == pytest.approx(points, abs=2.5)
+    finally:
+        plt.close(fig)
