@@ -179,3 +179,21 @@ def test_validate_only_walks_a_performer_whose_link_provably_fits(
         compile_diagnostics(show)
     with pytest.raises(AssertionError, match="sampled"):
         compile_show(show)
+
+
+def test_validate_goes_on_after_a_performer_it_proved_fits() -> None:
+    # rex fits its link (only walked); max after it still has its error found.
+    show = _show({"rex": ("mini", [MotionCue(0.0, origin("m"), {"body_z": 100.0}, 1.0)]),
+                  "max": ("mini", [MotionCue(0.0, origin("g", 4), {"gait": 1.0})])})
+    _, diags = _both(show)
+    assert [(d.path, d.message) for d in diags] == [
+        ("tracks.max", "cue 'g': gait cannot follow a trajectory")]
+
+
+def test_validate_bounds_the_link_with_the_shows_own_gap() -> None:
+    # One frame a tick fits the Mini's link with its own gap (1.2 ms), not with 50 ms of
+    # silence after each frame at 50 Hz: validate must say so as the compile does.
+    move = [MotionCue(0.0, origin("m"), {"body_z": 110.0, "roll": 5.0}, 2.0)]
+    assert compile_diagnostics(_show({"rex": ("mini", move)})) == ()
+    _, diags = _both(_show({"rex": ("mini", move)}, gap=0.05))
+    assert [d.path for d in diags] == ["tracks.rex"]
