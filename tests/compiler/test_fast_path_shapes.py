@@ -53,6 +53,21 @@ SHAPES = {
         MotionCue(2.0, o("d", 5), {"leg1_x": 10.0}, 1.0),
         MotionCue(2.0, o("e", 6), {"body_y": 5.0, "leg1_z": 80.0}, 1.0),
     )),
+    # A source leaving while one live before it stays (roll ends first, body_z and pitch go
+    # on with vx, then alone): what roll last held must be known when it fills the gap
+    # between body_z and pitch, then and in a later move.
+    "leaving from between": ("mini", (
+        MotionCue(0.0, o("a", 2), {"body_z": 110.0, "pitch": 8.0}, 3.0),
+        MotionCue(0.0, o("b", 3), {"roll": 6.0}, 1.0),
+        MotionCue(0.5, o("c", 4), {"vx": 5.0}, 1.5),
+        MotionCue(4.0, o("d", 5), {"body_z": 90.0, "pitch": -6.0}, 1.0),
+    )),
+    # The same with no third source: the move on body_z and pitch is left alone, its own
+    # ticks fill roll's gap with what roll last held.
+    "left alone": ("mini", (
+        MotionCue(0.0, o("a", 2), {"body_z": 110.0, "pitch": 8.0}, 3.0),
+        MotionCue(0.0, o("b", 3), {"roll": 6.0}, 1.0),
+    )),
 }
 
 
@@ -103,3 +118,16 @@ def test_the_frames_holding_only_samples_are_counted_exactly() -> None:
         assert plan.samples == len(plan.frames) > 10
         plan = _plan(with_setting, details=details)
         assert plan.samples == len(plan.frames) - 1
+
+
+def test_a_register_between_two_moved_ones_is_filled_with_what_it_holds() -> None:
+    # roll (0x36) lies between body_z and pitch: one frame carries all three, roll with its
+    # initial value (what the robot holds), on both roads.
+    mini = get_profile("mini")
+    roll = mini.register("roll")
+    track = ResolvedTrack("p", "mini", (MotionCue(0.0, o("m"), {"body_z": 110.0,
+                                                               "pitch": -6.0}, 1.0),))
+    for details in (True, False):
+        first = _plan(track, details=details).frames[0].data
+        assert first[4] == mini.register("body_z").address and first[2] == len(first) == 8 + 3
+        assert first[6:7] == roll.initial
