@@ -6,6 +6,8 @@ after a preset action (the robot moved on its own)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from tests.compiler.conftest import origin as o
@@ -61,6 +63,12 @@ SHAPES = {
         MotionCue(0.0, o("b", 3), {"roll": 6.0}, 1.0),
         MotionCue(0.5, o("c", 4), {"vx": 5.0}, 1.5),
         MotionCue(4.0, o("d", 5), {"body_z": 90.0, "pitch": -6.0}, 1.0),
+    )),
+    # A source whose registers lie far apart (vx and leg1_x: two frames a tick, one lead)
+    # beside another: frames of one lead are placed by address.
+    "two frames a source": ("mini", (
+        MotionCue(0.0, o("a", 2), {"vx": 5.0, "leg1_x": 10.0}, 1.5),
+        MotionCue(0.0, o("b", 3), {"yaw": 9.0}, 1.0),
     )),
     # The same with no third source: the move on body_z and pitch is left alone, its own
     # ticks fill roll's gap with what roll last held.
@@ -131,3 +139,18 @@ def test_a_register_between_two_moved_ones_is_filled_with_what_it_holds() -> Non
         first = _plan(track, details=details).frames[0].data
         assert first[4] == mini.register("body_z").address and first[2] == len(first) == 8 + 3
         assert first[6:7] == roll.initial
+
+
+def test_a_profile_without_preset_actions_plans_its_moves() -> None:
+    # A robot model (a profile made for it) need not have the action register.
+    mini = get_profile("mini")
+    bare = dataclasses.replace(mini, model="bare", registers=tuple(
+        r for r in mini.registers if r.name != "action"))
+    track = ResolvedTrack("p", "bare", (MotionCue(0.0, o("m"), {"body_z": 110.0}, 1.0),))
+    frames = [
+        plan_xgo_track(layout_of(bare), track, rate=50.0, link=bare.link, gap=bare.link.gap,
+                       details=details).frames
+        for details in (True, False)
+    ]
+    assert [_essence(f) for f in frames[0]] == [_essence(f) for f in frames[1]]
+    assert len(frames[0]) > 10
