@@ -49,7 +49,10 @@ Prints figures only (no asserts). It takes minutes: run it outside the land lock
     python benchmarks/relay_sync.py [--relays 4] [--starts 20] [--drift-seconds 60] [--scale 16]
     python benchmarks/relay_sync.py --quick     # about a minute: 5 starts, 10 s drift, no scale
 
-``--sim-realtime`` raises the simulators (the measuring instrument) to SCHED_FIFO 20, above
+``--trace-ab`` plays relays without the tracer (``XGO_SHOW_TEST_TRACE``) in turn with the traced
+ones, ``--before REV`` relays running revision REV's ``xgo_show``; for each, every frame's delivery
+and the p50 differences against the local processes, with a bootstrap interval over the start
+rounds. ``--sim-realtime`` raises the simulators (the measuring instrument) to SCHED_FIFO 20, above
 the writers, once they are ready, so their wake-ups (a robot has a CPU of its own) leave the
 figures; ``--estimates 0`` skips part 4; ``--no-realtime-too`` adds relays and a local runner
 with ``--no-realtime``.
