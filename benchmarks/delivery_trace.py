@@ -454,10 +454,12 @@ def _tasks(pid: int) -> dict[int, str]:
 
 
 def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tracer: Tracer,
-                tmp: Path, rev: str = "") -> Played:
+                tmp: Path, rev: str = "", silent: bool = False) -> Played:
     """The schedule played by one ``xgo-show relay`` process per robot, this process their
     conductor (heartbeats every 0.1 s, a clock tracker each, as ``run`` does); with ``rev``,
-    the relays run that revision's xgo_show."""
+    the relays run that revision's xgo_show. ``silent`` (an experiment): the conductor stops
+    its heartbeats and clock tracking once the start is sent, and the relays play on
+    (link-loss policy ``continue``): what the heartbeats and clock bursts cost a delivery."""
     import socket
 
     from xgo_show.compiler.artifact import schedule_to_bytes
@@ -520,7 +522,8 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
             text = schedule_to_bytes(dataclasses.replace(schedule, performers=(perf,))).decode(
                 "ascii")
             shas.append(schedule_digest(text))
-            if not client.upload(text, shas[-1], watchdog_ms=3000)["preflight_ok"]:
+            if not client.upload(text, shas[-1], watchdog_ms=3000,
+                                 link_loss="continue" if silent else "stop")["preflight_ok"]:
                 raise SystemExit(f"relay trace{i}: the pre-flight failed")
         sampler = threading.Thread(target=sample, daemon=True)
         sampler.start()
@@ -531,6 +534,13 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
             for client, sha in zip(clients, shas, strict=True):
                 client.request("start", sha256=sha, start_at=start_at, offset=0.0)
             deadline = start_at + schedule.duration + 15.0
+            if silent:  # nothing from the conductor until the show is over
+                for client in clients:
+                    client.stop_heartbeat()
+                for tracker in trackers:
+                    tracker.close()
+                time.sleep(max(0.0, start_at + schedule.duration + 1.0 - time.monotonic()))
+                clients = []  # released by now (their watchdog): nothing to ask them
             for client in clients:
                 while client.command("heartbeat")["show"]["state"] not in ("ended", "idle"):
                     if time.monotonic() > deadline:
@@ -571,7 +581,8 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
                 if actual - planned > 0.001:
                     late.append((float(planned), float(actual), writer))
     issued.sort()
-    label = "relays, one process per robot" + (f" (revision {rev})" if rev else "")
+    label = ("relays, one process per robot" + (f" (revision {rev})" if rev else "")
+             + (" (conductor silent during the show)" if silent else ""))
     return Played(label, lines, issued, late, {}, roles,
                   (begin, time.monotonic()))
 
@@ -719,6 +730,9 @@ def main() -> None:
     parser.add_argument("--handoff-us", type=float, default=0.0,
                         help="an experiment: the writers' hand-off after a write (runtime/clock"
                         ".py's HANDOFF, 50 us) in the local processes and relays")
+    parser.add_argument("--silent-conductor", action="store_true",
+                        help="an experiment: with --relays, then relays whose conductor sends "
+                        "nothing during the show (no heartbeats, no clock bursts)")
     parser.add_argument("--play-child", metavar="NAME=PTY", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.handoff_us:
@@ -747,6 +761,10 @@ def main() -> None:
                     print(f"relays done, load average {os.getloadavg()[0]:.2f}")
                     played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir),
                                               args.before))
+                if args.silent_conductor:
+                    print(f"relays done, load average {os.getloadavg()[0]:.2f}")
+                    played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir),
+                                              silent=True))
                 print(f"relays done, load average {os.getloadavg()[0]:.2f}")
         finally:
             tracer.close()
