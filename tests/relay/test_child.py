@@ -58,8 +58,11 @@ def test_kill_9_of_run_leaves_local_robots_safe(walk, until, tmp_path: Path, pol
         proc.communicate(timeout=10)
         for name, server in servers.items():
             if policy == "stop":
-                stopped = until(lambda s=server: bool(stops(s)), 2)
-                assert stopped - killed < 0.1, name  # the parent-death signal, not the watchdog
+                until(lambda s=server: bool(stops(s)), 2)
+                # The parent-death signal, not the 500 ms watchdog: the stop arrives within
+                # ~10 ms on a quiet machine (104 ms once at load 11, so 0.3 s here), timed on
+                # arrival at the robot, not when this loop looked.
+                assert stops(server)[0] - killed < 0.3, name
                 sent = [f.data for f in show.performer(name).frames]
                 assert len([d for d in received(server) if d in sent]) < len(sent)
             else:
