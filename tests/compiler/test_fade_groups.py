@@ -170,3 +170,19 @@ def test_validate_walks_a_group_of_fades_without_sampling_it() -> None:
     walk = _CueWalk(layout_of(get_profile("rider")), track, 50.0)
     walk.plan()
     assert len(walk._fade_group(0)) == 2 and not walk.ticks
+
+
+def test_a_group_is_kept_unless_an_action_goes_out_from_its_start_to_its_stop() -> None:
+    # The fades run from 1.0 s to 2.0 s: an action at either end, or between, splits the group;
+    # actions before or after it (in any cue order) do not.
+    o = origin("glow", 3)
+    fades = (FadeCue(1.0, o, "led1", (0, 90, 90), 1.0), FadeCue(1.0, o, "led2", (250, 10, 0), 1.0))
+    layout = layout_of(get_profile("rider"))
+    for times, grouped in (((), True), ((0.5,), True), ((2.5,), True), ((2.5, 0.5), True),
+                           ((1.0,), False), ((2.0,), False), ((1.5,), False),
+                           ((2.5, 1.99, 0.5), False), ((0.98,), True), ((2.02,), True)):
+        actions = tuple(ActionCue(t, origin(f"reset{n}", 5 + n), 255, "reset", 0.01)
+                        for n, t in enumerate(times))
+        planner = XgoPlanner(layout, ResolvedTrack("p", "rider", (*fades, *actions)), 50.0)
+        planner.plan()
+        assert (len(planner._fade_group(0)) == 2) is grouped, times

@@ -14,7 +14,7 @@ dropped (settings and actions are always sent: the user asked for them). The fas
 from __future__ import annotations
 
 import math
-from bisect import bisect_right
+from bisect import bisect_left, bisect_right, insort
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from itertools import compress, repeat
@@ -203,7 +203,8 @@ class XgoPlanner:
         self.ticks: dict[int, Entry] = {}
         self.mixed: set[int] = set()  # ticks that more than one cue writes (see _emit)
         self.action_reg = layout.by_name.get(ACTION_REGISTER)
-        self.action_ticks: list[int] = []  # when each preset action goes out (see _fade_group)
+        # When each preset action goes out, in time order (see _fade_group)
+        self.action_ticks: list[int] = []
         self.end = 0.0
 
     # -- cues -------------------------------------------------------------------------------
@@ -332,7 +333,7 @@ class XgoPlanner:
         self._emit(t_us, [
             Write(self.action_reg.address, data, cue.origin, order, False, cue.duration)
         ])
-        self.action_ticks.append(t_us)
+        insort(self.action_ticks, t_us)
         # The reset action restores the default posture: later moves start from there.
         self.commanded.update(posture_after(self.profile, cue.action_id))
         self.end = max(self.end, cue.start + cue.duration)
@@ -404,7 +405,9 @@ class XgoPlanner:
         stop_us = to_us(cue.start + cue.duration)
         k, end = self._fade_ticks(cue, stop_us)
         start_us = round(k * 1_000_000 / self.rate)
-        if any(start_us <= t <= stop_us for t in self.action_ticks):
+        actions = self.action_ticks  # the first at or after the start: is it by the stop?
+        at = bisect_left(actions, start_us)
+        if at < len(actions) and actions[at] <= stop_us:
             return group[:1]
         for fade in group:
             (r0, g0, b0), (r1, g1, b1) = fade.start, fade.cue.to
