@@ -216,3 +216,15 @@ def test_stretches_of_the_same_sources_give_the_same_frames_as_writes(
     fast = _plan(track, details=False)
     assert [_essence(f) for f in fast.frames] == [_essence(f) for f in reference.frames]
     assert fast.samples == reference.samples
+
+
+def test_settings_on_other_registers_in_the_middle_of_a_move_change_nothing(o) -> None:  # type: ignore[no-untyped-def]
+    # A setting filed at a tick a move samples later (on the grid, mid-move, one or a few):
+    # the move's sample there is its own, not another tick's.
+    for starts in ((1.0,), (0.5, 1.2, 1.6), tuple(0.2 * n for n in range(1, 10))):
+        cues = [MotionCue(0.0, o("m"), {"body_z": 110.0, "yaw": 9.0}, 2.0),
+                *(SetCue(t, o(f"s{n}"), {"vx": [0.0, 10.0][n % 2]}) for n, t in enumerate(starts))]
+        together = _timeline("mini", _plan(ResolvedTrack("p", "mini", tuple(cues)),
+                                           details=False))
+        alone = _timeline("mini", _plan(ResolvedTrack("p", "mini", (cues[0],)), details=False))
+        assert {k: v for k, v in together.items() if k != "vx"} == alone

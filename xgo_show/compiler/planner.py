@@ -614,12 +614,21 @@ class XgoPlanner:
                 break
             times[i] = 0.0
         samples = _tick_samples(at_time, padded, times)
-        entries = dict(zip(tick_times(ks.start, ks.stop, rate),
-                           zip(repeat(src), samples, strict=False), strict=True))
-        # The ticks another cue's sample or writes hold already, then the others at once.
-        self._emit_samples(src, [(t_us, entries.pop(t_us)[1])
-                                 for t_us in entries.keys() & ticks.keys()])
-        ticks.update(entries)
+        stamps = tick_times(ks.start, ks.stop, rate)
+        # The ticks another cue's sample or writes hold already (a move's first tick is the
+        # previous one's last), then the others at once: all filed, those few put back and
+        # emitted one by one.
+        taken = ticks.keys() & stamps
+        held = {t_us: ticks[t_us] for t_us in taken}
+        ticks.update(zip(stamps, zip(repeat(src), samples, strict=False), strict=True))
+        if held:
+            ticks.update(held)
+            if len(held) < 8:  # a move's first tick: found by a short search
+                pairs = [(t_us, samples[stamps.index(t_us)]) for t_us in held]
+            else:  # moves side by side on other registers: every tick
+                where = dict(zip(stamps, samples, strict=True))
+                pairs = [(t_us, where[t_us]) for t_us in held]
+            self._emit_samples(src, pairs)
         for k in range(max(k0, min(full, k_end - 1) + 1), last + 1):
             if k >= k_end:
                 pos, t_us = targets, end_us
