@@ -124,15 +124,28 @@ def _performer_columns(p: PerformerSchedule, ref: OriginRef) -> bytes:
     deltas = list(map(sub, times, itertools.chain((0,), times)))
     if min(deltas, default=0) < 0:
         raise ScheduleError(f"performer {p.name}: frames are not in time order")
-    # Each origin object once (by identity: an Origin hashes in Python), in the order frames
-    # first name it, filed in the table as ref() is told of them; then every frame's index.
-    distinct = dict(zip(map(id, frame_origins), frame_origins, strict=True))
-    index = {key: 0 if (found := ref(origin)) is None else found + 1
-             for key, origin in distinct.items()}
+    # A cue's frames mostly follow one another: the last origin's index is reused. Else each
+    # origin object is looked up by identity (an Origin hashes in Python, and a routine's
+    # Rider alternates its move's and its LEDs' origins frame by frame), and ref() is told of
+    # it once, in the order frames first name it.
+    origins: list[int] = []
+    append = origins.append
+    seen: dict[int, int] = {}
+    last: object = None
+    index = 0
+    for origin in frame_origins:
+        if origin is not last:
+            last = origin
+            found = seen.get(id(origin))
+            if found is None:
+                ref_index = ref(origin)
+                found = seen[id(origin)] = 0 if ref_index is None else ref_index + 1
+            index = found
+        append(index)
     return b"".join((
         _column(_U64, deltas),
         _column(_U16, list(map(len, data))),
-        _column(_U32, list(map(index.__getitem__, map(id, frame_origins)))),
+        _column(_U32, origins),
         _column(_U64, [round(d * 1_000_000) if d else 0 for d in durations]
                 if any(durations) else [0] * len(durations)),
         *data,
