@@ -1,10 +1,10 @@
 """Clock sync (net/timesync.py) in this process, both sides: the relay's time server and the
-conductor's measurement and tracker talk through a recording double of the lowest Zenoh layer
-(queryables, queriers and gets delivered straight to the callback; tests/relay/handling.py's
-Query). The payloads' limits and refusals, what a ping is stamped with, which timebase is
-taken and what the reply says, a held-back reply, the exchange a ping makes, the querier's
-options, and the tracker's first burst, push, rounds, refusals and failure. test_timesync.py
-runs the same over real Zenoh sessions, which mutmut's forked tests cannot use."""
+conductor's measurement and tracker talk through tests/relay/recording.py's session, looped
+back (queriers and gets delivered straight to the queryable's callback). The payloads' limits
+and refusals, what a ping is stamped with, which timebase is taken and what the reply says, a
+held-back reply, the exchange a ping makes, the querier's options, and the tracker's first
+burst, push, rounds, refusals and failure. test_timesync.py runs the same over real Zenoh
+sessions, which mutmut's forked tests cannot use."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import pytest
 import zenoh
 
 from tests.conftest import wait_until
-from tests.relay.handling import Query
+from tests.relay.recording import Answer, Incoming, Querier, RecordingSession
 from xgo_show.errors import TimeSyncError
 from xgo_show.net import timesync as ts
 from xgo_show.net.offset import Timebase
@@ -56,84 +56,20 @@ class Ticking:
         return True
 
 
-class _Payload:
-    def __init__(self, data: bytes) -> None:
-        self.data = data
-
-    def to_bytes(self) -> bytes:
-        return self.data
+def looped() -> RecordingSession:
+    """A session both sides use: the relay's queryables answer the conductor's queriers and
+    gets."""
+    return RecordingSession(loopback=True)
 
 
-class Reply:
-    def __init__(self, ok: bytes | None = None, err: bytes | None = None) -> None:
-        self.ok = None if ok is None else type("Sample", (), {"payload": _Payload(ok)})()
-        self.err = None if err is None else type("Err", (), {"payload": _Payload(err)})()
-
-
-class Entity:
-    def __init__(self, net: Net, kind: str, key: str) -> None:
-        self.net, self.kind, self.key = net, kind, key
-
-    def undeclare(self) -> None:
-        self.net.undeclared.append((self.kind, self.key))
-
-
-class Querier(Entity):
-    def __init__(self, net: Net, key: str, timeout: float) -> None:
-        super().__init__(net, "querier", key)
-        self.timeout = timeout
-        self.payloads: list[bytes] = []
-
-    def get(self, payload: bytes) -> list[Reply]:
-        if self.net.broken:
-            raise zenoh.ZError("session closed")
-        self.payloads.append(payload)
-        return self.net.deliver(self.key, payload, self.timeout)
-
-
-class Net:
-    """A session both sides use: the relay's queryables, the conductor's queriers and gets."""
-
-    def __init__(self) -> None:
-        self.queryables: dict[str, Any] = {}
-        self.queriers: list[tuple[str, dict[str, Any]]] = []
-        self.made: list[Querier] = []
-        self.gets: list[tuple[str, bytes, dict[str, Any]]] = []
-        self.undeclared: list[tuple[str, str]] = []
-        self.broken = False
-
-    def declare_queryable(self, key: str, callback: Any) -> Entity:
-        self.queryables[key] = callback
-        return Entity(self, "queryable", key)
-
-    def declare_querier(self, key: str, **options: Any) -> Querier:
-        self.queriers.append((key, options))
-        self.made.append(Querier(self, key, options["timeout"]))
-        return self.made[-1]
-
-    def get(self, key: str, *, payload: bytes, **options: Any) -> list[Reply]:
-        self.gets.append((key, payload, options))
-        return self.deliver(key, payload, options["timeout"])
-
-    def deliver(self, key: str, payload: bytes, timeout: float) -> list[Reply]:
-        callback = self.queryables.get(key)
-        if callback is None:
-            return []
-        q = Query(payload, key)
-        callback(q)
-        if not q.done.wait(timeout):
-            return []
-        return [Reply(ok=d) for _, d in q.replies] + [Reply(err=e) for e in q.errors]
-
-
-def answer(q: Query) -> dict[str, Any]:
+def answer(q: Incoming) -> dict[str, Any]:
     ((key, data),) = q.replies
     assert key == KEY and q.errors == []
     out: dict[str, Any] = json.loads(data)
     return out
 
 
-def error(q: Query) -> str:
+def error(q: Incoming) -> str:
     (data,) = q.errors
     assert q.replies == []
     got = json.loads(data)
@@ -141,9 +77,9 @@ def error(q: Query) -> str:
     return str(got["error"])
 
 
-def ask(net: Net, body: dict[str, Any] | bytes) -> Query:
+def ask(net: RecordingSession, body: dict[str, Any] | bytes) -> Incoming:
     data = body if isinstance(body, bytes) else json.dumps(body).encode()
-    q = Query(data, KEY)
+    q = Incoming(KEY, data)
     net.queryables[KEY](q)
     return q
 
@@ -201,7 +137,7 @@ def test_a_timebase_is_read_field_by_field_and_kept_in_range() -> None:
 # --- the relay's time server -----------------------------------------------------------------
 
 def test_a_ping_is_stamped_on_arrival_and_before_the_reply_express() -> None:
-    net, clock = Net(), Ticking(50.0, step=1.0)
+    net, clock = looped(), Ticking(50.0, step=1.0)
     server = serve_time(net, KEY, clock)  # type: ignore[arg-type]
     q = ask(net, {"v": 1, "op": "ping", "seq": 7})
     assert answer(q) == {"v": 1, "seq": 7, "t1": 50.0, "t2": 51.0}
@@ -211,7 +147,7 @@ def test_a_ping_is_stamped_on_arrival_and_before_the_reply_express() -> None:
 
 
 def test_a_timebase_goes_to_its_taker_with_the_conductors_id() -> None:
-    net = Net()
+    net = looped()
     taken: list[tuple[Timebase, str]] = []
 
     def take(timebase: Timebase, conductor: str) -> float:
@@ -225,7 +161,7 @@ def test_a_timebase_goes_to_its_taker_with_the_conductors_id() -> None:
 
 
 def test_a_taker_that_returns_no_float_gets_a_plain_ok() -> None:
-    net = Net()
+    net = looped()
     serve_time(net, KEY, Ticking(1.0), on_timebase=lambda tb, who: None)  # type: ignore[arg-type]
     q = ask(net, {"v": 1, "op": "timebase", "conductor": "c9", **tb_fields()})
     assert answer(q) == {"v": 1, "ok": True}
@@ -252,14 +188,14 @@ def refuse(timebase: Timebase, conductor: str) -> float:
 def test_a_request_the_server_cannot_take_gets_an_error_reply(
     body: dict[str, Any] | bytes, taker: Any, says: str,
 ) -> None:
-    net = Net()
+    net = looped()
     serve_time(net, KEY, Ticking(1.0), on_timebase=taker)  # type: ignore[arg-type]
     assert error(ask(net, body)) == says
     assert answer(ask(net, {"v": 1, "op": "ping", "seq": 1}))["seq"] == 1  # still serving
 
 
 def test_a_delay_holds_each_ping_reply_back_after_stamping_it() -> None:
-    net, clock = Net(), Ticking(50.0, step=1.0)
+    net, clock = looped(), Ticking(50.0, step=1.0)
     server = serve_time(net, KEY, clock, delay=DelayInjector(0.05))  # type: ignore[arg-type]
     sent = time.monotonic()
     q = ask(net, {"v": 1, "op": "ping", "seq": 3})
@@ -276,8 +212,8 @@ def test_a_delay_holds_each_ping_reply_back_after_stamping_it() -> None:
 
 # --- the conductor's side --------------------------------------------------------------------
 
-def served(relay_start: float = 5000.0) -> Net:
-    net = Net()
+def served(relay_start: float = 5000.0) -> RecordingSession:
+    net = looped()
     serve_time(net, KEY, Ticking(relay_start))  # type: ignore[arg-type]
     return net
 
@@ -291,15 +227,9 @@ def test_a_ping_is_one_exchange_of_four_readings() -> None:
     assert json.loads(querier.payloads[0]) == {"v": 1, "op": "ping", "seq": 4}
 
 
-class Answering(Net):
+def answering(reply: bytes | None) -> RecordingSession:
     """A relay that answers every ping with ``reply`` (bytes) or an error reply."""
-
-    def __init__(self, reply: bytes | None) -> None:
-        super().__init__()
-        self.reply = reply
-
-    def deliver(self, key: str, payload: bytes, timeout: float) -> list[Reply]:
-        return [Reply(err=b"no") if self.reply is None else Reply(ok=self.reply)]
+    return RecordingSession(lambda q: [Answer(err=b"no") if reply is None else Answer(ok=reply)])
 
 
 @pytest.mark.parametrize("reply", [
@@ -307,9 +237,9 @@ class Answering(Net):
     b'{"v":2,"seq":4,"t1":1.0,"t2":2.0}',
 ])
 def test_a_ping_without_a_good_reply_makes_no_exchange(reply: bytes | None) -> None:
-    net = Answering(reply)
+    net = answering(reply)
     assert ts._ping(net.declare_querier(KEY, timeout=0.5), Ticking(1.0), 4) is None  # type: ignore[arg-type]
-    assert ts._ping(Querier(Net(), KEY, 0.5), Ticking(1.0), 4) is None  # type: ignore[arg-type]
+    assert ts._ping(Querier(looped(), KEY, 0.5), Ticking(1.0), 4) is None  # type: ignore[arg-type]
 
 
 def test_measure_pings_through_one_querier_and_agrees_on_the_offset() -> None:
@@ -317,16 +247,16 @@ def test_measure_pings_through_one_querier_and_agrees_on_the_offset() -> None:
     est = measure(net, KEY, clock=Ticking(100.0))  # type: ignore[arg-type]
     assert est.samples == 25 and est.consistent
     assert est.offset == pytest.approx(4900.0, abs=1e-9)
-    ((key, options),) = net.queriers
-    assert key == KEY and options == {"timeout": 0.5, "target": zenoh.QueryTarget.ALL,
-                                      "consolidation": zenoh.ConsolidationMode.NONE,
-                                      "express": True}
+    (querier,) = net.queriers
+    assert querier.key == KEY and querier.options == {
+        "timeout": 0.5, "target": zenoh.QueryTarget.ALL,
+        "consolidation": zenoh.ConsolidationMode.NONE, "express": True}
     assert net.undeclared == [("querier", KEY)]
     assert measure(served(), KEY, n=3, clock=Ticking(1.0), timeout=0.2).samples == 3  # type: ignore[arg-type]
 
 
 def test_measure_without_answers_says_how_many_pings_went_unanswered() -> None:
-    net = Net()
+    net = looped()
     with pytest.raises(TimeSyncError) as info:
         measure(net, KEY, n=4, timeout=0.25)  # type: ignore[arg-type]
     assert str(info.value) == f"{KEY}: no answer to 4 time-sync pings within 0.25 s each"
@@ -335,12 +265,12 @@ def test_measure_without_answers_says_how_many_pings_went_unanswered() -> None:
 
 # --- the tracker -----------------------------------------------------------------------------
 
-def relay_taking(net: Net, taker: Any, step: float = 0.001) -> None:
+def relay_taking(net: RecordingSession, taker: Any, step: float = 0.001) -> None:
     serve_time(net, KEY, Ticking(5000.0, step), on_timebase=taker)  # type: ignore[arg-type]
 
 
 def test_the_tracker_starts_with_a_burst_pushes_it_and_keeps_tracking() -> None:
-    net = Net()
+    net = looped()
     taken: list[tuple[Timebase, str]] = []
     relay_taking(net, lambda tb, who: taken.append((tb, who)))
     updates: list[TrackerUpdate] = []
@@ -365,19 +295,19 @@ def test_the_tracker_starts_with_a_burst_pushes_it_and_keeps_tracking() -> None:
     assert net.undeclared == [("querier", KEY)]
     seqs = [json.loads(p)["seq"] for p in net_payloads(net)]
     assert seqs[:11] == list(range(1, 12))  # numbered on from burst to burst
-    key, payload, options = net.gets[0]
-    assert key == KEY and options == {"timeout": 0.5,
-                                      "congestion_control": zenoh.CongestionControl.BLOCK}
-    pushed = json.loads(payload)
+    push = net.gets()[0]
+    assert (push.key, push.timeout, push.congestion_control) == (
+        KEY, 0.5, zenoh.CongestionControl.BLOCK)
+    pushed = json.loads(push.payload)
     assert pushed == {"v": 1, "op": "timebase", "conductor": "c7", "offset": tb.offset,
                       "rate": tb.rate, "ref": tb.ref, "bound": tb.bound,
                       "rate_bound": tb.rate_bound}
     assert tracker.failure == ""
 
 
-def net_payloads(net: Net) -> list[bytes]:
+def net_payloads(net: RecordingSession) -> list[bytes]:
     """Every ping payload sent through the session's queriers, in order."""
-    return [p for q in net.made for p in q.payloads]
+    return [p for q in net.queriers for p in q.payloads]
 
 
 def test_the_tracker_waits_its_interval_between_rounds() -> None:
@@ -390,7 +320,7 @@ def test_the_tracker_waits_its_interval_between_rounds() -> None:
     wait_until(lambda: len(net_payloads(net)) >= 2 + 2 * 3, timeout=5.0)
     tracker.close()
     assert clock.t >= start + 3 * 2.0 - 0.1  # three rounds, each after a 2 s wait
-    assert net.gets == []  # push=False only measures
+    assert net.gets() == []  # push=False only measures
 
 
 def test_only_measuring_reports_rounds_as_not_pushed() -> None:
@@ -400,11 +330,11 @@ def test_only_measuring_reports_rounds_as_not_pushed() -> None:
                            on_update=updates.append)
     tracker.start()
     tracker.close()
-    assert updates[0].pushed is False and updates[0].error == "" and net.gets == []
+    assert updates[0].pushed is False and updates[0].error == "" and net.gets() == []
 
 
 def test_a_refused_timebase_fails_the_start_with_the_relays_words() -> None:
-    net = Net()
+    net = looped()
     relay_taking(net, refuse)
     tracker = ClockTracker(net, KEY, conductor="c7", clock=Ticking(1.0))  # type: ignore[arg-type]
     with pytest.raises(TimeSyncError) as info:
@@ -415,7 +345,7 @@ def test_a_refused_timebase_fails_the_start_with_the_relays_words() -> None:
 
 
 def test_no_answer_at_all_fails_the_start() -> None:
-    net = Net()
+    net = looped()
     tracker = ClockTracker(net, KEY, conductor="c7", clock=Ticking(1.0), first=6,  # type: ignore[arg-type]
                            timeout=0.2)
     with pytest.raises(TimeSyncError) as info:
@@ -426,30 +356,26 @@ def test_no_answer_at_all_fails_the_start() -> None:
 
 def test_a_round_before_start_is_a_programming_error() -> None:
     with pytest.raises(RuntimeError, match=r"^ClockTracker\.round before start$"):
-        ClockTracker(Net(), KEY, conductor="c7").round(3)  # type: ignore[arg-type]
+        ClockTracker(looped(), KEY, conductor="c7").round(3)  # type: ignore[arg-type]
 
 
-class Pushed(Net):
-    """A relay whose timebase answers are ``replies`` (pings answered as a real server)."""
-
-    def __init__(self, replies: list[Reply]) -> None:
-        super().__init__()
-        self.replies = replies
-        serve_time(self, KEY, Ticking(5000.0))  # type: ignore[arg-type]
-
-    def get(self, key: str, *, payload: bytes, **options: Any) -> list[Reply]:
-        self.gets.append((key, payload, options))
-        return self.replies
+def pushed(replies: list[Answer]) -> RecordingSession:
+    """A relay whose timebase answers are ``replies`` (pings answered by a real server)."""
+    net = looped()
+    serve_time(net, KEY, Ticking(5000.0))  # type: ignore[arg-type]
+    pings = net.respond
+    net.respond = lambda q: pings(q) if q.via_querier else replies
+    return net
 
 
 @pytest.mark.parametrize(("replies", "says"), [
-    ([Reply(err=b'{"v":1,"error":"not the holder"}')], "not the holder"),
-    ([Reply(err=b"plain words")], "plain words"),
-    ([Reply(err=b"")], "timebase refused"),
+    ([Answer(err=b'{"v":1,"error":"not the holder"}')], "not the holder"),
+    ([Answer(err=b"plain words")], "plain words"),
+    ([Answer(err=b"")], "timebase refused"),
     ([], "no answer to the timebase within 0.5 s"),
 ])
-def test_a_push_says_why_it_did_not_take(replies: list[Reply], says: str) -> None:
-    tracker = ClockTracker(Pushed(replies), KEY, conductor="c7", clock=Ticking(1.0))  # type: ignore[arg-type]
+def test_a_push_says_why_it_did_not_take(replies: list[Answer], says: str) -> None:
+    tracker = ClockTracker(pushed(replies), KEY, conductor="c7", clock=Ticking(1.0))  # type: ignore[arg-type]
     with pytest.raises(TimeSyncError) as info:
         tracker.start()
     assert str(info.value) == f"{KEY}: {says}"
@@ -470,15 +396,15 @@ def test_a_session_closing_under_the_tracker_stops_it_and_says_why() -> None:
 # --- what the first mutation run left ---------------------------------------------------------
 
 def test_a_query_without_a_payload_gets_an_error_reply() -> None:
-    net = Net()
+    net = looped()
     serve_time(net, KEY, Ticking(1.0))  # type: ignore[arg-type]
-    q = Query(None, KEY)
+    q = Incoming(KEY, None)
     net.queryables[KEY](q)
     assert error(q) == "time-sync payload is not JSON"
 
 
 def test_closing_a_server_on_a_closed_session_is_quiet() -> None:
-    net = Net()
+    net = looped()
     server = serve_time(net, KEY, Ticking(1.0))  # type: ignore[arg-type]
 
     def closed() -> None:
@@ -497,7 +423,7 @@ def test_measure_numbers_its_pings_from_1() -> None:
 def test_the_trackers_defaults() -> None:
     from xgo_show.runtime.clock import MonotonicClock
 
-    net = Net()
+    net = looped()
     # The tracker reads the real clock here: a relay clock that stands still between its two
     # readings keeps every round trip at least zero, however fast this machine answers.
     relay_taking(net, lambda tb, who: None, step=0.0)
@@ -507,7 +433,7 @@ def test_the_trackers_defaults() -> None:
     assert isinstance(tracker.clock, MonotonicClock)
     tracker.start()
     tracker.close()
-    assert net.queriers[0][1]["timeout"] == 0.5
+    assert net.queriers[0].options["timeout"] == 0.5
     assert len(net_payloads(net)) >= 25
 
 
@@ -520,11 +446,11 @@ def test_a_closed_tracker_has_no_querier_left_to_ping_with() -> None:
 
 
 @pytest.mark.parametrize(("replies", "says"), [
-    ([Reply(err=b"\xff not utf-8")], "\ufffd not utf-8"),
-    ([Reply(err=b'{"v":1}')], '{"v":1}'),  # no "error" field: the reply as it came
+    ([Answer(err=b"\xff not utf-8")], "\ufffd not utf-8"),
+    ([Answer(err=b'{"v":1}')], '{"v":1}'),  # no "error" field: the reply as it came
 ])
-def test_a_push_refusal_is_read_whatever_its_bytes(replies: list[Reply], says: str) -> None:
-    tracker = ClockTracker(Pushed(replies), KEY, conductor="c7", clock=Ticking(1.0))  # type: ignore[arg-type]
+def test_a_push_refusal_is_read_whatever_its_bytes(replies: list[Answer], says: str) -> None:
+    tracker = ClockTracker(pushed(replies), KEY, conductor="c7", clock=Ticking(1.0))  # type: ignore[arg-type]
     with pytest.raises(TimeSyncError) as info:
         tracker.start()
     assert str(info.value) == f"{KEY}: {says}"

@@ -1,15 +1,22 @@
-"""A recording stand-in for the Zenoh session calls the conductor's relay code makes
-(``session.get``, ``session.liveliness().get``, the clock tracker's ``declare_querier``), so
-the relay client, the relayed performers and the conductor's endpoint run in the test process
-without Zenoh: mutmut forks each mutant's tests from a process whose Zenoh runtime does not
-survive the fork (docs/contributing.md).
+"""The one recording stand-in for a Zenoh session in the in-process tests: the calls the
+conductor's relay code makes (``session.get``, ``session.liveliness().get``, the clock
+tracker's ``declare_querier``), and a server's side (queryables, subscribers, liveliness
+tokens, ``put``) for the relay (relay/server.py), the time server (net/timesync.py) and
+``serve`` (control/server.py). The relay client, the relayed performers, the conductor's
+endpoint, the relay and the servers run in the test process without Zenoh: mutmut forks each
+mutant's tests from a process whose Zenoh runtime does not survive the fork
+(docs/contributing.md).
 
 Every query is recorded. A responder given by the test answers it, as a relay would, with
 :func:`answer` (a relay's reply to the query), :func:`time_server` (its clock) or
 :class:`Answer` (anything else); a query sent with a callback is answered at once, unless the
 session ``holds`` them: the test then answers each held query itself (:meth:`Query.deliver`),
-at the moment it chooses. Only this lowest layer is stood in for: the client, its heartbeat
-thread and watchdog, and the clock tracker are the real ones.
+at the moment it chooses. A ``loopback`` session answers its queries with its own
+queryables, so both sides of a protocol (a clock tracker and a time server) share one session.
+A query to a server (:meth:`RecordingSession.query`, or :class:`Incoming` handed to a callback)
+records its replies, which thread sent each and whether express. Only this lowest layer is
+stood in for: the client, its heartbeat thread and watchdog, the clock tracker, the relay and
+the servers are the real ones.
 """
 
 from __future__ import annotations
@@ -67,6 +74,7 @@ class Query:
         else:
             self._call, self._drop = handler, None
         self.delivered = False
+        self.via_querier = False  # sent by a declared querier, not a plain get
 
     @property
     def request(self) -> dict[str, Any]:
@@ -133,33 +141,47 @@ def time_server(query: Query, ahead: float = 0.0) -> Sequence[Answer]:
 
 
 class Querier:
-    """A declared querier: its queries go to the session's responder like any other."""
+    """A declared querier: its queries go to the session's responder like any other (its
+    ``options`` and every payload it sent recorded)."""
 
-    def __init__(self, session: RecordingSession, key: str, timeout: float) -> None:
+    def __init__(self, session: RecordingSession, key: str, timeout: float,
+                 options: dict[str, Any] | None = None) -> None:
         self.session = session
         self.key = key
         self.timeout = timeout
+        self.options = {} if options is None else options
+        self.payloads: list[bytes] = []
         self.undeclared = False
 
     def get(self, *, payload: bytes) -> list[Answer]:
-        answers = self.session.get(self.key, payload=payload, timeout=self.timeout)
+        if self.session.broken:
+            raise zenoh.ZError("session closed")
+        self.payloads.append(bytes(payload))
+        answers = self.session.get(self.key, payload=payload, timeout=self.timeout,
+                                   _via_querier=True)
         assert answers is not None
         return answers
 
     def undeclare(self) -> None:
         self.undeclared = True
+        self.session.undeclared.append(("querier", self.key))
 
 
 class Declared:
-    """A queryable or subscriber declared on the session (``handler``: its callback, or for a
-    ring-channel subscriber the ring its samples wait in)."""
+    """A queryable, subscriber or liveliness token declared on the session (``handler``: its
+    callback, or for a ring-channel subscriber the ring its samples wait in; a token has
+    none). Undeclaring it is recorded on the session too, in order."""
 
-    def __init__(self, kind: str, key: str, handler: Any) -> None:
+    def __init__(self, kind: str, key: str, handler: Any,
+                 session: RecordingSession | None = None) -> None:
         self.kind = kind
         self.key = key
-        if isinstance(handler, zenoh.handlers.Callback):
-            self.callback: Any = handler.callback
-            self.handler: Any = handler
+        self.session = session
+        if kind == "token":
+            self.callback: Any = None
+            self.handler: Any = None
+        elif isinstance(handler, zenoh.handlers.Callback):
+            self.callback, self.handler = handler.callback, handler
         elif callable(handler):
             self.callback, self.handler = handler, handler
         else:  # a channel: the samples wait in a ring
@@ -168,6 +190,9 @@ class Declared:
 
     def undeclare(self) -> None:
         self.undeclared = True
+        if self.session is not None:
+            with self.session.lock:
+                self.session.undeclared.append((self.kind, self.key))
 
 
 class Ring:
@@ -183,20 +208,30 @@ class Ring:
 
 
 class Incoming:
-    """A query as a queryable's callback gets it: a key, a payload, and where replies go."""
+    """A query as a queryable's callback gets it: a key, a payload, and where replies go
+    (recorded, with the thread that sent each and whether express, so a test sees who
+    answered and how)."""
 
     def __init__(self, key: str, data: bytes | None) -> None:
         self.key_expr = key
         self.payload = None if data is None else Payload(data)
         self.replies: list[tuple[str, bytes]] = []
         self.errors: list[bytes] = []
+        self.threads: list[str] = []
+        self.express: list[bool] = []
+        self.done = threading.Event()  # a reply or an error reply was sent
         self.dropped = threading.Event()
 
-    def reply(self, key: Any, data: bytes) -> None:
+    def reply(self, key: Any, data: bytes, *, express: bool = False) -> None:
         self.replies.append((str(key), bytes(data)))
+        self.express.append(express)
+        self.threads.append(threading.current_thread().name)
+        self.done.set()
 
     def reply_err(self, data: bytes) -> None:
         self.errors.append(bytes(data))
+        self.threads.append(threading.current_thread().name)
+        self.done.set()
 
     def drop(self) -> None:
         self.dropped.set()
@@ -231,13 +266,16 @@ class _Liveliness:
         self.session.liveliness_gets.append((str(key), timeout))
         return [Answer(b"", key=k) for k in self.session.alive]
 
+    def declare_token(self, key: Any) -> Declared:
+        return self.session._declare("token", key, None)
+
 
 class RecordingSession:
     """Stands in for a ``zenoh.Session``'s queries: records each, answers with ``respond``."""
 
     def __init__(self, respond: Responder = silent, *, hold: bool = False,
-                 alive: Sequence[str] = ()) -> None:
-        self.respond = respond
+                 alive: Sequence[str] = (), loopback: bool = False) -> None:
+        self.respond = self._loopback if loopback else respond
         self.hold = hold
         self.alive = list(alive)  # liveliness token keys
         self.queries: list[Query] = []
@@ -245,12 +283,17 @@ class RecordingSession:
         self.lock = threading.Lock()
         self.closed = False
         self.declared: list[Declared] = []
+        self.undeclared: list[tuple[str, str]] = []  # (kind, key), in the order withdrawn
+        self.queriers: list[Querier] = []
         self.puts: list[tuple[str, bytes, Any]] = []
+        self.broken = False  # a querier's get raises, as on a closed session
 
     def get(self, key: Any, handler: Any = None, *, payload: bytes | None = None,
-            timeout: float = 10.0, congestion_control: Any = None) -> list[Answer] | None:
+            timeout: float = 10.0, congestion_control: Any = None,
+            _via_querier: bool = False) -> list[Answer] | None:
         query = Query(str(key), b"" if payload is None else bytes(payload), timeout,
                       congestion_control, handler)
+        query.via_querier = _via_querier
         with self.lock:
             self.queries.append(query)
         if handler is None:
@@ -263,7 +306,23 @@ class RecordingSession:
         return _Liveliness(self)
 
     def declare_querier(self, key: Any, *, timeout: float = 10.0, **options: Any) -> Querier:
-        return Querier(self, str(key), timeout)
+        querier = Querier(self, str(key), timeout, {"timeout": timeout, **options})
+        with self.lock:
+            self.queriers.append(querier)
+        return querier
+
+    def _loopback(self, query: Query) -> Sequence[Answer]:
+        """Answer ``query`` with this session's own queryable for its key: what it replies
+        (or errs) within the query's timeout."""
+        targets = [d for d in self.live("queryable") if matches(d.key, query.key)]
+        if not targets:
+            return []
+        incoming = Incoming(query.key, query.payload)
+        targets[0].callback(incoming)
+        if not incoming.done.wait(query.timeout):
+            return []
+        return ([Answer(ok=data, key=key) for key, data in incoming.replies]
+                + [Answer(err=data, key=query.key) for data in incoming.errors])
 
     def close(self) -> None:
         self.closed = True
@@ -277,7 +336,7 @@ class RecordingSession:
         return self._declare("subscriber", key, handler)
 
     def _declare(self, kind: str, key: Any, handler: Any) -> Declared:
-        declared = Declared(kind, str(key), handler)
+        declared = Declared(kind, str(key), handler, self)
         with self.lock:
             self.declared.append(declared)
         return declared
@@ -291,12 +350,25 @@ class RecordingSession:
         with self.lock:
             return [d for d in self.declared if d.kind == kind and not d.undeclared]
 
-    def query(self, key: str, payload: bytes | None = None) -> Incoming:
+    def declarations(self) -> list[tuple[str, str]]:
+        """(kind, key) of everything declared, in order (withdrawn or not)."""
+        with self.lock:
+            return [(d.kind, d.key) for d in self.declared]
+
+    @property
+    def queryables(self) -> dict[str, Callable[[Incoming], None]]:
+        """The live queryables' callbacks by their key, for a test to call directly."""
+        return {d.key: d.callback for d in self.live("queryable")}
+
+    def query(self, key: str, payload: bytes | None = None, *,
+              wait: float | None = None) -> Incoming:
         """A query from a client: handed to the queryable whose key matches (returns it; its
-        reply may come later, from another thread)."""
+        reply may come later, from another thread, unless ``wait`` seconds are given for it)."""
         incoming = Incoming(key, payload)
         (target,) = [d for d in self.live("queryable") if matches(d.key, key)]
         target.callback(incoming)
+        if wait is not None:
+            assert incoming.done.wait(wait), f"no answer on {key} within {wait} s"
         return incoming
 
     def publish(self, key: str, payload: bytes = b"") -> int:
@@ -315,6 +387,11 @@ class RecordingSession:
         """The puts so far (decoded), of keys starting with ``prefix``."""
         with self.lock:
             return [(k, json.loads(p)) for k, p, _ in self.puts if k.startswith(prefix)]
+
+    def gets(self) -> list[Query]:
+        """The plain gets so far (not a declared querier's), in the order sent."""
+        with self.lock:
+            return [q for q in self.queries if not q.via_querier]
 
     def of(self, op: str) -> list[Query]:
         """The queries of one op, in the order sent."""

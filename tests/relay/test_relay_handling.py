@@ -22,7 +22,8 @@ from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.show_runner import ShowRunner
 
 from .conftest import upload_text, walk_schedule
-from .handling import ALICE, BOB, Query, request, start, upload
+from .handling import ALICE, BOB, CMD, request, start, upload
+from .recording import Incoming
 
 
 @pytest.fixture
@@ -105,17 +106,17 @@ def test_a_silent_holder_is_let_go_after_the_default_watchdog(relay: Relay) -> N
 # --- replies as the queryable sends them -----------------------------------------------------
 
 def test_a_reply_echoes_the_sequence_number_with_the_ops_fields(relay: Relay) -> None:
-    q = Query(msg.encode(request("hello", seq=7).to_json()))
+    q = Incoming(CMD, msg.encode(request("hello", seq=7).to_json()))
     relay._reply(q, q.payload.to_bytes())  # type: ignore[union-attr]
     answer = q.answer()
     assert (answer["seq"], answer["ok"], answer["error"], answer["relay"]) == (7, True, None,
                                                                               "hall")
-    assert answer["fields"]["description"]["holder"]["name"] == "alice"
+    assert answer["description"]["holder"]["name"] == "alice"
     assert abs(answer["relay_time"] - relay.clock.now()) < 1.0
 
 
 def test_a_refusal_is_an_error_reply_with_the_sequence_number(relay: Relay) -> None:
-    q = Query(msg.encode(request("stop", seq=9, reason="x").to_json()))
+    q = Incoming(CMD, msg.encode(request("stop", seq=9, reason="x").to_json()))
     relay._reply(q, q.payload.to_bytes())  # type: ignore[union-attr]
     answer = q.answer()
     assert (answer["seq"], answer["ok"]) == (9, False)
@@ -124,7 +125,7 @@ def test_a_refusal_is_an_error_reply_with_the_sequence_number(relay: Relay) -> N
 
 def test_an_unreadable_request_gets_an_error_reply_without_a_sequence_number(relay: Relay
                                                                              ) -> None:
-    q = Query(b"{not json")
+    q = Incoming(CMD, b"{not json")
     relay._reply(q, b"{not json")
     answer = q.answer()
     assert (answer["seq"], answer["ok"]) == (-1, False)
@@ -142,7 +143,7 @@ def test_a_bug_is_an_internal_error_reply_and_the_relay_keeps_serving(
         raise KeyError("oops")
 
     monkeypatch.setattr(relay, "handle", broken)
-    q = Query(msg.encode(request("hello", seq=3).to_json()))
+    q = Incoming(CMD, msg.encode(request("hello", seq=3).to_json()))
     relay._reply(q, q.payload.to_bytes())  # type: ignore[union-attr]
     answer = q.answer()
     assert (answer["seq"], answer["ok"]) == (3, False)
@@ -154,7 +155,7 @@ def test_a_reading_that_is_not_a_number_is_an_error_reply_not_a_crash(
     relay: Relay, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(relay, "handle", lambda request: {"battery": math.nan})
-    q = Query(msg.encode(request("hello", seq=4).to_json()))
+    q = Incoming(CMD, msg.encode(request("hello", seq=4).to_json()))
     relay._reply(q, q.payload.to_bytes())  # type: ignore[union-attr]
     answer = q.answer()
     assert (answer["seq"], answer["ok"]) == (4, False)
@@ -163,14 +164,14 @@ def test_a_reading_that_is_not_a_number_is_an_error_reply_not_a_crash(
 
 def test_heartbeats_are_answered_at_once_and_the_rest_in_order(relay: Relay) -> None:
     relay.handle(request("hello"))
-    beat = Query(msg.encode(request("heartbeat", seq=2).to_json()))
+    beat = Incoming(CMD, msg.encode(request("heartbeat", seq=2).to_json()))
     relay._on_command(beat)  # type: ignore[arg-type]
-    assert beat.answer()["fields"]["show"]["state"] == RelayState.IDLE
-    hello = Query(msg.encode(request("hello", seq=3).to_json()))
+    assert beat.answer()["show"]["state"] == RelayState.IDLE
+    hello = Incoming(CMD, msg.encode(request("hello", seq=3).to_json()))
     relay._on_command(hello)  # type: ignore[arg-type]
     assert hello.replies == []  # queued for the worker
     assert relay._work.get_nowait() is hello
-    empty = Query(None)
+    empty = Incoming(CMD, None)
     relay._reply(empty, b"")
     assert empty.answer()["ok"] is False
 

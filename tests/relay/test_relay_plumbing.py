@@ -1,7 +1,7 @@
 """A relay's Zenoh side (relay/server.py's ``start``, its queryables, the command worker, the
 time-sync hook, ``finish`` and ``close``) and a remote behaviour's stage commands, in this
-process: the relay runs its own code over a recording double of the session and the queries
-(tests/relay/handling.py), the lowest layer only. What keys it serves and withdraws, who
+process: the relay runs its own code over the recording double of the session and the queries
+(tests/relay/recording.py), the lowest layer only. What keys it serves and withdraws, who
 answers a command (the worker, in order; a heartbeat at once), that a wildcard listing gets
 each relay's own key, that only the holder's timebase is followed (and counts as hearing it),
 and what ``finish`` waits for. test_relay_server.py covers the same over real Zenoh sessions
@@ -30,7 +30,11 @@ from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.runlog import RunLog
 
 from .conftest import upload_text, walk_schedule
-from .handling import ALICE, BOB, Query, Session, encoded, request, start
+from .handling import ALICE, BOB, encoded, request, start
+from .recording import Incoming, RecordingSession
+
+#: A started relay, its session and its log.
+Served = tuple[Relay, RecordingSession, RunLog]
 
 KEY = {part: f"ns/relay/hall/{part}" for part in ("cmd", "info", "time", "alive")}
 WORKER = "xgo-show relay commands"
@@ -43,15 +47,15 @@ def robots() -> Iterator[dict[str, OwnedRobot]]:
     close_robots(owned)
 
 
-def served(robots: dict[str, OwnedRobot], **options: Any) -> tuple[Relay, Session, RunLog]:
+def served(robots: dict[str, OwnedRobot], **options: Any) -> Served:
     """A relay named hall in namespace ns, started over a recording session."""
-    session, log = Session(), RunLog(None, keep=True)
+    session, log = RecordingSession(), RunLog(None, keep=True)
     relay = Relay(session, "hall", robots, namespace="ns", log=log, **options)  # type: ignore[arg-type]
     return relay.start(), session, log
 
 
 @pytest.fixture
-def relay(robots: dict[str, OwnedRobot]) -> Iterator[tuple[Relay, Session, RunLog]]:
+def relay(robots: dict[str, OwnedRobot]) -> Iterator[Served]:
     got = served(robots)
     yield got
     got[0].close()
@@ -88,7 +92,7 @@ def test_start_serves_the_relays_keys_and_close_withdraws_them(
     robots: dict[str, OwnedRobot],
 ) -> None:
     relay, session, log = served(robots)
-    assert session.declared == [("queryable", KEY["time"]), ("queryable", KEY["cmd"]),
+    assert session.declarations() == [("queryable", KEY["time"]), ("queryable", KEY["cmd"]),
                                 ("queryable", KEY["info"]), ("token", KEY["alive"])]
     assert events(log, "relay_start") == [{"relay": "hall", "robots": ["rex", "lola"],
                                            "instance": relay.instance}]
@@ -121,10 +125,10 @@ def test_a_relay_that_cannot_be_undeclared_still_closes(robots: dict[str, OwnedR
 # --- info and commands -----------------------------------------------------------------------
 
 def test_info_answers_a_wildcard_listing_on_the_relays_own_key(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, session, _ = relay
-    q = Query(None, "ns/relay/*/info")  # a listing: every relay answers the same query
+    q = Incoming("ns/relay/*/info", None)  # a listing: every relay answers the same query
     session.queryables[KEY["info"]](q)
     ((key, data),) = q.replies
     assert key == KEY["info"]
@@ -135,24 +139,26 @@ def test_info_answers_a_wildcard_listing_on_the_relays_own_key(
 
 
 def test_commands_are_answered_by_the_worker_one_at_a_time_in_order(
-    relay: tuple[Relay, Session, RunLog], monkeypatch: pytest.MonkeyPatch,
+    relay: Served, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     r, session, _ = relay
     hold(r)  # the hello below is the holder's again
     order = itertools.count()
     answered: list[tuple[int, int]] = []  # (seq, order of the answer)
     ran: list[str] = []
-    real_reply = Query.reply
+    real_reply = Incoming.reply
 
-    def reply(self: Query, key: str, data: bytes, *, express: bool = False) -> None:
+    def reply(self: Incoming, key: str, data: bytes, *, express: bool = False) -> None:
         answered.append((msg.decode_reply(data).seq, next(order)))
         ran.append(threading.current_thread().name)
         real_reply(self, key, data, express=express)
 
-    monkeypatch.setattr(Query, "reply", reply)
+    monkeypatch.setattr(Incoming, "reply", reply)
     cmd = session.queryables[KEY["cmd"]]
-    queries = [Query(encoded("hello", seq=1)), Query(encoded("probe", seq=2, performer="rex")),
-               Query(encoded("stop", seq=3, reason="x")), Query(None)]
+    queries = [Incoming(KEY["cmd"], encoded("hello", seq=1)),
+               Incoming(KEY["cmd"], encoded("probe", seq=2, performer="rex")),
+               Incoming(KEY["cmd"], encoded("stop", seq=3, reason="x")),
+               Incoming(KEY["cmd"], None)]
     for q in queries:
         cmd(q)
     for q in queries:
@@ -160,18 +166,19 @@ def test_commands_are_answered_by_the_worker_one_at_a_time_in_order(
     assert [seq for seq, _ in answered] == [1, 2, 3, -1]
     assert ran == [WORKER] * 4
     assert [q.answer()["ok"] for q in queries] == [True, True, True, False]
-    assert queries[2].answer()["fields"] == {"stops": {"rex": True, "lola": True}}
+    stopped = msg.decode_reply(queries[2].replies[0][1])
+    assert stopped.fields == {"stops": {"rex": True, "lola": True}}
 
 
 def test_a_heartbeat_is_answered_at_once_in_the_callers_thread(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, session, _ = relay
     hold(r)
-    beat = Query(encoded("heartbeat", seq=5))
+    beat = Incoming(KEY["cmd"], encoded("heartbeat", seq=5))
     session.queryables[KEY["cmd"]](beat)
     assert beat.replies and beat.threads == [threading.current_thread().name]
-    assert beat.answer()["seq"] == 5 and beat.answer()["fields"]["show"]["state"] == "idle"
+    assert beat.answer()["seq"] == 5 and beat.answer()["show"]["state"] == "idle"
 
 
 # --- time sync -------------------------------------------------------------------------------
@@ -181,34 +188,34 @@ def timebase(who: msg.Conductor = ALICE, offset: float = -50.0, **fields: float)
     return json.dumps({"v": 1, "op": "timebase", "conductor": who.id, **tb}).encode()
 
 
-def test_only_the_holders_timebase_is_followed(relay: tuple[Relay, Session, RunLog]) -> None:
+def test_only_the_holders_timebase_is_followed(relay: Served) -> None:
     r, session, _ = relay
     refused = "relay hall: timebase from a conductor that does not hold it"
-    q = session.query(KEY["time"], timebase())  # nobody holds the relay yet
+    q = session.query(KEY["time"], timebase(), wait=5.0)  # nobody holds the relay yet
     assert [json.loads(e) for e in q.errors] == [{"v": 1, "error": refused}]
     hold(r)
-    q = session.query(KEY["time"], timebase(BOB))
+    q = session.query(KEY["time"], timebase(BOB), wait=5.0)
     assert [json.loads(e) for e in q.errors] == [{"v": 1, "error": refused}]
     assert r.clock.timebase is None and q.replies == []
-    q = session.query(KEY["time"], timebase())
+    q = session.query(KEY["time"], timebase(), wait=5.0)
     assert q.errors == [] and [json.loads(d) for _, d in q.replies] == [
         {"v": 1, "ok": True, "correction": 0.0}]  # the first is set at once
     assert r.clock.timebase is not None and r.clock.timebase.offset == -50.0
     assert abs(r.clock.now() - (r.base.now() + 50.0)) < 0.5
-    q = session.query(KEY["time"], timebase(offset=-50.002))
+    q = session.query(KEY["time"], timebase(offset=-50.002), wait=5.0)
     (correction,) = [json.loads(d)["correction"] for _, d in q.replies]
     assert correction == pytest.approx(0.002, abs=1e-5)  # the next one is slewed to
 
 
 def test_a_holders_timebase_counts_as_hearing_from_it(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, session, _ = relay
     hold(r)
     assert r._holder is not None
     heard = r._holder.watchdog.last_heard
     time.sleep(0.02)
-    session.query(KEY["time"], timebase())
+    session.query(KEY["time"], timebase(), wait=5.0)
     assert r._holder.watchdog.last_heard >= heard + 0.02
 
 
@@ -219,9 +226,11 @@ def test_pings_are_stamped_with_this_hosts_clock_not_the_show_clock(
     r, session, _ = served(robots, clock=base)
     try:
         hold(r)
-        session.query(KEY["time"], timebase(offset=-400.0))  # the show clock: base - 400 s
+        # The show clock: base - 400 s.
+        session.query(KEY["time"], timebase(offset=-400.0), wait=5.0)
         before = base.now()
-        q = session.query(KEY["time"], json.dumps({"v": 1, "op": "ping", "seq": 3}).encode())
+        ping = json.dumps({"v": 1, "op": "ping", "seq": 3}).encode()
+        q = session.query(KEY["time"], ping, wait=5.0)
         after = base.now()
         ((key, data),) = q.replies
         got = json.loads(data)
@@ -235,13 +244,13 @@ def test_pings_are_stamped_with_this_hosts_clock_not_the_show_clock(
 def test_a_sync_delay_holds_ping_replies_back(robots: dict[str, OwnedRobot]) -> None:
     r, session, _ = served(robots, sync_delay=DelayInjector(0.05))
     try:
-        q = Query(json.dumps({"v": 1, "op": "ping", "seq": 1}).encode(), KEY["time"])
+        q = Incoming(KEY["time"], json.dumps({"v": 1, "op": "ping", "seq": 1}).encode())
         sent = time.monotonic()
         session.queryables[KEY["time"]](q)
         assert q.replies == []  # not from the callback
         assert q.done.wait(5.0)
         assert time.monotonic() - sent >= 0.05
-        assert q.threads == ["xgo-show time-sync delay"] and q.dropped
+        assert q.threads == ["xgo-show time-sync delay"] and q.dropped.is_set()
     finally:
         r.close()
 
@@ -256,7 +265,7 @@ def upload_for(r: Relay, link_loss: str, seconds: float) -> str:
 
 
 def test_finish_between_shows_leaves_the_robots_as_they_are(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, session, log = relay
     r.finish("conductor gone")
@@ -266,7 +275,7 @@ def test_finish_between_shows_leaves_the_robots_as_they_are(
 
 
 def test_finish_plays_a_continue_show_to_its_end_first(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, _, log = relay
     hold(r)
@@ -279,7 +288,7 @@ def test_finish_plays_a_continue_show_to_its_end_first(
     assert events(log, "safe_stop") == []
 
 
-def test_finish_stops_a_stop_show_at_once(relay: tuple[Relay, Session, RunLog]) -> None:
+def test_finish_stops_a_stop_show_at_once(relay: Served) -> None:
     r, _, log = relay
     hold(r)
     sha = upload_for(r, "stop", 5.0)
@@ -315,7 +324,7 @@ def test_a_trace_logs_each_robots_first_frame(robots: dict[str, OwnedRobot]) -> 
 # --- a remote behaviour's stage --------------------------------------------------------------
 
 def test_a_stage_opens_for_the_holder_and_keeps_shows_out(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, _, _ = relay
     hold(r)
@@ -337,7 +346,7 @@ def test_a_stage_opens_for_the_holder_and_keeps_shows_out(
     assert r._stage is stage
 
 
-def test_a_release_closes_the_stage(relay: tuple[Relay, Session, RunLog]) -> None:
+def test_a_release_closes_the_stage(relay: Served) -> None:
     r, _, _ = relay
     hold(r)
     r.handle(request("stage_open", robots=["rex"], telemetry=0.25, watchdog_ms=500))
@@ -349,7 +358,7 @@ def test_a_release_closes_the_stage(relay: tuple[Relay, Session, RunLog]) -> Non
 
 
 def test_a_stop_closes_the_stage_then_stops_every_robot(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, _, _ = relay
     hold(r)
@@ -362,7 +371,7 @@ def test_a_stop_closes_the_stage_then_stops_every_robot(
 
 
 def test_stage_commands_are_refused_while_a_show_runs(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, _, _ = relay
     hold(r)
@@ -377,7 +386,7 @@ def test_stage_commands_are_refused_while_a_show_runs(
 # --- what the first mutation run with these tests showed --------------------------------------
 
 def test_a_silence_between_shows_says_how_long_to_the_microsecond(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, _, log = relay
     hold(r)
@@ -390,7 +399,7 @@ def test_a_silence_between_shows_says_how_long_to_the_microsecond(
 
 
 def test_a_silence_during_a_stop_show_names_the_conductor_and_how_long(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, _, log = relay
     hold(r)
@@ -404,7 +413,7 @@ def test_a_silence_during_a_stop_show_names_the_conductor_and_how_long(
 
 
 def test_a_heartbeat_during_a_show_reports_each_robot(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, _, _ = relay
     hold(r)
@@ -419,7 +428,7 @@ def test_a_heartbeat_during_a_show_reports_each_robot(
 
 
 def test_timed_commands_reach_the_runner_at_their_time(
-    relay: tuple[Relay, Session, RunLog], monkeypatch: pytest.MonkeyPatch,
+    relay: Served, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     from xgo_show.runtime.show_runner import ShowRunner
 
@@ -440,7 +449,7 @@ def test_timed_commands_reach_the_runner_at_their_time(
 
 
 def test_a_probe_names_the_model_the_relay_was_given_and_waits_for_the_show(
-    relay: tuple[Relay, Session, RunLog],
+    relay: Served,
 ) -> None:
     r, _, _ = relay
     hold(r)
@@ -454,7 +463,7 @@ def test_a_probe_names_the_model_the_relay_was_given_and_waits_for_the_show(
 
 
 def test_a_release_stops_the_old_watchdog_in_a_daemon_thread_of_its_own(
-    relay: tuple[Relay, Session, RunLog], monkeypatch: pytest.MonkeyPatch,
+    relay: Served, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     made: list[tuple[str, bool | None]] = []
     real = threading.Thread

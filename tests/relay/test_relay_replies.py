@@ -31,7 +31,8 @@ from xgo_show.runtime.runlog import RunLog
 from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 
 from .conftest import upload_text, walk_schedule
-from .handling import ALICE, BOB, Query, Session, encoded, request
+from .handling import ALICE, BOB, CMD, encoded, request
+from .recording import Incoming, RecordingSession
 
 
 @pytest.fixture
@@ -61,7 +62,7 @@ class ManualClock:
         return True
 
 
-Made = tuple[Relay, Session, RunLog]
+Made = tuple[Relay, RecordingSession, RunLog]
 
 
 @pytest.fixture
@@ -71,7 +72,7 @@ def make(robots: dict[str, OwnedRobot]) -> Iterator[Callable[..., Made]]:
     made: list[Relay] = []
 
     def build(**options: Any) -> Made:
-        session, log = Session(), RunLog(None, keep=True)
+        session, log = RecordingSession(), RunLog(None, keep=True)
         r = Relay(session, "hall", robots, namespace="ns", log=log, **options)  # type: ignore[arg-type]
         made.append(r.start())
         return r, session, log
@@ -148,16 +149,16 @@ def ended(r: Relay) -> None:
 def test_a_relays_defaults_namespace_telemetry_no_trace_and_a_log_that_keeps_nothing(
     robots: dict[str, OwnedRobot],
 ) -> None:
-    session = Session()
+    session = RecordingSession()
     r = Relay(session, "hall", robots).start()  # type: ignore[arg-type]
     try:
-        assert [key for _, key in session.declared] == [
+        assert [key for _, key in session.declarations()] == [
             "xgo-show/relay/hall/time", "xgo-show/relay/hall/cmd", "xgo-show/relay/hall/info",
             "xgo-show/relay/hall/alive"]
         assert r.telemetry is True and r.allow_unsafe is False and r.sync_delay is None
         assert r._tracer is None
         assert r.log.path is None and r.log.records == []  # a relay runs for days: no growth
-        other = Relay(Session(), "hall", robots)  # type: ignore[arg-type]
+        other = Relay(RecordingSession(), "hall", robots)  # type: ignore[arg-type]
         assert re.fullmatch(r"[0-9a-f]{12}", r.instance) and other.instance != r.instance
         other.close()
     finally:
@@ -196,13 +197,13 @@ def test_a_new_holder_starts_from_this_hosts_clock_not_the_last_ones_timebase(
     r.handle(request("hello"))
     tb = {"v": 1, "op": "timebase", "conductor": ALICE.id, "offset": -50.0, "rate": 0.0,
           "ref": 0.0, "bound": 1e-4, "rate_bound": 1e-6}
-    session.query("ns/relay/hall/time", json.dumps(tb).encode())
+    session.query("ns/relay/hall/time", json.dumps(tb).encode(), wait=5.0)
     assert r.clock.timebase is not None
     r.handle(request("release"))
     r.handle(request("hello", BOB))
     # Bob's first timebase is set at once, not slewed to from Alice's (30 s away).
     q = session.query("ns/relay/hall/time", json.dumps(
-        tb | {"conductor": BOB.id, "offset": -80.0}).encode())
+        tb | {"conductor": BOB.id, "offset": -80.0}).encode(), wait=5.0)
     assert [json.loads(d) for _, d in q.replies] == [{"v": 1, "ok": True, "correction": 0.0}]
     assert abs(r.clock.now() - (r.base.now() + 80.0)) < 0.5
 
@@ -234,11 +235,11 @@ def test_only_a_heartbeat_shorter_than_1024_bytes_is_answered_in_the_callers_thr
     r, session, _ = make()
     r.handle(request("hello"))
     beat = encoded("heartbeat", seq=5)
-    at_once = Query(beat + b" " * (1023 - len(beat)))  # JSON allows the trailing blanks
-    session.queryables["ns/relay/hall/cmd"](at_once)
+    at_once = Incoming(CMD, beat + b" " * (1023 - len(beat)))  # JSON allows the trailing blanks
+    session.queryables[CMD](at_once)
     assert at_once.threads == [threading.current_thread().name]
-    longer = Query(beat + b" " * (1024 - len(beat)))  # by the worker, in its turn
-    session.queryables["ns/relay/hall/cmd"](longer)
+    longer = Incoming(CMD, beat + b" " * (1024 - len(beat)))  # by the worker, in its turn
+    session.queryables[CMD](longer)
     assert longer.done.wait(10.0) and longer.threads == ["xgo-show relay commands"]
     assert longer.answer()["seq"] == 5
 
