@@ -219,3 +219,28 @@ def test_the_start_tracer_converts_each_frame_by_the_mapping_it_was_timed_by() -
     frames = fields["frames"]
     assert isinstance(frames, dict) and len(frames["a"]) == 1 and frames["a"][0][0] == 0
     assert frames["a"][0][1:] == pytest.approx(want, abs=1e-9)
+
+
+def test_the_start_tracer_maps_frames_of_a_clock_that_names_no_base_by_its_mapping() -> None:
+    from types import SimpleNamespace
+
+    from xgo_show.net.testhooks import StartTracer
+    from xgo_show.runtime.events import EventBus, FrameSent, ShowEnded, ShowStarted
+
+    class Mapped:  # maps itself onto the host clock (1000 s behind) but names no base
+        def now(self) -> float:
+            return 1102.0
+
+        def mapping(self) -> SimpleNamespace:
+            return SimpleNamespace(base_time=lambda t: t - 1000.0)
+
+    bus = EventBus()
+    logged: list[tuple[str, dict[str, object]]] = []
+    tracer = StartTracer(bus, Mapped(), lambda event, **fields: logged.append((event, fields)))  # type: ignore[arg-type]
+    bus.publish(ShowStarted(1100.0, "s", 0.0, 1101.0, ("a",), "halt_all", 0.0))
+    bus.publish(FrameSent(1101.5, "a", "frame", 0, 1101.0, b"\x00", "", None, 0.0))
+    bus.publish(ShowEnded(1103.0, True, "completed"))
+    tracer.close()
+    assert bus.listener_errors == 0
+    event, fields = logged[-1]
+    assert event == "frames_host" and fields["frames"] == {"a": [(0, 101.0, 101.5, 102.0)]}
