@@ -12,13 +12,13 @@ import dataclasses
 import json
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
 
-from tests.conftest import wait_until
+from tests.conftest import wait_until as _wait_until
 from tests.control.conftest import ROUTINE
 from tests.control.serving import Serve, refusal
 from tests.control.staging import Stage
@@ -35,6 +35,11 @@ from xgo_show.runtime.show_runner import ShowResult
 from xgo_show.timecode.osc import Command
 
 STANDS = {"rex": "stand:rex", "ivy": "stand:ivy"}
+
+
+def wait_until(predicate: Callable[[], object], timeout: float = 10.0) -> None:
+    """Wait for what another thread does (generous: a loaded machine is slow)."""
+    _wait_until(predicate, timeout)
 S = ExecutorState
 
 
@@ -236,6 +241,7 @@ def test_a_start_arms_the_show_with_the_servers_clock_bus_and_options(
         assert got["preflight"] == run.launch.report.as_record()  # type: ignore[union-attr]
         assert [r["performer"] for r in got["preflight"]["rows"]] == ["rex", "ivy"]
         assert got["preflight"]["ok"] is True
+        wait_until(lambda: [e for e in s.events("state") if e["state"] == "preflight"])
         (preflight,) = [e for e in s.events("state") if e["state"] == "preflight"]
         assert preflight["rows"] == got["preflight"]["rows"] and preflight["ok"] is True
         s.ask("stop")
@@ -269,6 +275,7 @@ def test_sim_gives_a_simulator_to_each_performer_not_mapped_and_closes_it_after(
         assert s.ask("start")["ok"]
         (bench,) = stage.benches
         assert bench.names == ["ivy"] and bench.models == ["lite"]
+        assert stage.contexts[0].telemetry is False  # as the server was told
         assert stage.opened == [("rex", "ivy")]
         assert bench.closed == 0
         s.ask("stop")
@@ -371,10 +378,10 @@ def test_an_open_that_raises_is_answered_by_its_kind_and_closes_the_simulators(
 
 def test_a_start_given_in_seconds_is_starting_until_then(server: Serve, stage: Stage) -> None:
     before = time.time()
-    got = server.ask("start", **{"in": 0.4})
+    got = server.ask("start", **{"in": 1.0})
     after = time.time()
     assert got["ok"] and got["offset"] == 0.0
-    assert before + 0.4 - 0.01 <= got["start_time"] <= after + 0.4 + 0.01
+    assert before + 1.0 - 0.01 <= got["start_time"] <= after + 1.0 + 0.01
     assert state(server) == "starting"
     run = server.server._run
     assert run is not None and run.start_at is not None
@@ -491,7 +498,7 @@ def test_a_panic_stops_the_show_at_once_and_says_so(server: Serve, stage: Stage)
     assert got["ok"] and got["state"] == "ended" and got["reason"] == "panic"
     assert set(got["stops"]) == {"rex", "ivy"}
     assert ("safe_stop", "panic", 0.1) in stage.p("rex").calls
-    assert [e for e in server.events("state") if e["state"] == "panic"]
+    wait_until(lambda: [e for e in server.events("state") if e["state"] == "panic"])
     assert ended(server)["reason"] == "panic"
 
 
@@ -727,3 +734,33 @@ def test_the_shows_robot_states_and_progress_are_published(server: Serve) -> Non
     progress = server.events("progress")[0]
     assert progress["section"] == "b" and progress["duration"] == 2.3
     server.ask("stop")
+
+
+def test_unsafe_writes_are_refused_unless_serve_allows_them(
+    stage: Stage, triggered_schedule: Schedule
+) -> None:
+    from xgo_show.compiler.schedule import ScheduledFrame
+    from xgo_show.profiles import get_profile
+    from xgo_show.wire.xgo import write_frame
+
+    zero = write_frame(get_profile("mini").register("servo_zero").address, b"\x01")
+    unsafe = dataclasses.replace(triggered_schedule, performers=tuple(
+        dataclasses.replace(p, frames=tuple(sorted((*p.frames, ScheduledFrame(0.5, zero)),
+                                                   key=lambda f: f.t)))
+        if p.name == "rex" else p for p in triggered_schedule.performers))
+    s = serving(unsafe, sim=True, maps={"rex": "stand:rex"})
+    try:
+        got = s.ask("start")
+        assert (got["error"], got["message"][:18]) == ("failed", "refusing to run: r")
+        assert "servo_zero" in got["message"] and stage.opened == []
+        assert [b.closed for b in stage.benches] == [1]
+    finally:
+        s.close()
+    s = serving(unsafe, allow_unsafe=True)
+    try:
+        assert s.ask("start")["ok"]
+        run = s.server._run
+        assert run is not None and run.launch.unsafe != []
+        s.ask("stop")
+    finally:
+        s.close()
