@@ -764,3 +764,47 @@ def test_unsafe_writes_are_refused_unless_serve_allows_them(
         s.ask("stop")
     finally:
         s.close()
+
+
+def close_in_time(s: Serve) -> None:
+    """Close the server from another thread; it must return (after its bounded waits)."""
+    closer = threading.Thread(target=s.server.close, name="test closer")
+    closer.start()
+    closer.join(20.0)  # seconds: the bounds are 2 and 3 s
+    assert not closer.is_alive(), "close waited for ever"
+    assert all(d.undeclared for d in s.session.declared)
+
+
+def test_closing_gives_a_stuck_show_a_bounded_wait(
+    stage: Stage, triggered_schedule: Schedule, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    playing, go_on = threading.Event(), threading.Event()
+
+    def stuck(*args: object, **kwargs: object) -> ShowResult:
+        playing.set()
+        go_on.wait(30.0)
+        return ShowResult(False, "stuck")
+
+    monkeypatch.setattr(server_module.Launch, "run", stuck)
+    s = serving(triggered_schedule)
+    try:
+        assert s.ask("start")["ok"] and playing.wait(10.0)
+        close_in_time(s)
+    finally:
+        go_on.set()
+        s.server.close()
+
+
+def test_closing_gives_a_command_stuck_in_its_pre_flight_a_bounded_wait(
+    stage: Stage, triggered_schedule: Schedule
+) -> None:
+    s = serving(triggered_schedule)
+    stage.hold_open = threading.Event()
+    try:
+        start = s.query("start")
+        assert stage.opening.wait(10.0)  # the control thread waits in the start's open
+        close_in_time(s)
+    finally:
+        stage.hold_open.set()
+    assert start.dropped.wait(10.0)
+    s.server.close()  # again: whatever the start went on to do is stopped
