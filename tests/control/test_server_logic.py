@@ -12,6 +12,8 @@ import threading
 import time
 from pathlib import Path
 
+import pytest
+
 from tests.conftest import wait_until
 from tests.control.serving import NS, Serve, block_the_control_thread, refusal
 from tests.control.staging import Stage
@@ -19,7 +21,7 @@ from tests.relay.recording import RecordingSession
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
 from xgo_show.control.protocol import PROTOCOL_VERSION, LoadRequest
-from xgo_show.control.server import UNKNOWN_REPLIES, ServeOptions, ShowServer
+from xgo_show.control.server import UNKNOWN_REPLIES, UNKNOWN_RING, ServeOptions, ShowServer
 from xgo_show.timecode.osc import Command
 
 ZERO = {"triggers": 0, "accepted": 0, "refused": 0, "unknown": 0, "malformed": 0, "busy": 0,
@@ -355,3 +357,58 @@ def test_a_running_show_is_paused_resumed_and_sought(serve: Serve,
     wait_until(lambda: any(e["state"] == "panic" for e in serve.events("state")))
     wait_until(lambda: serve.server.status()["state"] == "loaded", timeout=10)
     assert serve.server.status()["last_result"]["completed"] is False
+
+
+# --- how it is wired -----------------------------------------------------------------------------
+
+def test_the_servers_threads_are_daemons(serve: Serve) -> None:
+    """A command or a drain that never ends must not keep ``serve`` from exiting."""
+    mine = {t.name: t.daemon for t in threading.enumerate()
+            if t.name in ("xgo-show control", "xgo-show unknown triggers")}
+    assert mine == {"xgo-show control": True, "xgo-show unknown triggers": True}
+
+
+def test_triggers_are_taken_on_zenohs_receiving_thread(loaded: Serve) -> None:
+    """The trigger queryable and the awaited triggers' subscribers run on the thread that
+    received the message (``indirect=False``): no hand-over before the release."""
+    direct = [d for d in loaded.session.declared if d.key.startswith("ns/trigger/")
+              and not (d.kind == "subscriber" and d.key == "ns/trigger/*")]
+    assert sorted((d.kind, d.key) for d in direct) == [
+        ("queryable", "ns/trigger/*"), ("subscriber", "ns/trigger/encore"),
+        ("subscriber", "ns/trigger/go")]
+    assert all(d.handler.indirect is False for d in direct)
+
+
+def test_puts_for_unknown_triggers_wait_in_a_ring_of_its_size(
+    stage: Stage, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import zenoh
+
+    rings: list[int] = []
+    ring = zenoh.handlers.RingChannel
+
+    def sized(capacity: int) -> object:
+        rings.append(capacity)
+        return ring(capacity)
+
+    monkeypatch.setattr(zenoh.handlers, "RingChannel", sized)
+    s = Serve()
+    try:
+        assert rings == [UNKNOWN_RING]
+    finally:
+        s.close()
+
+
+def test_osc_cues_arrive_over_udp_with_follow(stage: Stage) -> None:
+    from pythonosc.udp_client import SimpleUDPClient
+
+    s = Serve(follow="osc:127.0.0.1:0")  # any free port
+    try:
+        osc = s.server.osc
+        assert osc is not None and osc.host == "127.0.0.1" and osc.port > 0
+        SimpleUDPClient(osc.host, osc.port).send_message("/pause", [])
+        wait_until(lambda: "osc: pause refused (refused): cannot pause: no show is running"
+                   in s.said, timeout=10)
+    finally:
+        s.close()
+    assert not [t for t in threading.enumerate() if t.name == "osc-server"]
