@@ -195,6 +195,7 @@ class ShowServer:
         self._queue: collections.deque[tuple[str, Any, Any]] = collections.deque()
         self._cond = threading.Condition()
         self._closed = False
+        self._closing = False  # close() began: a start armed from now on is given up
         self._panics = 0  # panics so far: a start armed across one is cancelled
         #: what came in and what became of it (status replies carry them)
         self._tallies = {name: _Tally() for name in _COUNTERS}
@@ -489,13 +490,17 @@ class ShowServer:
         thread = threading.Thread(target=self._play, args=(run, offset, start_at),
                                   name="xgo-show show", daemon=True)
         run.thread, run.start_at = thread, start_at
-        with self._lock:  # a panic now finds the run (and stops it), or came before: cancel
-            cancelled = self._panics != panics
+        # A panic or a close now finds the run (and stops it), or came before: cancel.
+        with self._lock:
+            closing = self._closing
+            cancelled = closing or self._panics != panics
             if not cancelled:
                 self._run = run
         if cancelled:
             _disarm(run)
             self._count("cancelled")
+            if closing:
+                raise ControlError("start cancelled: the server is closing", code="closing")
             raise ControlError("start cancelled by a panic during its pre-flight",
                                code="cancelled")
         thread.start()
@@ -734,8 +739,10 @@ class ShowServer:
     # ------------------------------------------------------------------ life
 
     def close(self) -> None:
-        """Safe-stop a running show, stop answering, close the publisher."""
+        """Safe-stop a running show (a start being armed is given up), stop answering, close
+        the publisher."""
         with self._lock:
+            self._closing = True
             run = self._run
         if run is not None:
             run.runner.stop("serve is closing")
