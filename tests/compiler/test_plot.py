@@ -22,7 +22,9 @@ from xgo_show.compiler.timeline import build_timeline
 ROUTINE = Path(__file__).parent / "data" / "timeline_show.yaml"
 
 
-@pytest.fixture(scope="module")
+# Drawn afresh for each test (not once a module): mutmut maps the drawing functions to
+# the tests that call them, and a module fixture is drawn in the first test only.
+@pytest.fixture
 def figure() -> Any:
     fig = timeline_figure(build_timeline(compile_show(load_show(ROUTINE))))
     fig.canvas.draw()

@@ -42,7 +42,9 @@ DEMO = Timeline("Demo", 8.0, (REX, ARM), bars=((0.0, 1), (2.0, 2), (4.0, 3), (6.
 HEIGHT = 0.75 + 0.45 + 0.35 + 1.3 + 1.3 + 0.5 + 0.46 + 0.35 + 0.4 + 0.35 + 0.5
 
 
-@pytest.fixture(scope="module")
+# Drawn afresh for each test (not once a module): mutmut maps the drawing functions to
+# the tests that call them, and a module fixture is drawn in the first test only.
+@pytest.fixture
 def demo() -> Any:
     fig = timeline_figure(DEMO)
     yield fig
