@@ -12,6 +12,7 @@ import bisect
 import heapq
 from collections import defaultdict
 from collections.abc import Iterator, Mapping
+from operator import itemgetter
 from typing import NamedTuple
 
 from xgo_show.choreo.resolve import CueSource, Resolution
@@ -50,6 +51,9 @@ class _Write(NamedTuple):
     key: str = ""  # the value's key in the cue (an xArm servo id), when not the register name
 
 
+_START_END = itemgetter(1, 2)  # a _Write's (start, end), read at C level
+
+
 def _fmt(t: float) -> str:
     return f"{t:.3f} s"
 
@@ -66,6 +70,9 @@ class _Checker:
         # Per profile (by id: the checker lives as long as one check of one show).
         self.by_name: dict[int, dict[str, Register]] = {}
         self.accessories: dict[int, frozenset[str]] = {}
+        # (id(profile), arm, name) -> the register, for names register() found nothing
+        # wrong with: it says the same of every value of the show for them.
+        self.valid: dict[tuple[int, bool, str], Register] = {}
 
     def error(self, message: str, origin: Origin | None, src: CueSource, sub: str = "") -> None:
         """Report at ``origin``; None: at the value ``sub`` of the cue (found only now: most
@@ -139,6 +146,10 @@ class _Checker:
 
     def value(self, reg: Register, value: object, src: CueSource, origin: Origin | None
               ) -> None:
+        lo, hi = reg.minimum, reg.maximum
+        if (lo is not None and hi is not None and value.__class__ in (float, int)
+                and lo - 1e-9 <= value <= hi + 1e-9):
+            return  # a number in a linear register's range: what reg.check lets pass
         try:
             if reg.linear:
                 if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -188,11 +199,16 @@ class _Checker:
             values = cue.values
         # Each value's own place is found only if there is something to say (origin None).
         origin: Origin | None = None
+        valid, key = self.valid, id(profile)
+        motion = isinstance(cue, MotionCue)
         for name, value in values.items():
-            reg = self.register(name, profile, arm, src, origin)
+            reg = valid.get((key, arm, name))
             if reg is None:
-                continue
-            if isinstance(cue, MotionCue) and reg.limits is None:
+                reg = self.register(name, profile, arm, src, origin)
+                if reg is None:
+                    continue
+                valid[key, arm, name] = reg
+            if motion and reg.limits is None:
                 # Only registers the profile gives limits are trajectory-capable; a cue's own
                 # limits tune a move, they do not make a switch or a period movable.
                 self.error(f"{name} cannot be moved smoothly; write it with set:", origin,
@@ -233,7 +249,7 @@ class _Checker:
         for w in writes_all:
             by_reg[w.register].append(w)
         for name, writes in by_reg.items():
-            writes.sort(key=lambda w: (w.start, w.end))
+            writes.sort(key=_START_END)
             longest: _Write | None = None
             for w in writes:
                 if (
@@ -292,6 +308,8 @@ class _Checker:
         cut before it begins. One sweep in track order: moves enter a heap by end time; those
         over by an action's start leave it.
         """
+        if not any(isinstance(c, ActionCue) and not c.interrupts for c in cues):
+            return  # nothing to cut
         # One write per cue stands for it (a cue's writes share its start and end).
         moving: dict[int, _Write] = {}
         for w in writes_all:

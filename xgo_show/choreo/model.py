@@ -8,7 +8,7 @@ A cue is a mapping with exactly one *kind* key (``action``, ``move``, ``set``, .
 fields. See docs/choreography.md for the language reference.
 """
 
-from __future__ import annotations
+
 
 import re
 from dataclasses import dataclass, field
@@ -398,7 +398,7 @@ class _Timing(_Model):
     )
 
     @model_validator(mode="after")
-    def _one_timing(self) -> _Timing:
+    def _one_timing(self) -> "_Timing":
         if self.at is not None and self.after is not None:
             raise PydanticCustomError(
                 "timing", "give either 'at' or 'after', not both", {}
@@ -418,7 +418,7 @@ class _BlockTiming(_Model):
     after: LengthField | None = Field(None, description="Gap after the previous cue's end.")
 
     @model_validator(mode="after")
-    def _one_timing(self) -> _BlockTiming:
+    def _one_timing(self) -> "_BlockTiming":
         if self.at is not None and self.after is not None:
             raise PydanticCustomError("timing", "give either 'at' or 'after', not both", {})
         return self
@@ -526,7 +526,7 @@ class RepeatCueModel(_BlockTiming):
     """Play ``cues`` ``repeat`` times in a row."""
 
     repeat: Annotated[int, Field(ge=1, le=MAX_REPEAT)]
-    cues: Annotated[list[CueModel], Field(min_length=1)]
+    cues: Annotated[list["CueModel"], Field(min_length=1)]
 
 
 class IncludeCueModel(_BlockTiming):
@@ -558,6 +558,7 @@ _CUE_CLASSES: dict[str, type[BaseModel]] = {
     "include": IncludeCueModel,
 }
 CUE_KINDS: tuple[str, ...] = tuple(_CUE_CLASSES)
+_KIND_OF: dict[type, str] = {cls: kind for kind, cls in _CUE_CLASSES.items()}
 BLOCK_KINDS: frozenset[str] = frozenset({"rest", "phrase", "repeat", "include"})
 
 
@@ -573,6 +574,9 @@ def _cue_tag(value: object) -> str | None:
 
 
 def _cue_key(value: object) -> str | None:
+    kind = _KIND_OF.get(value.__class__)  # a cue model (the resolver asks for every cue)
+    if kind is not None:
+        return kind
     if isinstance(value, BaseModel):
         for kind, cls in _CUE_CLASSES.items():
             if isinstance(value, cls):
@@ -720,7 +724,7 @@ class WaitModel(_Model):
     model_config = ConfigDict(populate_by_name=True)
 
     @model_validator(mode="after")
-    def _else_needs_timeout(self) -> WaitModel:
+    def _else_needs_timeout(self) -> "WaitModel":
         if self.else_ is not None and self.timeout is None:
             raise PydanticCustomError(
                 "wait", "'else' says what happens after the timeout: give 'timeout' too", {}

@@ -122,18 +122,30 @@ class _Located(Mapping[str, _V]):
         return len(self._locs)
 
 
-@dataclass(frozen=True)
 class CueSource:
-    """Where a resolved cue came from, for the checks and their messages."""
+    """Where a resolved cue came from, for the checks and their messages (one per cue of the
+    show: a plain class, its field path worked out only when a message asks for it)."""
 
-    performer: str
-    kind: str  # the language's cue kind (move, walk, set, ...)
-    path: str  # field path of the cue, e.g. "tracks.rex[3]"
-    origin: Origin
-    values: Mapping[str, Origin] = field(default_factory=dict)  # per register / servo key
-    paths: Mapping[str, str] = field(default_factory=dict)  # field path of each value
-    running: float = 0.0  # seconds the robot is busy with it (actions: their real run time)
-    end: float = 0.0  # end of the cue's slot, seconds (estimated for open-ended moves)
+    __slots__ = ("_doc", "_loc", "end", "kind", "origin", "paths", "performer", "running",
+                 "values")
+
+    def __init__(
+        self, performer: str, kind: str, doc: Document, loc: Loc, origin: Origin,
+        values: Mapping[str, Origin], paths: Mapping[str, str], running: float, end: float,
+    ) -> None:
+        self.performer = performer
+        self.kind = kind  # the language's cue kind (move, walk, set, ...)
+        self._doc, self._loc = doc, loc
+        self.origin = origin
+        self.values = values  # per register / servo key
+        self.paths = paths  # field path of each value
+        self.running = running  # seconds the robot is busy with it (actions: their run time)
+        self.end = end  # end of the cue's slot, seconds (estimated for open-ended moves)
+
+    @property
+    def path(self) -> str:
+        """The field path of the cue, e.g. ``tracks.rex[3]``."""
+        return self._doc.path(self._loc)
 
 
 @dataclass
@@ -216,6 +228,7 @@ class _Resolver:
         self.expanded = 0  # values of the blocks played, parameters filled in, at each play
         self.played: set[tuple[str, str]] = set()  # (file, phrase) actually played
         self.by_name: dict[int, dict[str, Register]] = {}  # id(profile) -> its registers
+        self.by_led: dict[int, list[str]] = {}  # id(profile) -> its LEDs' names
         self.read_bytes = _size(doc.file)  # of the routine and the parts read so far
 
     def registers(self, profile: Profile) -> dict[str, Register]:
@@ -223,6 +236,14 @@ class _Resolver:
         found = self.by_name.get(id(profile))
         if found is None:
             found = self.by_name[id(profile)] = {r.name: r for r in profile.registers}
+        return found
+
+    def leds(self, profile: Profile) -> list[str]:
+        """The names of the profile's LEDs (RGB registers), in its order."""
+        found = self.by_led.get(id(profile))
+        if found is None:
+            found = self.by_led[id(profile)] = [
+                r.name for r in profile.registers if r.encoding is Encoding.RGB]
         return found
 
     # -- diagnostics ----------------------------------------------------------------------
@@ -291,7 +312,10 @@ class _Resolver:
         self, cue: object, start: float, doc: Document, loc: Loc
     ) -> tuple[bool, float | None]:
         """(given, seconds) from duration / beats / bars; (False, None) when none is given."""
-        for name, unit in (("duration", "seconds"), ("beats", "beats"), ("bars", "bars")):
+        duration = getattr(cue, "duration", None)
+        if duration is not None:  # seconds as they are (what length() would give)
+            return True, duration
+        for name, unit in (("beats", "beats"), ("bars", "bars")):
             amount = getattr(cue, name, None)
             if amount is not None:
                 return True, self.length(Length(amount, unit), start, doc, (*loc, name))  # type: ignore[arg-type]
@@ -526,7 +550,10 @@ class _Resolver:
             kind = cue_kind(cue) or "cue"
             start = cursor
             at, after = getattr(cue, "at", None), getattr(cue, "after", None)
-            if at is not None:
+            if (at is not None and at.seconds is not None
+                    and not (at.bare and self.tempo is not None)):
+                start = block.start + at.seconds  # what position() gives, without a call
+            elif at is not None:
                 t = self.position(at, block, (*loc, "at"))
                 start = cursor if t is None else t
             elif after is not None:
@@ -816,7 +843,7 @@ def _describe(performer: str, kind: str, cue: object, context: str) -> str:
     """Short cue description for messages and transcripts: "rex: move body_z, pitch"."""
     what = getattr(cue, kind, None)
     if isinstance(what, dict):
-        detail = ", ".join(str(k) for k in what)
+        detail = ", ".join(map(str, what))
     elif isinstance(what, (str, int, float)) and not isinstance(what, bool):
         detail = str(what)
     else:
@@ -888,9 +915,7 @@ class _Emitter:
         origins = _Located(locs, lambda loc: doc.origin(loc, label))
         paths = _Located(locs, doc.path)
         self.res.sources[id(cue)] = CueSource(
-            self.perf.name, self.kind, self.doc.path(self.loc), self.origin, origins, paths,
-            running, end,
-        )
+            self.perf.name, self.kind, doc, self.loc, self.origin, origins, paths, running, end)
 
     def within_cues(self) -> bool:
         """Count a cue made for the compiler; False, after one error here, past
@@ -1006,13 +1031,17 @@ class _Emitter:
                        self.kind)
             return None
         segments = counts.pop() if counts else 1
-        limits = self.limits_for(list(points), cue)
-        if cue is not None:
+        limits: dict[str, Limits] = {}
+        overrides: dict[str, Limits] = {}
+        if cue is not None and cue.limits:
+            limits = self.limits_for(list(points), cue)
             for name in cue.limits:
                 if name not in points:
                     self.error(f"limits given for {name!r}, which this move does not move",
                                "limits", name, key=True)
-        overrides = {n: lim for n, lim in limits.items() if cue is not None and n in cue.limits}
+            overrides = {n: lim for n, lim in limits.items() if n in cue.limits}
+        elif length is None:  # only an open-ended move needs them (its least duration)
+            limits = self.limits_for(list(points), cue)
         given = _given_in_music(cue, segments)
         t = start
         for k in range(segments):
@@ -1112,7 +1141,7 @@ class _Emitter:
         return end
 
     def on_led(self, cue: LedCueModel, start: float, length: float | None) -> float | None:
-        leds = [r.name for r in self.profile.registers if r.encoding is Encoding.RGB]
+        leds = self.res.leds(self.profile)
         if not leds:
             self.error(f"the {self.profile.title} has no LEDs", "led", key=True)
             return None

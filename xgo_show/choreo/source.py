@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+import operator
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
@@ -277,7 +278,7 @@ class _Builder:
                     for name, value in self.build_mapping(src, loc).items():
                         merged.setdefault(name, value)
         out: dict[str | int, object] = {}
-        key_marks, build, plain = self.key_marks, self.build, self._plain
+        marks, key_marks, build, plain = self.marks, self.key_marks, self.build, self._plain
         for key_node, value_node in node.value:
             tag = key_node.tag
             if tag == _MERGE_TAG:
@@ -301,7 +302,13 @@ class _Builder:
                 continue
             mark = key_node.start_mark
             key_marks[here] = (mark.line + 1, mark.column + 1)
-            out[key] = build(value_node, here)
+            if value_node.__class__ is ScalarNode:  # build() of a value read before, inline
+                mark = value_node.start_mark
+                marks[here] = (mark.line + 1, mark.column + 1)
+                value = plain.get((value_node.tag, value_node.value), REFUSED)
+                out[key] = value if value is not REFUSED else self.scalar(value_node, here)
+            else:
+                out[key] = build(value_node, here)
         for name, value in merged.items():
             out.setdefault(name, value)
         return out
@@ -484,10 +491,10 @@ if _C_LOADER is not None:
         """libyaml's parser with the same YAML 1.2 number resolvers as :class:`_Loader`."""
 
         # libyaml's composer calls these for every node it makes (aliases aside); they only
-        # serve path resolvers, which no loader here has. Builtins that take the same
+        # serve path resolvers, which no loader here has. C functions that take the same
         # arguments and do nothing cost a tenth of a Python method's call (a quarter of
         # composing a long routine was spent in the two).
-        descend_resolver = staticmethod(slice)  # slice(current_node, current_index)
+        descend_resolver = staticmethod(operator.is_)  # is_(current_node, current_index)
         ascend_resolver = staticmethod(tuple)  # tuple()
 
         def __init__(self, stream: str) -> None:
