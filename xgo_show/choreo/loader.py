@@ -12,10 +12,8 @@ from pathlib import Path
 
 from xgo_show.choreo.checks import check_show
 from xgo_show.choreo.model import CueList, ParamPartMapping, PartMapping, ShowFile
-from xgo_show.choreo.params import Argument, substitute
 from xgo_show.choreo.resolve import resolve_show
 from xgo_show.choreo.resolved import ResolvedShow
-from xgo_show.choreo.salvage import salvage_show
 from xgo_show.choreo.section_rules import check_waits
 from xgo_show.choreo.source import REFUSED, Document, read_yaml
 from xgo_show.choreo.validation import validate
@@ -88,6 +86,8 @@ def check_document(doc: Document) -> tuple[ResolvedShow | None, list[Diagnostic]
 def _check_remainder(doc: Document, data: dict[str, object]) -> list[Diagnostic]:
     """Resolve and check what is well formed in a routine with structural errors, so that
     one run lists every problem (a bad duration in one track hides nothing in another)."""
+    from xgo_show.choreo.salvage import salvage_show  # for routines with errors alone
+
     salvage = salvage_show(data)
     if salvage is None:
         return []
@@ -127,6 +127,8 @@ def _check_part(doc: Document) -> list[Diagnostic]:
 def _check_param_cues(doc: Document, part: ParamPartMapping) -> list[Diagnostic]:
     """Check a part's cues with its parameters' defaults put in. A parameter without a default
     has no value yet: what its uses need is checked when a routine includes the part."""
+    from xgo_show.choreo.params import Argument, substitute  # for part files alone
+
     args = {
         name: None if default is None else Argument(default, doc, ("params", name))
         for name, default in part.params.items()

@@ -559,6 +559,7 @@ _CUE_CLASSES: dict[str, type[BaseModel]] = {
 }
 CUE_KINDS: tuple[str, ...] = tuple(_CUE_CLASSES)
 _KIND_OF: dict[type, str] = {cls: kind for kind, cls in _CUE_CLASSES.items()}
+_KIND_SET = frozenset(CUE_KINDS)
 BLOCK_KINDS: frozenset[str] = frozenset({"rest", "phrase", "repeat", "include"})
 
 
@@ -584,7 +585,7 @@ def _cue_key(value: object) -> str | None:
         return None
     if not isinstance(value, dict):
         return None
-    kinds = [k for k in CUE_KINDS if k in value]
+    kinds = [k for k in value if k in _KIND_SET]  # a cue's few keys, not all the kinds
     return kinds[0] if len(kinds) == 1 else None
 
 

@@ -45,7 +45,6 @@ from xgo_show.choreo.model import (
     cue_kind,
 )
 from xgo_show.choreo.music import Music
-from xgo_show.choreo.params import Argument, substitute
 from xgo_show.choreo.resolved import (
     ActionCue,
     ArmCue,
@@ -69,6 +68,7 @@ from xgo_show.profiles import Encoding, Limits, Profile, Register, get_profile
 from xgo_show.profiles.xarm import degrees_to_position
 
 if TYPE_CHECKING:
+    from xgo_show.choreo.params import Argument
     from xgo_show.choreo.salvage import Salvage
 
 __all__ = [
@@ -668,6 +668,8 @@ class _Resolver:
         """Check a call's ``with:`` against ``body``'s parameters, put the values into its cues
         and validate them: the instance's document (a view linking each filled-in node to its
         value) and cues, or None after reporting why not."""
+        from xgo_show.choreo.params import Argument, substitute  # for phrases and parts alone
+
         args: dict[str, Argument] = {}
         ok = True
         names = list(body.params)
