@@ -236,10 +236,28 @@ def _files() -> list[Path]:
 @pytest.mark.parametrize("path", _files(), ids=lambda p: p.name)
 def test_with_and_without_the_walk_the_same_document(path: Path) -> None:
     # A '*' anywhere (an alias, or here a comment) makes the reader walk the nodes for their
-    # depth and count and watch for recursive aliases; without one, libyaml's counts stand in.
+    # depth and count and watch for recursive aliases; without one, the builder bounds them.
     text = path.read_text(encoding="utf-8")
     fast, fast_errors = parse_yaml(text, "f.yaml")
     walked, walked_errors = parse_yaml(text + "\n# *\n", "f.yaml")
     assert fast.data == walked.data
     assert fast.marks == walked.marks and fast.key_marks == walked.key_marks
     assert fast_errors == walked_errors
+
+
+@pytest.mark.parametrize("text", [
+    "a: 1\na: " + "[" * 70 + "]" * 70 + "\n",
+    "a: " + "[" * 63 + "1" + "]" * 63 + "\n",
+    "tracks: {rex: [{at: 1, move: {pitch: 5}}, {at: 2, at: 3}]}\n",
+    "a: [0500, 1.5, true, .nan]\n",
+])
+def test_without_libyaml_the_same_document(text: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    # PyYAML without libyaml composes in Python (no C resolver calls to stand in for): the
+    # builder's bounds and reading are the same.
+    import xgo_show.choreo.source as source
+
+    fast, fast_errors = parse_yaml(text, "f.yaml")
+    monkeypatch.setattr(source, "_FAST_LOADER", None)
+    slow, slow_errors = parse_yaml(text, "f.yaml")
+    assert (fast.data, fast.marks, fast.key_marks) == (slow.data, slow.marks, slow.key_marks)
+    assert fast_errors == slow_errors
