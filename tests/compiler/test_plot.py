@@ -17,16 +17,22 @@ from xgo_show.choreo import load_show
 from xgo_show.choreo.resolved import ActionCue, ArmCue, FadeCue, MotionCue, SetCue
 from xgo_show.compiler import compile_show, plot_schedule
 from xgo_show.compiler.plot import timeline_figure
-from xgo_show.compiler.timeline import build_timeline
+from xgo_show.compiler.timeline import Timeline, build_timeline
 
 ROUTINE = Path(__file__).parent / "data" / "timeline_show.yaml"
 
 
-# Drawn afresh for each test (not once a module): mutmut maps the drawing functions to
-# the tests that call them, and a module fixture is drawn in the first test only.
+@pytest.fixture(scope="module")
+def timeline() -> Timeline:
+    return build_timeline(compile_show(load_show(ROUTINE)))
+
+
+# Drawn afresh for each test (not once a module, as the timeline is): mutmut maps the
+# drawing functions to the tests that call them, and a module fixture is drawn in the first
+# test only.
 @pytest.fixture
-def figure() -> Any:
-    fig = timeline_figure(build_timeline(compile_show(load_show(ROUTINE))))
+def figure(timeline: Timeline) -> Any:
+    fig = timeline_figure(timeline)
     fig.canvas.draw()
     yield fig
     plt.close(fig)
