@@ -94,7 +94,8 @@ def test_the_header_names_sections_and_numbers_bars(demo: Any) -> None:
         "left": False, "right": False, "bottom": False, "top": True}
     assert _texts(header) == [(" intro", (0.0, 0.5), 8.0, "left"),
                               (" verse", (4.0, 0.5), 8.0, "left")]
-    assert {t.get_weight() for t in header.texts} == {"bold"}
+    assert {(t.get_weight(), t.get_va(), t.get_gid()) for t in header.texts} == {
+        ("bold", "center", "label")}  # labels: they take part in the overprint check
     # A coloured band under each section's name, at the foot of the header.
     bands = [(p.get_x(), p.get_width(), p.get_y(), p.get_height(), p.get_facecolor())
              for p in header.patches]
@@ -213,6 +214,15 @@ def test_without_bars_or_sections_there_is_no_header() -> None:
         assert fig.texts[0].get_position()[1] * height == pytest.approx(height - 0.75 + 0.05)
         assert fig._suptitle.get_text() == "Lone"
         assert list(ax.collections) == []
+    finally:
+        plt.close(fig)
+    # Bars without sections: the header's one row of room and the numbers.
+    barred = Timeline("Barred", 4.0, (ARM,), bars=((0.0, 1), (2.0, 2)))
+    fig = timeline_figure(barred)
+    try:
+        header = fig.axes[0]
+        assert header.get_ylim() == (0.0, 1.6) and list(header.texts) == []
+        assert [t.get_text() for t in header.get_xticklabels()] == ["1", "2"]
     finally:
         plt.close(fig)
     # Sections without bars: a header with the names and no bar numbers.
