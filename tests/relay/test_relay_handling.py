@@ -109,6 +109,7 @@ def test_a_reply_echoes_the_sequence_number_with_the_ops_fields(relay: Relay) ->
     q = Incoming(CMD, msg.encode(request("hello", seq=7).to_json()))
     relay._reply(q, q.payload.to_bytes())  # type: ignore[union-attr]
     answer = q.answer()
+    msg.decode_reply(q.replies[0][1])  # as the conductor reads it
     assert (answer["seq"], answer["ok"], answer["error"], answer["relay"]) == (7, True, None,
                                                                               "hall")
     assert answer["description"]["holder"]["name"] == "alice"
@@ -120,6 +121,7 @@ def test_a_refusal_is_an_error_reply_with_the_sequence_number(relay: Relay) -> N
     relay._reply(q, q.payload.to_bytes())  # type: ignore[union-attr]
     answer = q.answer()
     assert (answer["seq"], answer["ok"]) == (9, False)
+    assert answer["relay"] == "hall" and abs(answer["relay_time"] - relay.clock.now()) < 1.0
     assert answer["error"] == "stop: this conductor does not hold relay hall; send hello first"
 
 
@@ -129,6 +131,7 @@ def test_an_unreadable_request_gets_an_error_reply_without_a_sequence_number(rel
     relay._reply(q, b"{not json")
     answer = q.answer()
     assert (answer["seq"], answer["ok"]) == (-1, False)
+    assert answer["relay"] == "hall" and abs(answer["relay_time"] - relay.clock.now()) < 1.0
     assert answer["error"].startswith("not a JSON message")
 
 
@@ -147,6 +150,7 @@ def test_a_bug_is_an_internal_error_reply_and_the_relay_keeps_serving(
     relay._reply(q, q.payload.to_bytes())  # type: ignore[union-attr]
     answer = q.answer()
     assert (answer["seq"], answer["ok"]) == (3, False)
+    assert answer["relay"] == "hall" and abs(answer["relay_time"] - relay.clock.now()) < 1.0
     assert answer["error"] == "internal error: KeyError('oops')"
     assert logged == [("internal_error", {"error": "KeyError('oops')"})]
 
@@ -159,6 +163,7 @@ def test_a_reading_that_is_not_a_number_is_an_error_reply_not_a_crash(
     relay._reply(q, q.payload.to_bytes())  # type: ignore[union-attr]
     answer = q.answer()
     assert (answer["seq"], answer["ok"]) == (4, False)
+    assert answer["relay"] == "hall" and abs(answer["relay_time"] - relay.clock.now()) < 1.0
     assert "JSON compliant" in answer["error"]
 
 
