@@ -183,7 +183,7 @@ class StandEndpoint:
         self.stage.opened.append(self.names)
         self.stage.opening.set()
         if self.stage.hold_open is not None:
-            assert self.stage.hold_open.wait(10.0)
+            assert self.stage.hold_open.wait(60.0)
         if self.stage.raise_on_open is not None:
             raise self.stage.raise_on_open
         return {n: e for n, e in self.stage.open_errors.items() if n in self.urls}

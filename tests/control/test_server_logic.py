@@ -8,6 +8,7 @@ paused, sought and stopped. test_server.py runs ``serve`` in its own process ove
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from pathlib import Path
@@ -409,10 +410,13 @@ def test_puts_for_unknown_triggers_wait_in_a_ring_of_its_size(
 def test_osc_cues_arrive_over_udp_with_follow(stage: Stage) -> None:
     from pythonosc.udp_client import SimpleUDPClient
 
-    s = Serve(follow="osc:127.0.0.1:0")  # any free port
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:  # a free UDP port
+        probe.bind(("127.0.0.1", 0))
+        port = int(probe.getsockname()[1])
+    s = Serve(follow=f"osc:{port}")
     try:
         osc = s.server.osc
-        assert osc is not None and osc.host == "127.0.0.1" and osc.port > 0
+        assert osc is not None and (osc.host, osc.port) == ("127.0.0.1", port)
         SimpleUDPClient(osc.host, osc.port).send_message("/pause", [])
         wait_until(lambda: "osc: pause refused (refused): cannot pause: no show is running"
                    in s.said, timeout=10)

@@ -780,7 +780,7 @@ def close_in_time(s: Serve) -> None:
     """Close the server from another thread; it must return (after its bounded waits)."""
     closer = threading.Thread(target=s.server.close, name="test closer")
     closer.start()
-    closer.join(20.0)  # seconds: the bounds are 2 and 3 s
+    closer.join(20.0)  # the bounds are 2 and 3 s; a held open waits up to a minute
     assert not closer.is_alive(), "close waited for ever"
     assert all(d.undeclared for d in s.session.declared)
 
