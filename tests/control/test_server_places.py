@@ -7,15 +7,20 @@ from __future__ import annotations
 import dataclasses
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import pytest
 
-from tests.conftest import wait_until
+from tests.conftest import wait_until as _wait_until
 from tests.control.serving import Serve, refusal
 from tests.control.staging import Stage
 from xgo_show.compiler.artifact import schedule_to_bytes
 from xgo_show.compiler.schedule import Schedule
+
+
+def wait_until(predicate: Callable[[], object], timeout: float = 10.0) -> None:
+    """Wait for what another thread does (generous: a loaded machine is slow)."""
+    _wait_until(predicate, timeout)
 
 
 @pytest.fixture
