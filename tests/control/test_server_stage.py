@@ -400,7 +400,8 @@ def test_a_start_given_on_the_wall_clock_starts_then(server: Serve, stage: Stage
     assert abs(got["start_time"] - at) < 0.01
     run = server.server._run
     assert run is not None and run.start_at is not None
-    assert abs((run.start_at - now) - (at - wall)) < 0.01  # the wall time on the show's clock
+    # The wall time on the show's clock (the two clocks read again here, a moment apart).
+    assert abs((run.start_at - now) - (at - wall)) < 0.25
     wait_until(lambda: [c for c in stage.p("ivy").calls if c[0] == "start"])
     (start,) = [c for c in stage.p("ivy").calls if c[0] == "start"]
     # Then, or later if arming took longer (a loaded machine): never earlier.
