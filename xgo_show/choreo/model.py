@@ -403,6 +403,8 @@ class _Timing(_Model):
             raise PydanticCustomError(
                 "timing", "give either 'at' or 'after', not both", {}
             )
+        if self.beats is None and self.bars is None:
+            return self  # one length at most (most cues: a duration or none)
         given = [n for n in ("duration", "beats", "bars") if getattr(self, n) is not None]
         if len(given) > 1:
             raise PydanticCustomError(
