@@ -470,17 +470,26 @@ def test_pause_resume_and_seek_reach_every_robot(server: Serve, stage: Stage) ->
     server.ask("stop")
 
 
-def test_a_stop_that_does_not_end_in_time_says_stopping(
-    server: Serve, stage: Stage, monkeypatch: pytest.MonkeyPatch
-) -> None:
+def stuck_run(
+    monkeypatch: pytest.MonkeyPatch, hold: float
+) -> tuple[threading.Event, threading.Event]:
+    """Every show's run is stuck (for at most ``hold`` s) until the second event is set; the
+    first is set once a run began. The run then ends not completed ("stuck")."""
     playing, go_on = threading.Event(), threading.Event()
 
     def stuck(*args: object, **kwargs: object) -> ShowResult:
         playing.set()
-        go_on.wait(10.0)
+        go_on.wait(hold)
         return ShowResult(False, "stuck")
 
     monkeypatch.setattr(server_module.Launch, "run", stuck)
+    return playing, go_on
+
+
+def test_a_stop_that_does_not_end_in_time_says_stopping(
+    server: Serve, stage: Stage, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    playing, go_on = stuck_run(monkeypatch, 10.0)
     assert server.ask("start")["ok"] and playing.wait(10.0)
     run = server.server._run
     assert run is not None and run.thread is not None
@@ -789,14 +798,7 @@ def close_in_time(s: Serve) -> None:
 def test_closing_gives_a_stuck_show_a_bounded_wait(
     stage: Stage, triggered_schedule: Schedule, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    playing, go_on = threading.Event(), threading.Event()
-
-    def stuck(*args: object, **kwargs: object) -> ShowResult:
-        playing.set()
-        go_on.wait(30.0)
-        return ShowResult(False, "stuck")
-
-    monkeypatch.setattr(server_module.Launch, "run", stuck)
+    playing, go_on = stuck_run(monkeypatch, 30.0)
     s = serving(triggered_schedule)
     try:
         assert s.ask("start")["ok"] and playing.wait(10.0)

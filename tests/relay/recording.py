@@ -436,3 +436,17 @@ class ScriptedRelay:
         if op == "probe":
             return [answer(q, rows=[["port", "/dev/pts/7"], ["firmware", 12]])]
         return [answer(q)]
+
+
+def record_threads(monkeypatch: Any, module: Any) -> list[tuple[str, bool | None]]:
+    """From now on, every thread ``module`` makes through ``threading.Thread`` is recorded as
+    (name, the daemon flag it was given) in the list returned (in order)."""
+    made: list[tuple[str, bool | None]] = []
+
+    class Recorded(threading.Thread):
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            made.append((self.name, kwargs.get("daemon")))
+
+    monkeypatch.setattr(module.threading, "Thread", Recorded)
+    return made

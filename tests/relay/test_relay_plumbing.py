@@ -31,7 +31,7 @@ from xgo_show.runtime.runlog import RunLog
 
 from .conftest import upload_text, walk_schedule
 from .handling import ALICE, BOB, encoded, request, start
-from .recording import Incoming, RecordingSession
+from .recording import Incoming, RecordingSession, record_threads
 
 #: A started relay, its session and its log.
 Served = tuple[Relay, RecordingSession, RunLog]
@@ -465,16 +465,8 @@ def test_a_probe_names_the_model_the_relay_was_given_and_waits_for_the_show(
 def test_a_release_stops_the_old_watchdog_in_a_daemon_thread_of_its_own(
     relay: Served, monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    made: list[tuple[str, bool | None]] = []
-    real = threading.Thread
-
-    class Recorded(real):  # type: ignore[misc,valid-type]
-        def __init__(self, *args: Any, **kwargs: Any) -> None:
-            super().__init__(*args, **kwargs)
-            made.append((self.name, kwargs.get("daemon")))
-
     r, _, _ = relay
     hold(r)
-    monkeypatch.setattr(server.threading, "Thread", Recorded)
+    made = record_threads(monkeypatch, server)
     r.handle(request("release"))
     assert made == [("xgo-show watchdog stop", True)]

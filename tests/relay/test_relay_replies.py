@@ -32,7 +32,7 @@ from xgo_show.runtime.show_runner import ShowResult, ShowRunner
 
 from .conftest import upload_text, walk_schedule
 from .handling import ALICE, BOB, CMD, encoded, request
-from .recording import Incoming, RecordingSession
+from .recording import Incoming, RecordingSession, record_threads
 
 
 @pytest.fixture
@@ -211,18 +211,10 @@ def test_a_new_holder_starts_from_this_hosts_clock_not_the_last_ones_timebase(
 def test_a_release_closes_the_stage_in_a_daemon_thread_of_its_own(
     make: Callable[..., Made], monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    made: list[tuple[str, bool | None]] = []
-    real = threading.Thread
-
-    class Recorded(real):  # type: ignore[misc,valid-type]
-        def __init__(self, *args: Any, **kwargs: Any) -> None:
-            super().__init__(*args, **kwargs)
-            made.append((self.name, kwargs.get("daemon")))
-
     r, _, _ = make()
     r.handle(request("hello"))
     r.handle(request("stage_open", robots=["rex"], telemetry=0.25, watchdog_ms=60_000))
-    monkeypatch.setattr(server.threading, "Thread", Recorded)
+    made = record_threads(monkeypatch, server)
     r.handle(request("release"))
     assert made == [("xgo-show watchdog stop", True), ("xgo-show stage close", True)]
 
