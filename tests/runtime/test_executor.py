@@ -1462,3 +1462,39 @@ def test_an_abort_right_after_any_wait_ends_the_part_with_telemetry_too(perf) ->
         ex.close()
         assert ended, k
         assert sent and len(rec.sent()) == sent[0], k
+
+
+class _WatchingClock(FakeClock):
+    """A fake clock that, on every read from the writer thread, checks what a reader of the
+    executor's progress would see: a state whose StateChanged is not published yet is a miss
+    (a relay's heartbeat answer would then say "finished" without the row that says so)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.executor: PerformerExecutor | None = None
+        self.published: set[ExecutorState] = {ExecutorState.IDLE}
+        self.misses: list[ExecutorState] = []
+        self._inside = threading.local()
+
+    def now(self) -> float:
+        ex = self.executor
+        if ex is not None and not getattr(self._inside, "busy", False):
+            self._inside.busy = True  # progress reads the clock too
+            try:
+                shown = ex.progress.state
+                if shown not in self.published:
+                    self.misses.append(shown)
+            finally:
+                self._inside.busy = False
+        return super().now()
+
+
+def test_progress_never_shows_a_state_before_its_state_changed_is_published(perf) -> None:
+    clock = _WatchingClock()
+    link = sim_link(clock)
+    ex = PerformerExecutor(perf("rex", count=4, spacing=0.05), link, clock=clock, profile=MINI)
+    ex.events.subscribe(lambda ev: clock.published.add(ev.state), StateChanged)
+    clock.executor = ex
+    ex.run(clock.now() + 0.1)
+    assert ex.progress.state is ExecutorState.FINISHED
+    assert clock.misses == []

@@ -185,6 +185,7 @@ class PerformerExecutor:
         self.fault: str | None = None
         self.stop_result: SafeStopResult | None = None
         self._state = ExecutorState.IDLE
+        self._shown = ExecutorState.IDLE  # the state whose StateChanged is published (progress)
         self._timeline = _Timeline()
         self._flags = _Flags()
         self._write_lock = threading.Lock()
@@ -333,16 +334,19 @@ class PerformerExecutor:
 
     @property
     def progress(self) -> Progress:
+        """Where the performer is; its state is the last one announced (its StateChanged
+        published), which :attr:`state` may be ahead of for the time of that publication."""
         now = self.clock.now()
         sent = self._sent_frames  # schedule index + 1 of the last frame sent
+        state = self._shown
         show_time = (
             0.0
-            if self._state is ExecutorState.IDLE
+            if state is ExecutorState.IDLE
             else self._timeline.show_time(self._paused_at if self._paused_at is not None else now)
         )
         return Progress(
             self.name,
-            self._state,
+            state,
             show_time,
             sent,
             len(self.schedule.frames),
@@ -363,6 +367,13 @@ class PerformerExecutor:
         at = self._paused_at if self._paused_at is not None else now
         show_time = 0.0 if state is ExecutorState.IDLE else self._timeline.show_time(at)
         self.events.publish(StateChanged(now, self.name, state, show_time))
+        # Only now may :attr:`progress` say so: whoever reads it there (a relay's heartbeat
+        # answer, a status query) finds the event already published, so the state's own row
+        # goes out with it, never after the end it announces. A later transition that came in
+        # meanwhile sets its own after its event.
+        with self._state_lock:
+            if self._state is state:
+                self._shown = state
 
     def _finish_stop(self, result: SafeStopResult) -> SafeStopResult:
         if self.stop_result is None:
