@@ -1498,3 +1498,30 @@ def test_progress_never_shows_a_state_before_its_state_changed_is_published(perf
     ex.run(clock.now() + 0.1)
     assert ex.progress.state is ExecutorState.FINISHED
     assert clock.misses == []
+
+
+class _CountingClock(FakeClock):
+    def __init__(self) -> None:
+        super().__init__()
+        self.reads = 0
+
+    def now(self) -> float:
+        self.reads += 1
+        return super().now()
+
+
+def test_a_scheduled_frame_costs_the_writer_three_clock_reads(perf) -> None:
+    # The wait's check, the send time, and after the write (a write that blocked): each read
+    # of a relay's slewed clock costs its writer microseconds per frame (issue 9).
+    clock = _CountingClock()
+    # The simulated robot stamps what it receives on the same time, uncounted.
+    link = SimTransport(create_robot("mini"), clock=lambda: FakeClock.now(clock),
+                        sleep=clock.advance)
+    link.open()
+    count = 50
+    ex = PerformerExecutor(
+        perf("rex", count=count, spacing=0.05), link, clock=clock, profile=MINI, rest_at_end=False
+    )
+    ex.run(clock.now() + 0.1)
+    assert ex.state is ExecutorState.FINISHED
+    assert clock.reads <= 3 * count + 12  # + the start, the end and the state changes

@@ -105,7 +105,16 @@ def _block_until(deadline: float, interrupt: threading.Event | None) -> bool:
             time.sleep(left)
         elif interrupt.wait(left):
             return False
+        if _TIMEOUTS_ON_MONOTONIC:
+            return True  # a timed wait that ran out ended past the deadline: no second read
     return not (interrupt is not None and interrupt.is_set())
+
+
+# CPython's timed waits (time.sleep, and a lock's acquire under Event.wait) round the timeout
+# up and wait on CLOCK_MONOTONIC on Linux (sem_clockwait, glibc 2.30 and later), the clock
+# time.monotonic reads: one that ran out ended past its deadline, so the writer's wait needs
+# no clock read to confirm it (a read per frame fewer). Elsewhere the loop above checks.
+_TIMEOUTS_ON_MONOTONIC = sys.platform.startswith("linux")
 
 
 #: Seconds a real-time thread sleeps after a write (see :func:`hand_off_cpu`).

@@ -439,9 +439,13 @@ class PerformerExecutor:
                     index = self._hold(index)
                     continue
                 deadline = min(deadline, pause_at)  # wake up for a pause due before this frame
-            if not self._wait(deadline) or self.clock.now() < planned:
+            if not self._wait(deadline) or (deadline < planned and self.clock.now() < planned):
                 continue  # woken by a request, or for a pause: re-check the flags
-            if not self._write(frame.data, "frame", index, planned, frame):
+            # The wait ended at the deadline, which the link is free by unless a telemetry
+            # request sent meanwhile was late enough to hold it longer: known without a clock
+            # read (each costs a relayed writer's slewed clock some microseconds).
+            ready = self._ready_at <= deadline
+            if not self._write(frame.data, "frame", index, planned, frame, ready=ready):
                 return
             index += 1
             self._sent_frames = index
@@ -576,6 +580,8 @@ class PerformerExecutor:
                 target = deadline
             if not clock.sleep_until(target, self._flags.wake):
                 return False
+            if target == deadline:
+                return True  # a clock's wait ends at or after its deadline: no second read
 
     def _poll_once(self) -> None:
         if self.telemetry is None:
@@ -603,19 +609,22 @@ class PerformerExecutor:
         index: int | None,
         planned: float | None,
         label: str | ScheduledFrame,
+        *,
+        ready: bool = False,
     ) -> bool:
         """Write one frame unless aborted; return False if aborted.
 
         ``label`` names a frame outside the schedule, or is the schedule frame written (whose
-        label listeners derive when they need it: not on the writer's time).
+        label listeners derive when they need it: not on the writer's time). ``ready``: the
+        caller knows the link is free (its wait ended past :attr:`_ready_at`).
         """
         # Wait for the link outside the lock, so a safe stop never waits behind this frame.
-        if self.clock.now() < self._ready_at:
+        if not ready and self.clock.now() < self._ready_at:
             self.clock.sleep_until(self._ready_at, self._flags.abort)
         with self._write_lock:
             if self._flags.abort.is_set():
                 return False
-            self._write_locked(data, kind, index, planned, label)
+            self._write_locked(data, kind, index, planned, label, ready=ready)
             return True
 
     def _write_locked(
@@ -625,9 +634,12 @@ class PerformerExecutor:
         index: int | None,
         planned: float | None,
         label: str | ScheduledFrame,
+        *,
+        ready: bool = False,
     ) -> None:
-        # Keep the link's silence after whatever went before (stop frames included).
-        if self.clock.now() < self._ready_at:
+        # Keep the link's silence after whatever went before (stop frames included); the link
+        # stays ready under the lock (only writes move _ready_at, and they hold it).
+        if not ready and self.clock.now() < self._ready_at:
             self.clock.sleep_until(self._ready_at)
         # The send time is when the write is issued: the bytes leave as soon as it queues them,
         # and the call may return late only because this thread lost its CPU meanwhile.
