@@ -202,3 +202,25 @@ def test_socket_url_round_trip_on_loopback() -> None:
     finally:
         thread.join(timeout=5)
         server.close()
+
+
+def test_write_now_writes_and_says_when_the_buffer_is_full_or_the_fd_bad() -> None:
+    import errno as _errno
+    import pty
+
+    from xgo_show.transports.serial_port import write_now
+
+    master, slave = pty.openpty()
+    try:
+        os.set_blocking(slave, False)
+        assert write_now(slave, b"\x55\x00\x09") == 3
+        assert os.read(master, 16) == b"\x55\x00\x09"
+        with pytest.raises(BlockingIOError):  # nobody reads: the buffer fills, never blocks
+            for _ in range(100_000):
+                write_now(slave, b"x" * 4096)
+    finally:
+        os.close(master)
+        os.close(slave)
+    with pytest.raises(OSError) as bad:
+        write_now(slave, b"x")
+    assert bad.value.errno == _errno.EBADF

@@ -31,7 +31,7 @@ from xgo_show.errors import SetupError
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import Clock, FakeClock, MonotonicClock
 from xgo_show.runtime.events import EventBus, PreflightDone
-from xgo_show.runtime.executor import PerformerExecutor
+from xgo_show.runtime.executor import IssueGroup, PerformerExecutor
 from xgo_show.runtime.fanout import each
 from xgo_show.runtime.latency import Early
 from xgo_show.runtime.performer import Performer
@@ -131,12 +131,14 @@ def endpoints_for(schedule: Schedule, urls: Mapping[str, str]) -> list[Endpoint]
 def local_performers(
     schedule: Schedule, transports: Mapping[str, Transport], ctx: PerformerContext
 ) -> dict[str, Performer]:
-    """One :class:`PerformerExecutor` per open transport.
+    """One :class:`PerformerExecutor` per open transport, in one :class:`IssueGroup`.
 
     A :class:`FakeClock` is virtual time: each executor gets its own fork (starting at the
     same instant), so one writer jumping ahead never makes the others late.
     """
     out: dict[str, Performer] = {}
+    # Their frames fall due together (one grid): the first writer awake issues them all.
+    group = IssueGroup()
     for perf in schedule.performers:
         if perf.name not in transports:
             continue
@@ -153,6 +155,7 @@ def local_performers(
             reach=default_reach(perf, profile),
             linger_until=ctx.linger_until,
             events=ctx.events,
+            group=group,
         )
     return out
 

@@ -8,6 +8,8 @@ the port and the reason (``cannot open /dev/ttyUSB9: No such file or directory``
 from __future__ import annotations
 
 import contextlib
+import ctypes
+import errno
 import os
 import re
 import sys
@@ -20,7 +22,13 @@ from xgo_show.errors import TransportError, TransportTimeout
 from xgo_show.fdwait import ReadableWaiter
 from xgo_show.transports.base import Transport
 
-__all__ = ["DEFAULT_WRITE_TIMEOUT", "SerialTransport", "describe_error", "open_serial"]
+__all__ = [
+    "DEFAULT_WRITE_TIMEOUT",
+    "SerialTransport",
+    "describe_error",
+    "open_serial",
+    "write_now",
+]
 
 # Seconds between checks while waiting for input on ports with no file descriptor (loop://,
 # socket://, rfc2217://, Windows).
@@ -28,6 +36,43 @@ _POLL_INTERVAL = 0.001
 
 #: Seconds a write may block (output buffer full, flow control stuck) before it raises.
 DEFAULT_WRITE_TIMEOUT = 1.0
+
+
+def _gil_holding_write() -> Any:
+    """libc's ``write`` called without releasing Python's lock, or None where unavailable."""
+    if os.name != "posix":
+        return None
+    try:
+        fn = ctypes.PyDLL(None, use_errno=True).write  # PyDLL: the call keeps the lock
+        fn.argtypes = (ctypes.c_int, ctypes.c_char_p, ctypes.c_size_t)
+        fn.restype = ctypes.c_ssize_t
+    except (OSError, AttributeError):
+        return None
+    return fn
+
+
+_LIBC_WRITE = _gil_holding_write()
+
+
+def write_now(fd: int, data: bytes) -> int:
+    """``os.write`` on a non-blocking descriptor, keeping Python's lock through the call.
+
+    os.write lets go of the lock for the system call, and a writer thread must win it back
+    after: where several writers' frames fall due at once (one process, one grid), each such
+    hand-over cost the next writer a thread wake-up, up to 0.1 ms on this 2-CPU VM (the
+    runtime's IssueGroup writes them back to back; docs/realtime.md). A non-blocking write
+    takes microseconds and never waits, so keeping the lock costs the other threads nothing.
+    Raises BlockingIOError when the driver's buffer is full, OSError for any other failure.
+    """
+    if _LIBC_WRITE is None:
+        return os.write(fd, data)
+    sent = int(_LIBC_WRITE(fd, data, len(data)))
+    if sent < 0:
+        err = ctypes.get_errno()
+        if err in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EINTR):
+            raise BlockingIOError(err, os.strerror(err))
+        raise OSError(err, os.strerror(err))
+    return sent
 
 
 class SerialTransport(Transport):
@@ -89,7 +134,7 @@ class SerialTransport(Transport):
             # bytes received meanwhile: traced, a real-time writer slept up to 100 ms there
             # behind a normal-priority worker (docs/realtime.md).
             try:
-                sent = os.write(fd, data)
+                sent = write_now(fd, data)
             except BlockingIOError:
                 sent = 0
             except OSError as exc:
