@@ -60,7 +60,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import runtime_timing as rt
 
-from xgo_show.compiler.schedule import Schedule, ScheduledFrame
+from xgo_show.compiler.schedule import Schedule
 from xgo_show.runtime import clock, realtime
 from xgo_show.runtime.clock import MonotonicClock
 from xgo_show.runtime.events import Event, FrameSent
@@ -423,15 +423,7 @@ def _note_frame(frames: list[tuple[float, str, int, float]], event: Event) -> No
 def make_schedule(args: argparse.Namespace) -> Schedule:
     """``runtime_timing``'s show at 50 frames/s; with ``--lockstep`` every robot's frames at
     the same times (as a synced show plays them), not each robot 3.7 ms after the previous."""
-    schedule = rt.make_schedule(args.seconds, 50.0)
-    if not args.lockstep:
-        return schedule
-    performers = []
-    for perf in schedule.performers:
-        phase = perf.frames[0].t
-        frames = tuple(ScheduledFrame(f.t - phase, f.data) for f in perf.frames)
-        performers.append(dataclasses.replace(perf, frames=frames, end=perf.end - phase))
-    return dataclasses.replace(schedule, performers=tuple(performers))
+    return rt.make_schedule(args.seconds, 50.0, lockstep=args.lockstep)
 
 
 def _xgo_show(args: argparse.Namespace) -> list[str]:

@@ -36,7 +36,11 @@ switches (the OS taking its CPU).
 Prints figures only (no asserts). Usage::
 
     python benchmarks/runtime_timing.py [--seconds 60] [--rate 50] [--no-load | --only-load]
-                                        [--sim-nice] [--diagnose]
+                                        [--sim-nice] [--diagnose] [--lockstep]
+
+``--lockstep`` puts every robot's frames at the same times, as a show's grid does (the README
+demo's five robots); by default they are 3.7 ms apart, which spares the writers the hand-overs
+of Python's lock that frames due together cost (docs/realtime.md).
 """
 
 from __future__ import annotations
@@ -205,13 +209,14 @@ def raise_workers_child(priority: int) -> None:
     print(len(raised), flush=True)
 
 
-def make_schedule(seconds: float, rate: float) -> Schedule:
+def make_schedule(seconds: float, rate: float, *, lockstep: bool = False) -> Schedule:
     profile = get_profile(MODEL)
     reg = profile.register("body_z")
     performers = []
     for i in range(ROBOTS):
-        # Each robot gets its own phase so the four ports are not written in lock-step.
-        phase = i * 0.0037
+        # Each robot gets its own phase so the four ports are not written in lock-step, unless
+        # ``lockstep``: every robot's frames at the same times, as a show's grid puts them.
+        phase = 0.0 if lockstep else i * 0.0037
         n = int(seconds * rate)
         frames = tuple(
             ScheduledFrame(
@@ -530,6 +535,9 @@ def main() -> None:
     parser.add_argument("--raise-workers", action="store_true",
                         help="also play the default with the pty's kernel workers under "
                         "SCHED_FIFO 5 (root; an intervention that shows their share)")
+    parser.add_argument("--lockstep", action="store_true",
+                        help="every robot's frames at the same times, as a show's grid puts "
+                        "them (default: 3.7 ms apart)")
     parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
     parser.add_argument("--sim-mode", default="fifo", help=argparse.SUPPRESS)
     parser.add_argument("--raise-workers-child", type=int, help=argparse.SUPPRESS)
@@ -540,9 +548,10 @@ def main() -> None:
     if args.serve_sim:
         serve_sim(Path(args.serve_sim), args.sim_mode)
         return
-    schedule = make_schedule(args.seconds, args.rate)
+    schedule = make_schedule(args.seconds, args.rate, lockstep=args.lockstep)
     loads = [False] if args.no_load else [True] if args.only_load else [False, True]
-    print(f"{ROBOTS} simulated {MODEL}s on ptys, {args.rate:g} frames/s each for "
+    print(f"{ROBOTS} simulated {MODEL}s on ptys, {args.rate:g} frames/s each "
+          f"({'in lock-step' if args.lockstep else '3.7 ms apart'}) for "
           f"{args.seconds:g} s per row; {os.cpu_count()} CPUs; load average "
           f"{os.getloadavg()[0]:.2f} at the start")
     with tempfile.TemporaryDirectory() as tmpdir:
