@@ -142,7 +142,7 @@ class TickFrames:
         # Frame plans of ticks only sources write, by (registers, changed registers): see build
         self.sample_plans: dict[object, tuple[SampleFrame, ...]] = {}
         # Of those for one source, the plans that are one frame of one slice of the sample, as
-        # (prefix, check_base, begin, end); None: another plan. frames_from_ticks's own road.
+        # (prefix, check_base, begin, end); None: another plan. stretch's road.
         self.slices: dict[object, tuple[bytes, int, int, int] | None] = {}
         # Of those for several sources, the plans whose every frame is one slice of one of the
         # tick's samples, as (chunk, begin, end, prefix, check_base, lead chunk) a frame; None:
@@ -184,10 +184,13 @@ class TickFrames:
         self.live.append(src)
         return tuple(mask)
 
-    def source_tick(self, t_us: int, src: Source, sample: bytes) -> None:
-        """A tick only ``src`` writes, ``src`` not the one live source (it becomes so).
+    def source_sample(self, t_us: int, src: Source, sample: bytes) -> None:
+        """A tick only ``src`` writes, the first of a stretch of them (or alone): every live
+        source is flushed (``src`` too, when it wrote the tick before beside others), ``src``'s
+        registers are compared with what was sent, and it becomes the one live source.
 
-        The next tick of the one live source is :func:`frames_from_ticks`'s own (inlined).
+        The tick before is never ``src``'s alone: :func:`frames_from_ticks` hands such ticks
+        on together, to :meth:`stretch`.
         """
         self.flush()
         mask = self._fresh(src, sample)
@@ -195,33 +198,28 @@ class TickFrames:
         self.build(t_us, (src.addresses, mask), ((src, sample),), (mask,), (src,))
 
     def sources_tick(self, t_us: int, chunks: Samples) -> None:
-        """A tick several sources write, none the same register."""
+        """A tick several sources write, none the same register, the first of a stretch of
+        ticks these sources write (the tick before was not theirs: :func:`frames_from_ticks`
+        hands on their consecutive ticks together, to :meth:`samples_stretch`).
+
+        Live sources of the tick stay live, compared with their previous samples; the others
+        are flushed, and the tick's new sources compared with what was sent.
+        """
         sources = [src for src, _ in chunks]
-        live = self.live
         masks: list[tuple[bool, ...]] = []
-        if live == sources:
-            # The same sources as the tick before (a move and its fades, tick after tick):
-            # all live, each compared with its own previous sample.
-            for src, sample in chunks:
-                prev = src.prev
-                assert prev is not None
-                masks.append(tuple(map(ne, sample, prev)) if src.unit
-                             else (sample != prev,) if src.one else changes(src, sample, prev))
+        if self.live:
+            self.flush(sources)
+        fresh = False
+        for src, sample in chunks:
+            prev = src.prev
+            if prev is None:
+                masks.append(self._fresh(src, sample))
+                fresh = True
+            else:
+                masks.append(changes(src, sample, prev))
                 src.prev = sample
-        else:
-            if live:
-                self.flush(sources)
-            fresh = False
-            for src, sample in chunks:
-                prev = src.prev
-                if prev is None:
-                    masks.append(self._fresh(src, sample))
-                    fresh = True
-                else:
-                    masks.append(changes(src, sample, prev))
-                    src.prev = sample
-            if fresh:
-                self._known_changed()
+        if fresh:
+            self._known_changed()
         # The plan depends on the sources' registers and the order of their cues only: one
         # small number per such shape (cheaper to hash, tick after tick, than the shape).
         group = tuple(sources)
@@ -281,20 +279,6 @@ class TickFrames:
             )))
         self.samples += len(plan)
 
-    def source_sample(self, t_us: int, src: Source, sample: bytes) -> None:
-        """A tick only ``src`` writes."""
-        prev = src.prev
-        # prev is set exactly while src is live: else src is not the one live source.
-        if prev is None or len(self.live) != 1:
-            self.source_tick(t_us, src, sample)
-            return
-        # The next sample of the one live source.
-        if sample == prev:
-            return
-        src.prev = sample
-        mask = tuple(map(ne, sample, prev)) if src.unit else changes(src, sample, prev)
-        self.build(t_us, (src.addresses, mask), ((src, sample),), (mask,), (src,))
-
     def stretch(self, times: Sequence[int], pairs: Sequence[tuple[Source, bytes]]) -> None:
         """Consecutive ticks only one source writes (``pairs``: its samples at ``times``).
 
@@ -337,7 +321,7 @@ class TickFrames:
             except ValueError:
                 stop = count
             if stop > at:
-                # build() for a one-slice plan, inlined, tick after tick (see frames_from_ticks)
+                # build() for a one-slice plan, inlined, tick after tick
                 wire = [
                     b"".join((prefix, data := sample[begin:end],
                               BYTES[~(check_base + sum(data)) & 0xFF], TAIL))
