@@ -22,6 +22,7 @@ from xgo_show.compiler.artifact import (
     _canonical,
     _envelope,
     _first_bad_frame,
+    _performer_columns,
     is_schedule_file,
     schedule_from_bytes,
     schedule_to_bytes,
@@ -97,6 +98,28 @@ def test_performers_without_frames_and_frames_without_a_cue_round_trip() -> None
         0, 250_000, 0, 0]
     assert doc["origins"] == [{"column": 5, "cue": "élan", "file": "show.yaml", "line": 3},
                               {"column": 5, "cue": "rise", "file": "show.yaml", "line": 7}]
+
+
+def test_the_origin_column_asks_the_table_once_for_each_cue() -> None:
+    # A Rider's move and LED fades alternate frame by frame: the table is asked once for each
+    # cue (in the order frames first name them), not once a frame, and each frame still gets
+    # its own cue's index (0: none, else the table's index + 1).
+    cues = [CUE, OTHER, CUE, OTHER, None, CUE, None, OTHER]
+    rex = _performer("rex", [ScheduledFrame(0.1 * i, _z(90.0), cue) for i, cue in
+                             enumerate(cues)])
+    asked: list[Origin | None] = []
+    table = {CUE: 6, OTHER: 2}
+
+    def ref(origin: Origin | None) -> int | None:
+        asked.append(origin)
+        return None if origin is None else table[origin]
+
+    columns = _performer_columns(rex, ref)
+    n = len(cues)
+    origins = columns[10 * n:14 * n]
+    assert [int.from_bytes(origins[i:i + 4], "little") for i in range(0, 4 * n, 4)] == [
+        7, 3, 7, 3, 0, 7, 0, 3]
+    assert asked == [CUE, OTHER, None]
 
 
 def test_frames_out_of_time_order_are_not_written() -> None:
