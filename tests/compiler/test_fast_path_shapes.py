@@ -76,6 +76,24 @@ SHAPES = {
         MotionCue(0.0, o("a", 2), {"body_z": 110.0, "pitch": 8.0}, 3.0),
         MotionCue(0.0, o("b", 3), {"roll": 6.0}, 1.0),
     )),
+    # A move and a fade on the same registers twice, the move's cue first, then the fade's:
+    # the planner files the move's samples first both times, but the second time the frames
+    # go out in the other cue order (a plan made for the first pair does not serve it).
+    "fade listed first": ("rider", (
+        MotionCue(0.0, o("m", 2), {"body_z": 100.0}, 1.0),
+        FadeCue(0.0, o("f", 3), "led1", (255, 0, 0), 1.0),
+        FadeCue(1.5, o("g", 4), "led1", (0, 255, 0), 1.0),
+        MotionCue(1.5, o("n", 5), {"body_z": 80.0}, 1.0),
+    )),
+    # After a preset action nothing is known; fades of led1 and led3 then share ticks with
+    # led2 unknown between them (two frames a tick), until a fade of led2 makes it known: from
+    # then on one frame carries all three (led2 as that fade left it).
+    "known again after an action": ("rider", (
+        ActionCue(0.0, o("r", 2), 255, "reset", 1.0),
+        FadeCue(1.0, o("x", 3), "led1", (255, 0, 0), 1.0),
+        FadeCue(1.0, o("z", 4), "led3", (0, 0, 255), 1.0),
+        FadeCue(1.4, o("y", 5), "led2", (0, 200, 0), 0.2),
+    )),
 }
 
 
