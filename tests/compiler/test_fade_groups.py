@@ -16,7 +16,7 @@ from contextlib import contextmanager
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tests.compiler.conftest import origin
+from tests.compiler.conftest import examples, origin
 from xgo_show.choreo.resolved import (
     ActionCue,
     Cue,
@@ -86,7 +86,7 @@ def _frames(track: ResolvedTrack, details: bool) -> tuple[object, ...]:
             tuple(d.format() for d in plan.diagnostics))
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=examples(300), deadline=None)
 @given(rider_tracks(), st.booleans())
 def test_a_group_of_fades_makes_the_frames_of_its_fades(track: ResolvedTrack,
                                                         details: bool) -> None:
@@ -95,7 +95,7 @@ def test_a_group_of_fades_makes_the_frames_of_its_fades(track: ResolvedTrack,
     assert _frames(track, details) == alone
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=examples(100), deadline=None)
 @given(rider_tracks(), st.booleans())
 def test_a_group_of_fades_compiles_to_the_same_schedule(track: ResolvedTrack,
                                                         decimate: bool) -> None:
