@@ -283,6 +283,7 @@ def test_a_setting_cuts_the_move_on_its_register_and_the_next_move_starts_from_i
         "mini",
         MotionCue(0.0, origin("m"), {"roll": 3.0, "body_z": 100.0}, 0.5),
         SetCue(0.2, origin("s"), {"roll": -3.0}),
+        SetCue(0.4, origin("t"), {"roll": -3.0}),  # the move is cut already: stays cut at 0.2
         MotionCue(0.6, origin("n"), {"roll": -1.0}, 0.5),
     )
     filed = _filed(planner)
@@ -515,6 +516,9 @@ def test_fades_of_one_cue_that_differ_are_sampled_each_alone() -> None:
         "origin": (base[0], dataclasses.replace(base[1], origin=origin("other"))),
         "order": (base[0], SetCue(0.0, o, {"led3": (1, 1, 1)}), base[1]),
         "address order": base[::-1],
+        # Slow fades (a colour held for ticks): each alone, galloping over its runs.
+        "slow": (dataclasses.replace(base[0], to=(3, 0, 0), duration=1.0),
+                 dataclasses.replace(base[1], to=(0, 0, 3), duration=1.0)),
     }
     for what, cues in variants.items():
         planner = _planned("rider", *cues)
@@ -614,3 +618,122 @@ def test_plan_xgo_track_makes_the_frames_of_the_plan() -> None:
             "cue 'bad': periodic_roll cannot follow a trajectory"]
         # Without details, a tick only samples make has no fields (the first is mixed).
         assert bool(plan.frames[2].fields) is details and plan.frames[1].fields
+
+
+# -- edges ------------------------------------------------------------------------------------
+
+
+def test_a_setting_whose_first_register_fails_files_nothing() -> None:
+    planner = _planned("mini", SetCue(0.5, origin("s"), {"pace": "bogus"}))
+    assert planner.ticks == {} and len(_errors(planner)) == 1
+
+
+def test_a_move_shorter_than_the_time_to_the_next_tick_sends_only_its_targets() -> None:
+    # At 10 Hz, from 0.01 s for 0.13 s: tick 1 (0.1 s), then its end at 0.14 s.
+    planner = _planned("rider", MotionCue(0.01, origin("m"), {"roll": 0.1}, 0.13), rate=10.0)
+    assert _errors(planner) == []
+    reference = _move_reference(["roll"], 0.01, [DofState(0.0)], [0.1], 0.13, 10.0,
+                                profile=RIDER)
+    assert _samples_of(planner, "m", (ROLL,)) == reference and set(reference) == {100000, 140000}
+    # At 5 Hz, from 0.21 s: its end (0.34 s) comes before the next tick (0.4 s).
+    planner = _planned("rider", MotionCue(0.21, origin("m"), {"roll": 0.1}, 0.13), rate=5.0)
+    assert _filed(planner) == {340000: [(ROLL, bytes([RIDER.register("roll").to_byte(0.1)]), "m",
+                                         0, True, 0.0)]}
+
+
+def test_moves_to_each_end_of_the_range_are_planned_and_an_overshoot_past_one_is_refused() -> None:
+    planner = _planned("mini", MotionCue(0.0, origin("down"), {"roll": -20.0}, None),
+                       MotionCue(1.0, origin("up"), {"roll": 20.0}, None))
+    assert _errors(planner) == [] and planner.commanded["roll"] == 20.0
+    # Under way at 60 deg/s towards one end, a move with a tenth of the acceleration cannot
+    # stop before passing it: said with where it would go, on either side.
+    soft = {"roll": Limits(60.0, 50.0, 2000.0)}
+    for sign in (1.0, -1.0):
+        planner = _planned(
+            "mini", SetCue(0.0, origin("s"), {"roll": -20.0 * sign}),
+            MotionCue(0.1, origin("m"), {"roll": 20.0 * sign}, None),
+            MotionCue(0.7, origin("n"), {"roll": 18.0 * sign}, None, limits=soft))
+        assert _errors(planner) == [
+            f"show.yaml:1:5: error: tracks.p: cue 'n': roll would overshoot to {31.0 * sign:.1f}"
+            "deg (range -20..20) because it interrupts the move before it"]
+        assert len(planner.runs) == 1 and planner.commanded["roll"] == 20.0 * sign
+
+
+def test_registers_without_an_initial_value_are_skipped_and_an_led_starts_black() -> None:
+    # A profile whose status register (the first) and led1 have no initial value: the
+    # registers after them still start from theirs.
+    bare = dataclasses.replace(RIDER, registers=tuple(
+        dataclasses.replace(r, initial=None) if r.name in ("battery", "led1") else r
+        for r in RIDER.registers))
+    track = ResolvedTrack("p", "rider", (
+        FadeCue(0.0, origin("f"), "led1", (5, 0, 0), 0.1),
+        FadeCue(0.0, origin("g"), "led2", (5, 0, 0), 0.1),
+        MotionCue(0.0, origin("m"), {"roll": 3.0}, 0.5),
+    ))
+    planner = XgoPlanner(layout_of(bare), track, 50.0)
+    assert planner.colours == {"led2": (0, 0, 0), "led3": (0, 0, 0), "led4": (0, 0, 0)}
+    assert planner.commanded["roll"] == 0.0 and "battery" not in planner.commanded
+    planner.plan()
+    assert _colours(planner, "f")[0] == (0, 0, 0) and _colours(planner, "f")[20000] == (1, 0, 0)
+    assert _samples_of(planner, "m", (ROLL,)) == _move_reference(
+        ["roll"], 0.0, [DofState(0.0)], [3.0], 0.5, 50.0, profile=RIDER)
+
+
+def test_only_single_byte_linear_registers_with_limits_follow_a_trajectory() -> None:
+    limits = Limits(10.0, 50.0, 500.0)
+    cases = {
+        "periodic_roll": {"periodic_roll": limits},  # limits given, but a period's encoding
+        "steering_hold": {"steering_hold": limits},  # a one-byte choice, not linear
+    }
+    for name, given in cases.items():
+        planner = _planned("rider", MotionCue(0.0, origin("m"), {name: 1.0}, 1.0, limits=given))
+        assert _errors(planner) == [
+            f"show.yaml:1:5: error: tracks.p: cue 'm': {name} cannot follow a trajectory"]
+    # A linear one-byte register without limits of its own, and none given.
+    free = dataclasses.replace(RIDER, registers=tuple(
+        dataclasses.replace(r, limits=None) if r.name == "roll" else r for r in RIDER.registers))
+    track = ResolvedTrack("p", "rider", (MotionCue(0.0, origin("m"), {"roll": 1.0}, 1.0),))
+    planner = XgoPlanner(layout_of(free), track, 50.0)
+    planner.plan()
+    assert _errors(planner) == [
+        "show.yaml:1:5: error: tracks.p: cue 'm': roll cannot follow a trajectory"]
+    # ... given limits in the cue, it moves.
+    track = ResolvedTrack("p", "rider", (MotionCue(0.0, origin("m"), {"roll": 1.0}, 1.0,
+                                                   limits={"roll": limits}),))
+    planner = XgoPlanner(layout_of(free), track, 50.0)
+    planner.plan()
+    assert _errors(planner) == [] and len(planner.runs) == 1
+
+
+def test_a_quick_fade_running_past_a_move_shares_its_ticks_then_has_its_own() -> None:
+    planner = _planned("rider", MotionCue(0.0, origin("m"), {"roll": 5.0}, 0.5),
+                       FadeCue(0.4, origin("f"), "led1", (255, 255, 255), 0.4))
+    colours = _colours(planner, "f")
+    # A twentieth of the way a tick (12.75 a channel), as _Fade.colour_at reckons it.
+    assert colours == {20000 * k: (round(255 * ((k / 50 - 0.4) / 0.4)),) * 3
+                       for k in range(20, 41)}
+    for t in colours:
+        entry = planner.ticks[t]
+        if t < 500000:
+            assert isinstance(entry, Samples)
+        elif t == 500000:  # the move's target and the fade's sample
+            assert isinstance(entry, Samples) and len(entry) == 2
+        else:
+            assert isinstance(entry, tuple) and entry[0].addresses == (LED1,)
+    assert planner.mixed == set()
+
+
+def test_two_fades_of_one_led_meeting_at_a_tick_make_it_writes() -> None:
+    planner = _planned("rider", FadeCue(0.0, origin("f"), "led1", (255, 0, 0), 0.1),
+                       FadeCue(0.1, origin("g"), "led1", (0, 0, 255), 0.1))
+    assert _filed(planner)[100000] == [(LED1, b"\xff\x00\x00", "f", 0, True, 0.0),
+                                       (LED1, b"\xff\x00\x00", "g", 1, True, 0.0)]
+    assert planner.mixed == {100000}
+    assert _colours(planner, "g") == {100000: (255, 0, 0), 120000: (204, 0, 51),
+                                      140000: (153, 0, 102), 160000: (102, 0, 153),
+                                      180000: (51, 0, 204), 200000: (0, 0, 255)}
+    # A fade after one that ended (not cut) starts from its final colour.
+    planner = _planned("rider", FadeCue(0.0, origin("f"), "led1", (255, 0, 0), 0.1),
+                       FadeCue(0.5, origin("g"), "led1", (255, 0, 100), 0.1))
+    assert _colours(planner, "g")[500000] == (255, 0, 0)
+    assert _colours(planner, "g")[520000] == (255, 0, 20)

@@ -151,6 +151,8 @@ def test_bar_numbers_are_labelled_every_power_of_two_bars_to_stay_apart() -> Non
     assert step(2.0, 151, 300.0) == 8  # 0.071 in: 0.142 at 2, 0.284 at 4 (< 0.3), 0.57 at 8
     assert step(2.0, 60, 211.0) == 4  # 0.1009 in: 0.3026 at 3 would do, but steps double
     assert step(2.0, 1, 2.0) == 1 and step(2.0, 0, 2.0) == 1
+    # Exactly 0.3 in apart is far enough: 7.5 s bars in 266 s are 0.3 in, in 532 s 0.15.
+    assert step(7.5, 35, 266.0) == 1 and step(7.5, 70, 532.0) == 2
     # Two bars are enough to measure: 0.1 s apart in 100 s is 0.0106 in, every 32nd.
     assert step(0.1, 2, 100.0) == 32
     # Bars measured from one another, not from the show's start (a pickup before bar 1).

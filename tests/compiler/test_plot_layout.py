@@ -88,7 +88,12 @@ def test_the_axes_are_stacked_top_down_at_their_heights(demo: Any) -> None:
 def test_the_header_names_sections_and_numbers_bars(demo: Any) -> None:
     header = demo.axes[0]
     assert header.get_ylabel() == "bar" and header.get_ylim() == (0.0, 1.6)
-    assert header.yaxis.label.get_fontsize() == 7.0
+    # "bar" level with the bar numbers, just left of the axis' top, written across.
+    label = header.yaxis.label
+    assert (label.get_fontsize(), label.get_rotation(), label.get_ha(), label.get_va()) == (
+        7.0, 0.0, "right", "top")
+    assert label.get_position() == (-0.005, 1.0)
+    assert label.get_transform() == header.transAxes
     assert header.get_yticks().tolist() == []
     assert {side: s.get_visible() for side, s in header.spines.items()} == {
         "left": False, "right": False, "bottom": False, "top": True}
@@ -149,6 +154,7 @@ def test_each_unit_has_an_axis_with_its_curves(demo: Any) -> None:
     assert [t.get_text() for t in legend.get_texts()] == ["pitch", "roll"]
     assert {t.get_fontsize() for t in legend.get_texts()} == {7.0}
     assert legend.get_frame_on() is False and legend._loc == 2  # upper left
+    assert legend.borderaxespad == 0.0  # its top level with the axis' top
     assert tuple(legend.get_bbox_to_anchor().transformed(deg.transAxes.inverted()).p0) == \
         pytest.approx((1.005, 1.0))
     assert {t.get_fontsize() for t in deg.get_yticklabels()} == {7.0}
@@ -158,6 +164,9 @@ def test_cues_are_labelled_in_rows_with_their_marks(demo: Any) -> None:
     cues = demo.axes[3]
     assert cues.get_ylabel() == "cues" and cues.get_ylim() == (2.0, 0.0)
     assert cues.yaxis.label.get_fontsize() == 9.0 and cues.get_yticks().tolist() == []
+    # "cues" written across, right of it against the axis, level with its middle.
+    label = cues.yaxis.label
+    assert (label.get_rotation(), label.get_ha(), label.get_va()) == (0.0, "right", "center")
     # The action's box spans its time; a setting's mark is a tick; the last label would run
     # past the end, so it ends at its time instead. The xArm move is not a cue label.
     assert _texts(cues) == [(" wave (action 13)", (1.0, 0.5), 7.0, "left"),
