@@ -281,7 +281,7 @@ def test_plot_schedule_writes_at_110_dpi_and_names_a_path_it_cannot_write(tmp_pa
                                                                  1.0),), 50.0)
     path = plot_schedule(schedule, tmp_path / "a.png")
     assert path == tmp_path / "a.png"
-    height, width = imread(path).shape[:2]
+    _, width = imread(path).shape[:2]
     assert width == 14 * 110
     assert plt.get_fignums() == before  # the figure is closed
     folder = tmp_path / "taken.png"
