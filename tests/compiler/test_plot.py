@@ -116,7 +116,7 @@ def test_plot_writes_a_png(make_show, o, tmp_path: Path) -> None:  # type: ignor
 def test_label_rows_are_greedy_by_left_edge_and_the_first_row_free_is_taken() -> None:
     from xgo_show.compiler.plot import _rows, _text_width
 
-    w = _text_width("x")  # inches; one second an inch below
+    w = _text_width(" x")  # inches, as drawn (a space before it); one second an inch below
     # Three instants: the second starts where the first label ends (fits its row), the
     # third inside the second's label (a new row); a span longer than its label reaches on.
     items = [(0.0, 0.0, "x"), (w, w, "x"), (w + 0.01, w + 0.01, "x"), (5.0, 9.0, "x"),
@@ -134,6 +134,13 @@ def test_label_rows_are_greedy_by_left_edge_and_the_first_row_free_is_taken() ->
     assert _rows([(10.0 - w / 2, 10.0 - w / 2, "x"), (9.75, 9.75, "x")], 1.0, 10.0) == [
         (1, True), (0, False)]
     assert _rows([(10.0 - w, 10.0 - w, "x")], 1.0, 10.0) == [(0, False)]
+    # A right-aligned label reaches only to its start: a short label just after that start
+    # (ending before the show's end) shares its row.
+    long = _text_width(" xxxxxxxxxx")
+    assert _text_width(" ") < 0.4 * long
+    assert _rows([(10.0 - 0.5 * long, 10.0 - 0.5 * long, "xxxxxxxxxx"),
+                  (10.0 - 0.4 * long, 10.0 - 0.4 * long, "")], 1.0, 10.0) == [(0, True),
+                                                                             (0, False)]
     assert _rows([], 1.0, 10.0) == []
 
 

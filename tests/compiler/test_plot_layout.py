@@ -5,6 +5,7 @@ image is compared (pixels change with matplotlib's version; these properties do 
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 from pathlib import Path
 from typing import Any
@@ -315,5 +316,120 @@ def test_label_widths_are_measured_on_the_font_with_a_pad() -> None:
             fig.canvas.draw()
             points = label.get_window_extent().width  # at 72 dpi, one pixel a point
             assert _text_width(text) * 72 - 4 == pytest.approx(points, abs=2.5)
+    finally:
+        plt.close(fig)
+
+
+def _overlaps(fig: Any) -> list[tuple[str, str]]:
+    """Pairs of labels whose drawn boxes overlap, and labels outside their axes."""
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    labels = [t for ax in fig.axes for t in ax.texts if t.get_gid() == "label"]
+    boxes = [t.get_window_extent(renderer) for t in labels]
+    out = [(a.get_text(), b.get_text()) for i, (a, ba) in enumerate(zip(labels, boxes, strict=True))
+           for b, bb in zip(labels[i + 1:], boxes[i + 1:], strict=True) if ba.overlaps(bb)]
+    for t, box in zip(labels, boxes, strict=True):
+        frame = t.axes.get_window_extent(renderer)
+        if not (frame.x0 - 1 <= box.x0 and box.x1 <= frame.x1 + 1):
+            out.append((t.get_text(), "outside"))
+    return out
+
+
+def test_section_names_are_measured_as_drawn_bold_and_never_overprint() -> None:
+    # A section a little longer than its name at the cue labels' size, shorter than the name
+    # as drawn (bold, a point larger, after a space): the next name takes the next row.
+    from xgo_show.compiler.plot import _text_width
+
+    name = "Wobbly Wombat Waltz"
+    seconds_per_inch = 100.0 / (14 * 0.76)
+    plain = _text_width(name) * seconds_per_inch
+    drawn = _text_width(f" {name}", 8.0, "bold") * seconds_per_inch
+    assert drawn > 1.25 * plain
+    for length, row in ((1.1 * plain, 1.5), (0.97 * drawn, 1.5), (1.01 * drawn, 0.5)):
+        fig = timeline_figure(Timeline("T", 100.0, (ARM,), sections=(
+            (name, 0.0, length), ("Second", length, 100.0))))
+        try:
+            assert [t.get_position()[1] for t in fig.axes[0].texts] == [0.5, row], length
+            assert _overlaps(fig) == []
+        finally:
+            plt.close(fig)
+
+
+def test_a_section_name_past_the_end_ends_at_its_start() -> None:
+    # The last section, 2 s of 300: its name would run past the end of the axes. Ending at
+    # its start, it lies over the verse's band: a row of its own.
+    fig = timeline_figure(Timeline("T", 300.0, (ARM,), sections=(
+        ("verse", 0.0, 298.0), ("outro", 298.0, 300.0))))
+    try:
+        assert _texts(fig.axes[0]) == [(" verse", (0.0, 0.5), 8.0, "left"),
+                                       ("outro ", (298.0, 1.5), 8.0, "right")]
+        assert _overlaps(fig) == []
+    finally:
+        plt.close(fig)
+
+
+def test_bars_without_sections_make_a_header_of_one_row() -> None:
+    fig = timeline_figure(Timeline("Barred", 4.0, (ARM,), bars=((0.0, 1), (2.0, 2))))
+    try:
+        assert _inches(fig, fig.axes[0])[3] == pytest.approx(0.45)
+        assert fig.get_size_inches().tolist() == pytest.approx(
+            [14.0, 0.75 + 0.45 + 0.35 + 0.4 + 0.35 + 0.5])
+    finally:
+        plt.close(fig)
+
+
+def test_a_performer_with_only_curves_cues_or_leds_has_only_those_axes() -> None:
+    curves = PerformerTimeline("a", "mini", "XGO Mini", REX.lanes[:1], (), ())
+    cues = PerformerTimeline("b", "mini", "XGO Mini", (), REX.events[1:3], ())
+    leds = PerformerTimeline("c", "rider", "XGO Rider", (), (), REX.colours)
+    fig = timeline_figure(Timeline("T", 8.0, (curves, cues, leds)))
+    try:
+        assert [ax.get_ylabel() for ax in fig.axes] == ["mm", "cues", ""]
+        assert [t.get_text() for ax in fig.axes for t in ax.texts] == [
+            " wave (action 13)", " gait=trot"]  # no "no frames" anywhere
+        assert [t.get_text() for t in fig.axes[2].get_yticklabels()] == ["led1", "led2"]
+    finally:
+        plt.close(fig)
+
+
+def test_grid_lines_run_from_the_foot_to_the_top_of_each_axis_behind_the_rest() -> None:
+    # Three sections: only the second is shaded (every other one, from the second).
+    timeline = dataclasses.replace(DEMO, sections=(("a", 0.0, 2.0), ("b", 2.0, 5.0),
+                                                   ("c", 5.0, 8.0)))
+    fig = timeline_figure(timeline)
+    try:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        for i, ax in enumerate(fig.axes):
+            frame = ax.get_window_extent(renderer)
+            beats, bars = ax.collections[-2:]
+            for lines in (beats, bars):
+                assert lines.get_zorder() == 0
+                for seg in lines.get_segments():
+                    (x0, y0), (x1, y1) = lines.get_transform().transform(seg)
+                    assert x0 == x1 == pytest.approx(ax.transData.transform((seg[0][0], 0))[0])
+                    assert (y0, y1) == pytest.approx((frame.y0, frame.y1))
+            shades = [p for p in ax.patches if p.get_facecolor() == to_rgba("0.93")]
+            expected = [] if i == 0 else [(2.0, 3.0, -1, 0.0)]
+            assert [(p.get_x(), p.get_width(), p.get_zorder(), p.get_linewidth())
+                    for p in shades] == expected
+    finally:
+        plt.close(fig)
+
+
+def test_the_figure_does_not_follow_the_users_matplotlibrc() -> None:
+    # Sizes the layout reckons with are set, not taken from rcParams.
+    import matplotlib
+
+    rc = {"font.size": 20.0, "figure.titlesize": 30.0, "lines.markersize": 2.0,
+          "legend.borderaxespad": 3.0, "patch.linewidth": 3.0, "lines.linewidth": 4.0}
+    with matplotlib.rc_context(rc):
+        fig = timeline_figure(DEMO)
+    try:
+        assert {t.get_fontsize() for t in fig.texts if t is not fig._suptitle} == {10.0}
+        assert fig._suptitle.get_fontsize() == 12.0
+        marks = [ln.get_markersize() for ln in fig.axes[3].get_lines()]
+        assert marks == [6.0, 6.0]
+        assert fig.axes[2].get_legend().borderaxespad == 0.0
     finally:
         plt.close(fig)

@@ -28,6 +28,7 @@ _CURVE_H, _ROW_H, _STRIP_H, _HEADER_H, _GAP_H = 1.3, 0.2, 0.18, 0.45, 0.35  # in
 _TITLE_H = 0.75  # inches above the first axes: the title, and the bar numbers under it
 _FOOT_H = 0.5  # inches under the last axes: the time axis' numbers and label
 _FONT = 7.0  # points, every label
+_HEADER_FONT = _FONT + 1  # points, the section names (bold)
 _PAD = 4.0  # points of free space kept after a label
 
 
@@ -59,26 +60,29 @@ def plot_schedule(schedule: Schedule, path: str | Path) -> Path:
 
 
 @functools.lru_cache(maxsize=4096)
-def _text_width(text: str) -> float:
-    """Width of ``text`` at the label size, in inches (measured on the font, not guessed)."""
+def _text_width(text: str, size: float = _FONT, weight: str = "normal") -> float:
+    """Width of ``text`` at ``size`` points and ``weight``, in inches, and the pad after it
+    (measured on the font, not guessed)."""
     from matplotlib.font_manager import FontProperties
     from matplotlib.textpath import TextToPath
 
     width, _, _ = TextToPath().get_text_width_height_descent(
-        text, FontProperties(size=_FONT), ismath=False
+        text, FontProperties(size=size, weight=weight), ismath=False
     )
     return float(width + _PAD) / 72.0
 
 
 def _rows(
-    items: Sequence[tuple[float, float, str]], seconds_per_inch: float, end: float
+    items: Sequence[tuple[float, float, str]], seconds_per_inch: float, end: float, *,
+    size: float = _FONT, weight: str = "normal",
 ) -> list[tuple[int, bool]]:
     """(row, right-aligned) for each (start, end, text), so that no label or span overlaps
     another: greedy by left edge, first row whose last occupant has ended. A label that would
-    run past the show's end ends at its start instead."""
+    run past the show's end ends at its start instead. Each is measured as it is drawn: with
+    a space before it (after it when right-aligned), at ``size`` points and ``weight``."""
     spans = []
     for start, stop, text in items:
-        width = _text_width(text) * seconds_per_inch
+        width = _text_width(f" {text}", size, weight) * seconds_per_inch
         right = start + width > end
         left = start - width if right else start
         spans.append((left, max(stop, start if right else start + width), right))
@@ -105,10 +109,12 @@ def timeline_figure(timeline: Timeline) -> Any:
     seconds_per_inch = end / (_WIDTH * (_RIGHT - _LEFT))
     # Lay out every block first (heights in inches), then place the axes top-down.
     header = [(name, start, stop) for name, start, stop in timeline.sections]
-    header_rows = [r for r, _ in _rows([(s, e, n) for n, s, e in header], seconds_per_inch, end)]
+    header_rows = _rows([(s, e, n) for n, s, e in header], seconds_per_inch, end,
+                        size=_HEADER_FONT, weight="bold")
     blocks: list[tuple[str, float, Any]] = []
     if header or timeline.bars:
-        blocks.append(("header", _HEADER_H + _ROW_H * max(header_rows, default=0), None))
+        top_row = max((r for r, _ in header_rows), default=0)
+        blocks.append(("header", _HEADER_H + _ROW_H * top_row, None))
     for perf in timeline.performers:
         for lane in perf.lanes:
             blocks.append(("lane", _CURVE_H, (perf, lane)))
@@ -178,15 +184,15 @@ def _draw_grid(ax: Any, timeline: Timeline, *, shade: bool) -> None:
 
 
 def _draw_header(ax: Any, timeline: Timeline, header: list[tuple[str, float, float]],
-                 rows: list[int]) -> None:
+                 rows: list[tuple[int, bool]]) -> None:
     ax.set_yticks([])
     for side in ("left", "right", "bottom"):
         ax.spines[side].set_visible(False)
-    ax.set_ylim(0, max(rows, default=0) + 1.6)
-    for i, ((name, start, stop), row) in enumerate(zip(header, rows, strict=True)):
+    ax.set_ylim(0, max((r for r, _ in rows), default=0) + 1.6)
+    for i, ((name, start, stop), (row, right)) in enumerate(zip(header, rows, strict=True)):
         ax.axvspan(start, stop, ymin=0, ymax=0.12, color=f"C{i % 10}", alpha=0.5)
-        ax.text(start, row + 0.5, f" {name}", fontsize=_FONT + 1, va="center",
-                weight="bold", gid="label")
+        ax.text(start, row + 0.5, f"{name} " if right else f" {name}", fontsize=_HEADER_FONT,
+                va="center", ha="right" if right else "left", weight="bold", gid="label")
     if timeline.bars:
         ax.xaxis.set_ticks_position("top")
         step = _label_step(timeline, min_inches=0.3)
