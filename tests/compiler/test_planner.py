@@ -477,6 +477,9 @@ def test_fade_colour_at_is_clamped_to_its_span() -> None:
     instant = _Fade(FadeCue(1.0, origin("f"), "led1", (100, 50, 0), 0.0), 0,
                     RIDER.register("led1"), (0, 250, 10))
     assert instant.colour_at(1.0) == (100, 50, 0)
+    short = _Fade(FadeCue(1.0, origin("f"), "led1", (100, 50, 0), 0.5), 0,
+                  RIDER.register("led1"), (0, 250, 10))
+    assert short.colour_at(1.25) == (50, 150, 5)
 
 
 def test_an_hour_long_slow_fade_files_only_its_changes() -> None:
