@@ -507,10 +507,10 @@ def test_an_led_cue_on_two_leds_files_one_sample_of_both_a_tick() -> None:
         assert isinstance(entry, tuple) and entry[0].addresses == (LED1, LED2)
         assert (entry[0].origin, entry[0].order) == (o, 0)
     # After another fade (the group is not the first fade of the track): the same.
-    planner = _planned("rider", FadeCue(0.0, origin("other"), "led3", (1, 1, 1), 0.0),
-                       FadeCue(0.0, o, "led1", (250, 10, 0), 0.1),
-                       FadeCue(0.0, o, "led2", (0, 10, 250), 0.1))
-    entry = planner.ticks[20000]
+    after = _planned("rider", FadeCue(0.0, origin("other"), "led3", (1, 1, 1), 0.0),
+                     FadeCue(0.0, o, "led1", (250, 10, 0), 0.1),
+                     FadeCue(0.0, o, "led2", (0, 10, 250), 0.1))
+    entry = after.ticks[20000]
     assert isinstance(entry, tuple) and entry[0].addresses == (LED1, LED2)
     assert {t: entry[1] for t, entry in planner.ticks.items()
             } == {t: bytes(c) for t, c in expected.items()}
