@@ -221,7 +221,9 @@ def test_a_move_ending_a_hair_past_a_tick_sends_its_targets_there_once() -> None
     # targets go out, and not a sample first.
     cue = MotionCue(0.2, origin("m"), {"roll": 5.0}, 0.8000000001)
     planner = _planned("mini", cue)
-    assert max(planner.ticks) == 1000000
+    assert _samples_of(planner, "m", (ROLL,)) == _move_reference(
+        ["roll"], 0.2, [DofState(0.0)], [5.0], 0.8000000001, 50.0)
+    assert max(planner.ticks) == 1000000 and 980000 in planner.ticks
     assert planner.ticks[1000000][1] == bytes([MINI.register("roll").to_byte(5.0)])
     assert isinstance(planner.ticks[1000000], tuple) and planner.mixed == set()
 
@@ -654,6 +656,8 @@ def test_moves_to_each_end_of_the_range_are_planned_and_an_overshoot_past_one_is
     planner = _planned("mini", MotionCue(0.0, origin("down"), {"roll": -20.0}, None),
                        MotionCue(1.0, origin("up"), {"roll": 20.0}, None))
     assert _errors(planner) == [] and planner.commanded["roll"] == 20.0
+    # Reaching the ends exactly is within the byte tables: samples, one source a tick.
+    assert {type(e) for e in planner.ticks.values()} == {tuple}
     # Under way at 60 deg/s towards one end, a move with a tenth of the acceleration cannot
     # stop before passing it: said with where it would go, on either side.
     soft = {"roll": Limits(60.0, 50.0, 2000.0)}
@@ -666,13 +670,36 @@ def test_moves_to_each_end_of_the_range_are_planned_and_an_overshoot_past_one_is
             f"show.yaml:1:5: error: tracks.p: cue 'n': roll would overshoot to {31.0 * sign:.1f}"
             "deg (range -20..20) because it interrupts the move before it"]
         assert len(planner.runs) == 1 and planner.commanded["roll"] == 20.0 * sign
+    # By less than a degree (the allowance is a millionth), and said without a unit for a
+    # register that has none.
+    unitless = dataclasses.replace(MINI, registers=tuple(
+        dataclasses.replace(r, unit=None) if r.name == "roll" else r for r in MINI.registers))
+    for sign in (1.0, -1.0):
+        track = ResolvedTrack("p", "mini", (
+            SetCue(0.0, origin("s"), {"roll": -20.0 * sign}),
+            MotionCue(0.1, origin("m"), {"roll": 20.0 * sign}, None),
+            MotionCue(0.95, origin("n"), {"roll": 19.0 * sign}, None,
+                      limits={"roll": Limits(60.0, 150.0, 2000.0)})))
+        planner = XgoPlanner(layout_of(unitless), track, 50.0)
+        planner.plan()
+        first = plan_motion(["roll"], 0.1, [DofState(-20.0 * sign)], [20.0 * sign],
+                            [_limits("roll")])
+        over = plan_motion(["roll"], 0.95, first.state_at(0.95), [19.0 * sign],
+                           [Limits(60.0, 150.0, 2000.0)])
+        (lo, hi), = over.extrema()
+        worst = hi if sign > 0 else lo
+        assert 20.0 < abs(worst) < 21.0
+        assert _errors(planner) == [
+            f"show.yaml:1:5: error: tracks.p: cue 'n': roll would overshoot to {worst:.1f} "
+            "(range -20..20) because it interrupts the move before it"]
 
 
 def test_registers_without_an_initial_value_are_skipped_and_an_led_starts_black() -> None:
     # A profile whose status register (the first) and led1 have no initial value: the
     # registers after them still start from theirs.
     bare = dataclasses.replace(RIDER, registers=tuple(
-        dataclasses.replace(r, initial=None) if r.name in ("battery", "led1") else r
+        dataclasses.replace(r, initial=None) if r.name in ("battery", "led1")
+        else dataclasses.replace(r, initial=b"\x0a\x14\x1e") if r.name == "led3" else r
         for r in RIDER.registers))
     track = ResolvedTrack("p", "rider", (
         FadeCue(0.0, origin("f"), "led1", (5, 0, 0), 0.1),
@@ -680,7 +707,7 @@ def test_registers_without_an_initial_value_are_skipped_and_an_led_starts_black(
         MotionCue(0.0, origin("m"), {"roll": 3.0}, 0.5),
     ))
     planner = XgoPlanner(layout_of(bare), track, 50.0)
-    assert planner.colours == {"led2": (0, 0, 0), "led3": (0, 0, 0), "led4": (0, 0, 0)}
+    assert planner.colours == {"led2": (0, 0, 0), "led3": (10, 20, 30), "led4": (0, 0, 0)}
     assert planner.commanded["roll"] == 0.0 and "battery" not in planner.commanded
     planner.plan()
     assert _colours(planner, "f")[0] == (0, 0, 0) and _colours(planner, "f")[20000] == (1, 0, 0)
@@ -693,6 +720,7 @@ def test_only_single_byte_linear_registers_with_limits_follow_a_trajectory() -> 
     cases = {
         "periodic_roll": {"periodic_roll": limits},  # limits given, but a period's encoding
         "steering_hold": {"steering_hold": limits},  # a one-byte choice, not linear
+        "action": {"action": limits},  # one byte, a number, not linear
     }
     for name, given in cases.items():
         planner = _planned("rider", MotionCue(0.0, origin("m"), {name: 1.0}, 1.0, limits=given))
@@ -746,3 +774,42 @@ def test_two_fades_of_one_led_meeting_at_a_tick_make_it_writes() -> None:
                        FadeCue(0.5, origin("g"), "led1", (255, 0, 100), 0.1))
     assert _colours(planner, "g")[500000] == (255, 0, 0)
     assert _colours(planner, "g")[520000] == (255, 0, 20)
+
+
+def test_moves_side_by_side_on_other_registers_share_every_tick_as_two_sources() -> None:
+    planner = _planned("mini", MotionCue(0.0, origin("z"), {"body_z": 100.0}, 1.0),
+                       MotionCue(0.2, origin("r"), {"roll": 3.0}, 0.5))
+    body_z = _move_reference(["body_z"], 0.0, [DofState(MINI.register("body_z").to_physical(0x80))],
+                             [100.0], 1.0, 50.0)
+    roll = _move_reference(["roll"], 0.2, [DofState(0.0)], [3.0], 0.5, 50.0)
+    assert _samples_of(planner, "z", (BODY_Z,)) == body_z
+    assert _samples_of(planner, "r", (ROLL,)) == roll
+    for t in roll:
+        entry = planner.ticks[t]
+        assert isinstance(entry, Samples)
+        assert [src.origin for src, _ in entry] == [origin("z"), origin("r")]
+    assert planner.mixed == set()
+
+
+def test_a_move_cut_on_one_register_samples_the_others_at_their_own_times() -> None:
+    # From 0.3 s for 1.2 s; roll is taken over at 0.6 s, pitch and body_z go on to the end.
+    regs = ["body_z", "roll", "pitch"]
+    targets = {"body_z": 105.0, "roll": 4.0, "pitch": -6.0}
+    planner = _planned("mini", MotionCue(0.3, origin("m"), targets, 1.2),
+                       SetCue(0.6, origin("s"), {"roll": 1.0}))
+    rest = [DofState(MINI.register(n).to_physical(0x80)) for n in regs]
+    full = _move_reference(regs, 0.3, rest, [targets[n] for n in regs], 1.2, 50.0)
+    assert _samples_of(planner, "m", (BODY_Z, ROLL, 0x37)) == {
+        t: s for t, s in full.items() if t < 600000}
+    assert _samples_of(planner, "m", (BODY_Z, 0x37)) == {
+        t: s[:1] + s[2:] for t, s in full.items()}
+    assert max(full) == 1500000 and 1480000 in full
+
+
+def test_a_move_starting_a_hair_after_a_tick_samples_its_start_there() -> None:
+    # first_tick ignores a billionth of a tick: tick 10 (0.2 s) lies before the start.
+    planner = _planned("mini", MotionCue(0.2 + 1e-11, origin("m"), {"roll": 5.0}, 0.5))
+    assert _errors(planner) == []
+    assert planner.ticks[200000][1] == bytes([MINI.register("roll").to_byte(0.0)])
+    assert _samples_of(planner, "m", (ROLL,)) == _move_reference(
+        ["roll"], 0.2 + 1e-11, [DofState(0.0)], [5.0], 0.5, 50.0)
