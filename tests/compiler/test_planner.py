@@ -813,3 +813,13 @@ def test_a_move_starting_a_hair_after_a_tick_samples_its_start_there() -> None:
     assert planner.ticks[200000][1] == bytes([MINI.register("roll").to_byte(0.0)])
     assert _samples_of(planner, "m", (ROLL,)) == _move_reference(
         ["roll"], 0.2 + 1e-11, [DofState(0.0)], [5.0], 0.5, 50.0)
+
+
+def test_a_fade_ending_a_microsecond_after_a_tick_samples_that_tick() -> None:
+    planner = _planned("rider", FadeCue(0.0, origin("f"), "led1", (255, 0, 0), 1.000001))
+    colours = _colours(planner, "f")
+    assert max(colours) == 1000001 and colours[1000000] == (255, 0, 0)
+    assert len(colours) == 52  # ticks 0..50, then the end itself
+    slow = _planned("rider", FadeCue(0.0, origin("f"), "led1", (2, 0, 0), 1.000001))
+    assert _colours(slow, "f") == {0: (0, 0, 0), 260000: (1, 0, 0), 760000: (2, 0, 0),
+                                   1000001: (2, 0, 0)}
