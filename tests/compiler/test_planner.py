@@ -61,6 +61,16 @@ def _filed(planner: XgoPlanner) -> dict[int, list[Filed]]:
             for t_us, entry in sorted(planner.ticks.items())}
 
 
+def _winners(planner: XgoPlanner, t_us: int) -> dict[int, tuple[bytes, str]]:
+    """What goes out at a tick, register by register: the write of the latest cue there (a
+    later cue's write of a register wins its tick), with that cue's name."""
+    out: dict[int, tuple[int, bytes, str]] = {}
+    for address, data, name, order, _, _ in _filed(planner)[t_us]:
+        if address not in out or order >= out[address][0]:
+            out[address] = (order, data, name)
+    return {address: (data, name) for address, (_, data, name) in sorted(out.items())}
+
+
 def _errors(planner: XgoPlanner) -> list[str]:
     return [d.format() for d in planner.diag.items]
 
@@ -327,12 +337,10 @@ def test_a_move_interrupting_a_move_starts_where_and_how_fast_it_was() -> None:
     assert _samples_of(later, "n", (ROLL,)) == _move_reference(
         ["roll"], 1.0, [DofState(10.0)], [-2.0], 1.0, 50.0)
     assert later.runs[0].cuts == [None]
-    # ... and its target at 1.0 s and the next move's first sample share that tick: the later
-    # cue's filed after the earlier one's.
-    assert _filed(later)[1000000] == [
-        (ROLL, bytes([MINI.register("roll").to_byte(10.0)]), "m", 0, True, 0.0),
-        (ROLL, bytes([MINI.register("roll").to_byte(10.0)]), "n", 1, True, 0.0)]
-    assert later.mixed == {1000000}
+    # ... and its target at 1.0 s and the next move's first sample share that tick: the
+    # later cue's goes out.
+    assert _winners(later, 1000000) == {
+        ROLL: (bytes([MINI.register("roll").to_byte(10.0)]), "n")}
 
 
 def test_an_action_cuts_the_moves_under_way_and_later_moves_start_where_they_stopped() -> None:
@@ -572,23 +580,24 @@ def test_a_fade_beside_a_move_shares_its_ticks_as_two_sources() -> None:
     assert _colours(planner, "g", LED2)[20000] == (0, 51, 0)
 
 
-def test_a_sample_on_a_register_another_sample_holds_makes_the_tick_writes() -> None:
+def test_where_samples_of_one_register_meet_the_later_cues_goes_out() -> None:
     # Two fades of led1 whose ticks meet at 0.1 s (the first's end, the second's start), and
     # a move beside them.
     planner = _planned("rider", MotionCue(0.0, origin("m"), {"roll": 5.0}, 0.5),
                        FadeCue(0.0, origin("f"), "led1", (255, 0, 0), 0.1),
                        FadeCue(0.1, origin("g"), "led1", (0, 0, 255), 0.1))
-    meeting = _filed(planner)[100000]
-    assert [(a, name) for a, _, name, *_ in meeting] == [(ROLL, "m"), (LED1, "f"), (LED1, "g")]
-    assert 100000 in planner.mixed and isinstance(planner.ticks[100000], list)
+    roll = _move_reference(["roll"], 0.0, [DofState(0.0)], [5.0], 0.5, 50.0, profile=RIDER)
+    assert _winners(planner, 100000) == {ROLL: (roll[100000], "m"),
+                                         LED1: (b"\xff\x00\x00", "g")}
+    assert _colours(planner, "g")[120000] == (204, 0, 51)
+    assert _samples_of(planner, "m", (ROLL,)) == roll
     # Two moves' samples at one tick on one register, and a fade's on another.
     planner = _planned("rider", FadeCue(0.0, origin("f"), "led1", (255, 0, 0), 1.0),
                        MotionCue(0.0, origin("m"), {"roll": 5.0}, 0.5),
                        MotionCue(0.5, origin("n"), {"roll": 0.0}, 0.5))
-    # (moves are sampled before fades: the fade's sample joins the moves' writes)
-    assert [(a, name) for a, _, name, *_ in _filed(planner)[500000]] == [
-        (ROLL, "m"), (ROLL, "n"), (LED1, "f")]
-    assert planner.mixed == {500000}
+    assert _winners(planner, 500000) == {
+        ROLL: (bytes([RIDER.register("roll").to_byte(5.0)]), "n"),
+        LED1: (bytes([round(255 * 0.5), 0, 0]), "f")}
 
 
 def test_a_move_over_ticks_a_fade_holds_files_its_samples_beside_them() -> None:
@@ -760,12 +769,10 @@ def test_a_quick_fade_running_past_a_move_shares_its_ticks_then_has_its_own() ->
     assert planner.mixed == set()
 
 
-def test_two_fades_of_one_led_meeting_at_a_tick_make_it_writes() -> None:
+def test_two_fades_of_one_led_meeting_at_a_tick_send_the_later() -> None:
     planner = _planned("rider", FadeCue(0.0, origin("f"), "led1", (255, 0, 0), 0.1),
                        FadeCue(0.1, origin("g"), "led1", (0, 0, 255), 0.1))
-    assert _filed(planner)[100000] == [(LED1, b"\xff\x00\x00", "f", 0, True, 0.0),
-                                       (LED1, b"\xff\x00\x00", "g", 1, True, 0.0)]
-    assert planner.mixed == {100000}
+    assert _winners(planner, 100000) == {LED1: (b"\xff\x00\x00", "g")}
     assert _colours(planner, "g") == {100000: (255, 0, 0), 120000: (204, 0, 51),
                                       140000: (153, 0, 102), 160000: (102, 0, 153),
                                       180000: (51, 0, 204), 200000: (0, 0, 255)}
