@@ -86,6 +86,29 @@ def test_pacing_without_decimation_is_decimation_with_nothing_to_drop(
     assert plain.dropped == general.dropped == 0
 
 
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 4_000), st.integers(1, 40)), min_size=2, max_size=60),
+       st.integers(0, 1))
+def test_frames_spaced_wider_than_the_longest_start_when_planned(
+    frames: list[tuple[int, int]], closer: int,
+) -> None:
+    # One frame a tick (a 4 ms tick here, and the longest frame's 3.8 ms of wire time plus
+    # gap), as most performers send: pacing's short road leaves every frame on time. One
+    # frame a microsecond closer than that to the one before takes the loop: the same
+    # starts as decimation's road either way.
+    longest = max(n for _, n in frames)
+    room = wire_us(XGO, len(write_frame(0x40, bytes(longest)))) + 1000
+    times = [sum(room + extra for extra, _ in frames[:i + 1]) for i in range(len(frames))]
+    if closer:
+        times[-1] = times[-2] + room - 1
+    planned = [_planned(t, n) for t, (_, n) in zip(times, frames, strict=True)]
+    plain = pace(planned, link=XGO, gap_us=1000, period_us=5_000)
+    general = pace(planned, link=XGO, gap_us=1000, period_us=5_000, decimate=True)
+    assert plain.frames == general.frames and plain.late == general.late
+    if not closer:
+        assert plain.starts == times
+
+
 def _crowded(make_show, o, **settings):  # type: ignore[no-untyped-def]
     # body_z (0x35) and servo_11 (0x50) are too far apart to share a frame: two frames per
     # tick of ~1.8 ms each, while a 500 Hz tick is 2 ms: the backlog grows every tick.
