@@ -134,7 +134,7 @@ def _rows(columns: Sequence[Iterable[int]], count: int) -> list[bytes]:
     row ``i`` as ``bytes``, made column by column. Each column becomes one ``bytes`` (a C-level
     loop), is put in place in one buffer by an extended slice, and the buffer is cut into rows
     by one regular expression: no tuple a row nor a ``bytes()`` call on one (the samples of a
-    long show's every tick; a fifth of the cost of sampling a move).
+    long show's every tick: 900,000 rows of 4 bytes in 0.045 s against 0.081 s).
     """
     width = len(columns)
     if width == 1:
