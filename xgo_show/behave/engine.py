@@ -119,7 +119,6 @@ class _Claim:
 @dataclass
 class _Run:
     rule: RuleModel
-    cause: str
     pc: int = 0
     until: float | None = None  # waiting for this clock time
     waiting: set[str] = field(default_factory=set)  # performers whose routine must end
@@ -161,13 +160,11 @@ class Engine:
         self._runs: list[_Run] = []
         self._queues: dict[str, list[str]] = {}
         self._ids = itertools.count(1)
-        self._started = False
 
     # ------------------------------------------------------------------ inputs
 
     def start(self, now: float) -> None:
         """Start-up: arm the timers and fire ``startup`` triggers."""
-        self._started = True
         for p in self.model.performers:
             self.last_seen[p] = now
         self._enter_set(now)
@@ -225,7 +222,9 @@ class Engine:
     def advance(self, now: float) -> None:
         """Run everything due at or before ``now``: timers, waits, offline checks."""
         for key, due in sorted(self._timers.items(), key=lambda kv: kv[1]):
-            if due > now or key not in self._timers:
+            # A rule fired here may switch sets, which arms the timers again from the switch:
+            # a timer no longer due when this list was made is left to its new time.
+            if due > now or self._timers.get(key) != due:
                 continue
             r, t = key
             rule, trig = self.model.rules[r], self.model.rules[r].when[t]
@@ -390,7 +389,7 @@ class Engine:
             for run in running:
                 self._end(run, now, cut=f"restarted by {cause}", follow=False)
         self._note(rule.name, "fired", cause, now)
-        run = _Run(rule, cause)
+        run = _Run(rule)
         self._runs.append(run)
         self._step(run, now)
 
@@ -405,11 +404,16 @@ class Engine:
                 claim.run = None
         if cut:
             self._note(run.rule.name, "cut", cut, now)
-        queue = self._queues.get(run.rule.name)
-        if follow and queue:
+        if follow:
+            self._next_queued(run.rule, now)
+
+    def _next_queued(self, rule: RuleModel, now: float) -> None:
+        """Start the next run ``rule`` has queued, if any."""
+        queue = self._queues.get(rule.name)
+        if queue:
             cause = queue.pop(0)
-            self._note(run.rule.name, "fired", f"{cause} (from the queue)", now)
-            nxt = _Run(run.rule, cause)
+            self._note(rule.name, "fired", f"{cause} (from the queue)", now)
+            nxt = _Run(rule)
             self._runs.append(nxt)
             self._step(nxt, now)
 
@@ -422,10 +426,11 @@ class Engine:
             name = run.rule.name
             if isinstance(action, (Play, Loop)):
                 routine = played(action)
-                perfs = self._claim(run, routine, action.performers, now)
-                if perfs is None:
+                claimed = self._claim(run, routine, action.performers, now)
+                if claimed is None:
                     self._end(run, now)
                     return
+                perfs, cut = claimed
                 play_id = next(self._ids)
                 loop = isinstance(action, Loop)
                 for p in perfs:
@@ -435,6 +440,12 @@ class Engine:
                 self.stage.play(routine, perfs, play_id, now)
                 if not loop:
                     run.waiting = set(perfs)
+                # The runs cut go on with their queues only now that this play holds the
+                # performers (before, a queued run took them back and was then left waiting
+                # for a play handed over to this one: its rule blocked for good).
+                for other in cut:
+                    self._next_queued(other.rule, now)
+                if not loop:
                     return
             elif isinstance(action, (Stop, SafeStop)):
                 value = action.stop if isinstance(action, Stop) else action.safe_stop
@@ -465,9 +476,10 @@ class Engine:
 
     def _claim(
         self, run: _Run, routine: str, wanted: list[str] | None, now: float
-    ) -> tuple[str, ...] | None:
-        """The performers ``run`` may play ``routine`` on (pre-empting lower or equal ranks);
-        None (and a note) if a higher-ranked rule holds one of them."""
+    ) -> tuple[tuple[str, ...], list[_Run]] | None:
+        """The performers ``run`` may play ``routine`` on, and the runs it cuts (pre-empting
+        lower or equal ranks: their queues are left to the caller); None (and a note) if a
+        higher-ranked rule holds one of them."""
         has = self.behaviour.routine_performers(routine)
         perfs = tuple(p for p in has if wanted is None or p in wanted)
         rank = _rank(run.rule)
@@ -477,13 +489,16 @@ class Engine:
                 self._note(run.rule.name, "refused",
                            f"{p} is held by rule {claim.rule} (higher rank)", now)
                 return None
+        cut: list[_Run] = []
         for p in perfs:
             claim = self.claims.get(p)
             if claim is not None and claim.run is not None and claim.run is not run:
                 other = claim.run
-                if p in other.waiting:
-                    self._end(other, now, cut=f"{p} taken by rule {run.rule.name}")
-        return perfs
+                if p in other.waiting and not other.done:
+                    self._end(other, now, cut=f"{p} taken by rule {run.rule.name}",
+                              follow=False)
+                    cut.append(other)
+        return perfs, cut
 
     def _switch(self, name: str, run: _Run, now: float) -> None:
         if name == self.active_set:
