@@ -104,8 +104,10 @@ def test_offline_counts_from_the_start_and_from_the_last_reading(tmp_path: Path)
     assert rig.notes == ["7 gone fired: ada offline (2 s without telemetry)",
                          "7 gone published: lost"]
     assert rig.engine.next_deadline() is None  # fired once: not armed again until heard
-    rig.read(8.0, "ada", "battery", 80)
-    assert rig.engine.next_deadline() == 10.0
+    rig.engine.advance(9.0)  # nor fired again; rex, silent since 6 s, is not the rule's
+    assert len(rig.notes) == 2
+    rig.read(9.5, "ada", "battery", 80)
+    assert rig.engine.next_deadline() == 11.5
 
 
 def test_single_queued_and_restart_runs_word_for_word(tmp_path: Path) -> None:
@@ -143,36 +145,92 @@ def test_single_queued_and_restart_runs_word_for_word(tmp_path: Path) -> None:
     assert eng.next_deadline() is None
 
 
+def test_parallel_runs_go_on_side_by_side(tmp_path: Path) -> None:
+    rig = Rig(tmp_path, """\
+        - {name: p, mode: parallel, when: [{trigger: go}], do: [{wait: 2}, {publish: done}]}
+        """, "triggers: [go]\n")
+    rig.engine.trigger("go", 0.0)
+    rig.engine.trigger("go", 1.0)
+    rig.engine.advance(3.0)
+    assert rig.notes == ["0 p fired: trigger go", "1 p fired: trigger go",
+                         "3 p published: done", "3 p published: done"]
+
+
+def test_a_queued_rule_cut_by_a_safety_rule_runs_its_queue_after_it_and_is_free_again(tmp_path: Path
+                                                                          ) -> None:
+    rig = Rig(tmp_path, """\
+        - {name: q, mode: queued, when: [{trigger: go}], do: [{play: one}]}
+        - {name: safe, safety: true, when: [{trigger: fall}], do: [{loop: one}]}
+        """, "triggers: [go, fall]\n")
+    for t in (0.0, 1.0, 2.0):
+        rig.engine.trigger("go", t)
+    rig.engine.trigger("fall", 3.0)
+    rig.engine.trigger("go", 4.0)  # q runs nothing now: it fires (and is refused)
+    assert rig.notes[-9:] == [
+        "3 safe fired: trigger fall",
+        "3 q cut: rex taken by rule safe",
+        "3 safe action: rex loops one",
+        "3 q fired: trigger go (from the queue)",
+        "3 q refused: rex is held by rule safe (higher rank)",
+        "3 q fired: trigger go (from the queue)",
+        "3 q refused: rex is held by rule safe (higher rank)",
+        "4 q fired: trigger go",
+        "4 q refused: rex is held by rule safe (higher rank)",
+    ]
+    assert rig.stage.calls[-1].startswith("3 play one rex #")  # the safety rule's loop
+
+
+def test_a_run_cut_while_it_runs_its_own_actions_stops_there(tmp_path: Path) -> None:
+    # Its switch starts the set again, whose start-up restarts the rule: the first run is
+    # cut inside its own switch and does not publish; the second does, once.
+    rig = Rig(tmp_path, """\
+        - {name: s, mode: restart, when: [{startup: true}], do: [{switch: b}, {publish: p}]}
+        """, "sets: [a, b]\ninitial: a\n")
+    assert rig.notes == [
+        "0 s fired: start-up of set a",
+        "0 s action: switch to set b",
+        "0 s cut: restarted by start-up of set b",
+        "0 s fired: start-up of set b",
+        "0 s published: p",
+    ]
+
+
 def test_stops_safe_stops_and_writes_name_their_performers(tmp_path: Path) -> None:
     rig = Rig(tmp_path, """\
         - name: x
           when: [{trigger: go}]
           do:
+            - {loop: duo, performers: [ada]}
             - {loop: duo}
             - {stop: [ada]}
             - {safe_stop: all}
-            - {set: {gait: trot}, performers: [rex]}
+            - {set: {gait: trot, pace: slow}, performers: [rex]}
             - {led: {led1: red}, performers: [ada]}
+            - {set: {vx: 0}}
             - {stop: all}
             - {safe_stop: [rex]}
         """, "triggers: [go]\n")
     rig.engine.trigger("go", 1.0)
     assert rig.notes == [
         "1 x fired: trigger go",
+        "1 x action: ada loops duo",
         "1 x action: rex, ada loops duo",
         "1 x action: ada rest",
         "1 x action: rex, ada safe stop",
-        "1 x action: rex set gait=trot",
+        "1 x action: rex set gait=trot pace=slow",
         "1 x action: ada led led1=red",
+        "1 x action: rex, ada set vx=0",
         "1 x action: rex, ada rest",
         "1 x action: rex safe stop",
     ]
     assert rig.stage.calls == [
-        "1 play duo rex,ada #1",
+        "1 play duo ada #1",
+        "1 play duo rex,ada #2",
         "1 rest ada",
         "1 safe_stop rex,ada (rule x)",
-        "1 write x.do[3] rex",
-        "1 write x.do[4] ada",
+        "1 write x.do[4] rex",
+        "1 write x.do[5] ada",
+        "1 write x.do[6] rex,ada",
         "1 rest rex,ada",
         "1 safe_stop rex (rule x)",
     ]
@@ -225,21 +283,25 @@ def test_a_routines_end_fires_only_for_the_performers_named(tmp_path: Path) -> N
 
 def test_telemetry_triggers_default_clears_and_their_performers(tmp_path: Path) -> None:
     rig = Rig(tmp_path, """\
+        - {name: rexlow, mode: parallel, when: [{battery_below: 5, performers: [rex]}],
+           do: [{publish: rexlow}]}
         - {name: low, mode: parallel, when: [{battery_below: 20, performers: [ada]}],
            do: [{publish: low}]}
+        - {name: adatilt, mode: parallel, when: [{tilt_beyond: 10, performers: [ada]}],
+           do: [{publish: adatilt}]}
         - {name: tilt, mode: parallel, when: [{tilt_beyond: 40, performers: [rex]}],
            do: [{publish: tilt}]}
         """)
     # The battery's clear is 5 above the level (25): 24.9 does not re-arm, 25 does.
     for t, value in enumerate([30, 20, 19.9, 24.9, 19, 25, 19.5]):
         rig.read(float(t), "ada", "battery", value)
-    rig.read(10.0, "rex", "battery", 1)  # not ada
+    rig.read(10.0, "rex", "battery", 6)  # not ada's, nor below rex's 5
     # The tilt's clear is half the angle (20): 20 does not re-arm, 19.9 does.
     for t, (name, value) in enumerate([("imu_pitch", 40), ("imu_pitch", -40.1),
                                        ("imu_pitch", 20), ("imu_pitch", 50),
                                        ("imu_pitch", 19.9), ("imu_roll", 41)], start=20):
         rig.read(float(t), "rex", name, value)
-    rig.read(30.0, "ada", "imu_roll", 80)  # not rex
+    rig.read(30.0, "ada", "imu_roll", 5)  # not rex's, nor beyond ada's 10
     fired = [n for n in rig.notes if "fired" in n]
     assert fired == [
         "2 low fired: ada battery 20% < 20%",
@@ -284,6 +346,7 @@ def test_losing_a_robot_fires_its_offline_rules_once_and_online_when_heard(tmp_p
     ]
     rig.read(4.0, "rex", "battery", 90)
     rig.read(5.0, "ada", "battery", 90)
+    rig.read(5.5, "ada", "battery", 90)  # online already: once
     assert [n for n in rig.notes if "fired" in n][3:] == ["5 back fired: ada back online"]
     rig.engine.lost("ada", "relay silent", 6.0)  # re-armed by the reading
     assert rig.notes[-4:] == ["6 gone fired: ada offline (relay silent)", "6 gone published: lost",
@@ -322,12 +385,16 @@ def test_time_windows_of_the_day(tmp_path: Path) -> None:
            if: {time: {after: "08:02"}}, do: [{publish: from}]}
         - {name: until, mode: parallel, when: [{trigger: go}],
            if: {time: {before: "08:00:01"}}, do: [{publish: until}]}
+        - {name: nine, mode: parallel, when: [{trigger: go}],
+           if: {time: {after: "08:59:30", before: "09:00"}}, do: [{publish: nine}]}
         """, "triggers: [go]\n")
-    # The clock reads 08:00 at 0 s; 23:00:01 at 54001 s, 00:00:09 the next day at 57609 s.
-    for t in (0, 29, 30, 89, 90, 119, 120, 54001, 57609, 57610):
+    # The clock reads 08:00 at 0 s, 08:59:59 at 3599 s, 23:00 at 54000 s and 00:00:09 the
+    # next day at 57609 s.
+    for t in (0, 29, 30, 89, 90, 119, 120, 3599, 3600, 53999, 54000, 57609, 57610):
         rig.engine.trigger("go", float(t))
     published = [n.split()[0] + " " + n.split()[-1] for n in rig.notes if "published" in n]
-    assert published == ["0 until", "30 in", "89 in", "120 from", "54001 in", "54001 from",
+    assert published == ["0 until", "30 in", "89 in", "120 from", "3599 from", "3599 nine",
+                         "3600 from", "53999 from", "54000 in", "54000 from",
                          "57609 in", "57609 until", "57610 until"]
 
 
@@ -341,7 +408,9 @@ def test_conditions_all_any_not_performer_telemetry_and_set(tmp_path: Path) -> N
                      {performer: ada, is: idle},
                      {not: {in_set: b}},
                      {telemetry: {performer: ada, name: battery, above: 20, below: 50}},
-                     {telemetry: {performer: rex, name: tilt, below: 30}}]}
+                     {telemetry: {performer: rex, name: tilt, below: 30}},
+                     {time: {after: "08:00"}},
+                     {not: {time: {before: "07:00"}}}]}
           do: [{publish: yes}]
         - {name: s, when: [{trigger: sw}], do: [{switch: b}]}
         """, "triggers: [go, ask, sw]\nsets: [a, b]\ninitial: a\n")
@@ -384,13 +453,16 @@ def test_a_condition_on_a_reading_never_made_does_not_hold(tmp_path: Path) -> No
 
 def test_switching_sets_cuts_runs_rests_loops_and_starts_the_new_set(tmp_path: Path) -> None:
     rig = Rig(tmp_path, """\
-        - {name: w, sets: [a], when: [{trigger: go}], do: [{wait: 10}, {publish: late}]}
+        - {name: w, sets: [a], mode: queued, when: [{trigger: go}],
+           do: [{wait: 10}, {publish: late}]}
+        - {name: stay, when: [{trigger: go}], do: [{wait: 10}, {publish: stayed}]}
         - {name: l, sets: [a], when: [{trigger: go}], do: [{loop: two}]}
         - {name: k, when: [{trigger: go}], do: [{loop: one}]}
         - {name: s, when: [{trigger: sw}], do: [{switch: b}, {switch: b}, {publish: in_b}]}
         - {name: u, sets: [b], when: [{startup: true}, {after: 1}], do: [{publish: up}]}
         """, "triggers: [go, sw]\nsets: [a, b]\ninitial: a\n")
     rig.engine.trigger("go", 0.0)
+    rig.engine.trigger("go", 1.0)  # w queues it; stay is single and skips it
     rig.engine.trigger("sw", 2.0)
     assert rig.notes[-6:] == [
         "2 s fired: trigger sw",
@@ -404,7 +476,9 @@ def test_switching_sets_cuts_runs_rests_loops_and_starts_the_new_set(tmp_path: P
     assert (rig.engine.playing("rex"), rig.engine.playing("ada")) == ("one", None)
     assert rig.engine.next_deadline() == 3.0  # b's after 1 s, from the switch
     rig.engine.advance(20.0)
-    assert rig.notes[-2:] == ["3 u fired: after 1 s", "3 u published: up"]
+    assert rig.notes[-3:] == ["3 u fired: after 1 s", "3 u published: up",
+                              "20 stay published: stayed"]
+    assert not any("late" in n or "from the queue" in n for n in rig.notes)
 
 
 def test_a_start_up_without_sets_and_a_preempted_wait(tmp_path: Path) -> None:
@@ -443,3 +517,61 @@ def test_any_safety_rule_outranks_any_priority(tmp_path: Path, priority: int) ->
     rig.engine.trigger("fall", 1.0)
     rig.engine.trigger("go", 2.0)
     assert rig.notes[-1] == "2 hi refused: rex is held by rule safe (higher rank)"
+
+
+def test_a_switch_arms_the_timers_again_from_the_switch(tmp_path: Path) -> None:
+    # y (every set) is due at 3 s, but s switches sets at 1 s: y now counts from there (4 s),
+    # even within the one advance that reaches both.
+    rig = Rig(tmp_path, """\
+        - {name: s, sets: [a], when: [{after: 1}], do: [{switch: b}]}
+        - {name: x, sets: [a], when: [{after: 2}], do: [{publish: x}]}
+        - {name: y, mode: parallel, when: [{every: 3}], do: [{publish: y}]}
+        """, "sets: [a, b]\ninitial: a\n")
+    rig.engine.advance(3.5)
+    assert [n for n in rig.notes if "fired" in n] == ["1 s fired: after 1 s"]
+    assert rig.engine.next_deadline() == 4.0
+    rig.engine.advance(4.0)
+    assert rig.notes[-1] == "4 y published: y"
+    assert rig.engine.next_deadline() == 7.0
+
+
+def test_clock_times_to_the_second_and_a_late_advance(tmp_path: Path) -> None:
+    # Started a quarter second after 08:00:00: 08:00:03 is 2.75 s later, not 3.
+    rig = Rig(tmp_path, """\
+        - {name: t, mode: parallel, when: [{at: "08:00:03"}], do: [{publish: t}]}
+        """, start=0.25)
+    assert rig.engine.next_deadline() == 3.0
+    # An advance a second short of a day late fires it, and plans it for the next second
+    # (the clock time comes round then), not a day after that.
+    rig.engine.advance(24 * 3600 + 2.0)
+    assert rig.notes[-1] == "3 t published: t"
+    assert rig.engine.next_deadline() == 24 * 3600 + 3.0
+
+
+def test_each_trigger_and_each_performer_has_its_own_edge(tmp_path: Path) -> None:
+    rig = Rig(tmp_path, """\
+        - name: low
+          mode: parallel
+          when: [{battery_below: 30, clear: 90}, {battery_below: 10, clear: 90}]
+          do: [{publish: low}]
+        - name: tilt
+          mode: parallel
+          when: [{tilt_beyond: 30, clear: 5}, {tilt_beyond: 60, clear: 5}]
+          do: [{publish: tilt}]
+        """)
+    for t, (performer, name, value) in enumerate([
+        ("ada", "battery", 25), ("ada", "battery", 5), ("rex", "battery", 25),
+        ("ada", "battery", 50),  # not cleared (90): nothing again
+        ("ada", "imu_roll", 40), ("ada", "imu_roll", 70), ("rex", "imu_roll", 40),
+        ("ada", "imu_roll", 10),  # 10 is not below the clear of 5
+        ("ada", "imu_roll", 45),
+    ]):
+        rig.read(float(t), performer, name, value)
+    assert [n for n in rig.notes if "fired" in n] == [
+        "0 low fired: ada battery 25% < 30%",
+        "1 low fired: ada battery 5% < 10%",
+        "2 low fired: rex battery 25% < 30%",
+        "4 tilt fired: ada tilted 40 deg > 30",
+        "5 tilt fired: ada tilted 70 deg > 60",
+        "6 tilt fired: rex tilted 40 deg > 30",
+    ]
