@@ -575,3 +575,17 @@ def test_each_trigger_and_each_performer_has_its_own_edge(tmp_path: Path) -> Non
         "5 tilt fired: ada tilted 70 deg > 60",
         "6 tilt fired: rex tilted 40 deg > 30",
     ]
+
+
+def test_taking_a_performer_a_run_only_loops_on_does_not_cut_the_run(tmp_path: Path) -> None:
+    # a loops one on rex and waits; b takes rex: a's loop ends there, its run goes on.
+    rig = Rig(tmp_path, """\
+        - {name: a, when: [{trigger: go}], do: [{loop: one}, {wait: 5}, {publish: a_done}]}
+        - {name: b, when: [{trigger: take}], do: [{play: one}]}
+        """, "triggers: [go, take]\n")
+    rig.engine.trigger("go", 0.0)
+    rig.engine.trigger("take", 1.0)
+    rig.engine.advance(5.0)
+    assert rig.notes == ["0 a fired: trigger go", "0 a action: rex loops one",
+                         "1 b fired: trigger take", "1 b action: rex plays one",
+                         "5 a published: a_done"]

@@ -494,7 +494,7 @@ class Engine:
             claim = self.claims.get(p)
             if claim is not None and claim.run is not None and claim.run is not run:
                 other = claim.run
-                if p in other.waiting and not other.done:
+                if p in other.waiting:
                     self._end(other, now, cut=f"{p} taken by rule {run.rule.name}",
                               follow=False)
                     cut.append(other)
