@@ -521,14 +521,17 @@ def test_any_safety_rule_outranks_any_priority(tmp_path: Path, priority: int) ->
 
 def test_a_switch_arms_the_timers_again_from_the_switch(tmp_path: Path) -> None:
     # y (every set) is due at 3 s, but s switches sets at 1 s: y now counts from there (4 s),
-    # even within the one advance that reaches both.
+    # even within the one advance that reaches both; x (set a only) is gone, and the clock
+    # time of t is still 08:00:03, reached in that advance.
     rig = Rig(tmp_path, """\
         - {name: s, sets: [a], when: [{after: 1}], do: [{switch: b}]}
         - {name: x, sets: [a], when: [{after: 2}], do: [{publish: x}]}
+        - {name: t, when: [{at: "08:00:03"}], do: [{publish: t}]}
         - {name: y, mode: parallel, when: [{every: 3}], do: [{publish: y}]}
         """, "sets: [a, b]\ninitial: a\n")
     rig.engine.advance(3.5)
-    assert [n for n in rig.notes if "fired" in n] == ["1 s fired: after 1 s"]
+    assert [n for n in rig.notes if "fired" in n] == ["1 s fired: after 1 s",
+                                                     "3 t fired: at 08:00:03"]
     assert rig.engine.next_deadline() == 4.0
     rig.engine.advance(4.0)
     assert rig.notes[-1] == "4 y published: y"
