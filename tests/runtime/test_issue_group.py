@@ -1,0 +1,167 @@
+"""An :class:`IssueGroup` in-process, with no writer threads: which armed frames the first
+writer awake issues for the others (due ones, not its own, once), what a peer's write does to
+the owner's link (busy for the frame's wire time and gap, from the peer's send), when a peer
+leaves the frame to its owner (a request pending, the link busy, the owner writing), and what
+taking a frame back tells the owner (not issued, issued at a time, or the peer's error)."""
+
+from __future__ import annotations
+
+import threading
+
+import pytest
+
+from tests.runtime.conftest import make_performer
+from xgo_show.errors import TransportError
+from xgo_show.profiles import get_profile
+from xgo_show.runtime.clock import FakeClock
+from xgo_show.runtime.executor import IssueGroup, PerformerExecutor
+from xgo_show.sim import create_robot
+from xgo_show.transports.sim import SimTransport
+
+MINI = get_profile("mini")
+
+
+class Noting(SimTransport):
+    """A simulated Mini's link that notes each write (or fails it, when told)."""
+
+    def __init__(self) -> None:
+        super().__init__(create_robot("mini"))
+        self.written: list[bytes] = []
+        self.fail = False
+
+    def write(self, data: bytes) -> None:
+        if self.fail:
+            raise TransportError("port gone")
+        self.written.append(data)
+        super().write(data)
+
+
+def _executor(name: str, clock: FakeClock) -> tuple[PerformerExecutor, Noting]:
+    link = Noting()
+    link.open()
+    return PerformerExecutor(make_performer(name), link, clock=clock, profile=MINI,
+                             rest_at_end=False), link
+
+
+def test_the_first_writer_issues_the_others_due_frames_once_and_never_its_own() -> None:
+    clock = FakeClock()
+    now = clock.now()
+    (a, la), (b, lb), (w, lw) = (_executor(n, clock) for n in ("a", "b", "w"))
+    group = IssueGroup()
+    ea = group.arm(a, now, b"A")  # due exactly now
+    eb = group.arm(b, now + 0.001, b"B")  # not yet
+    ew = group.arm(w, now - 1.0, b"W")  # the writer's own
+    group.issue_due(w, now)
+    assert (la.written, lb.written, lw.written) == ([b"A"], [], [])
+    assert ea.claimed and ea.done.is_set() and ea.actual == now
+    assert not eb.claimed and not eb.done.is_set() and eb.actual is None
+    assert not ew.claimed
+    # Issued once: a second writer of the instant leaves it (and b's is due now).
+    clock.advance(0.001)
+    group.issue_due(w, clock.now())
+    assert (la.written, lb.written) == ([b"A"], [b"B"])
+    # Taken back: the time the peer issued it; b's later arm is its own again.
+    assert group.disarm(a, ea) == now
+    assert group.disarm(b, eb) == now + 0.001
+    assert group.disarm(w, ew) is None  # never issued: the owner writes it
+
+
+def test_a_frame_taken_back_is_not_issued_after() -> None:
+    clock = FakeClock()
+    (a, la), (w, _) = (_executor(n, clock) for n in ("a", "w"))
+    group = IssueGroup()
+    entry = group.arm(a, clock.now(), b"A")
+    assert group.disarm(a, entry) is None
+    group.issue_due(w, clock.now() + 1.0)
+    assert la.written == [] and not entry.claimed
+
+
+def test_a_peers_failed_write_is_raised_to_the_owner() -> None:
+    clock = FakeClock()
+    (a, la), (w, _) = (_executor(n, clock) for n in ("a", "w"))
+    group = IssueGroup()
+    entry = group.arm(a, clock.now(), b"A")
+    la.fail = True
+    group.issue_due(w, clock.now())  # the peer goes on: the owner reports it
+    assert entry.done.is_set() and entry.actual is None
+    with pytest.raises(TransportError, match="port gone"):
+        group.disarm(a, entry)
+
+
+def test_a_peers_write_makes_the_owners_link_busy_from_its_send() -> None:
+    clock = FakeClock()
+    a, link = _executor("a", clock)
+    now = clock.now()
+    data = bytes(9)
+    assert a._issue_for_peer(data, now) == now
+    assert link.written == [data]
+    wire = a.schedule.link
+    assert a._ready_at == pytest.approx(now + wire.wire_time(9) + wire.gap, abs=1e-12)
+    # Busy until then: the next is left to the owner; at that very time it goes.
+    assert a._issue_for_peer(b"x", a._ready_at - 1e-6) is None
+    assert a._issue_for_peer(b"y", a._ready_at) is not None
+    assert link.written == [data, b"y"]
+
+
+@pytest.mark.parametrize("why", ["wake", "abort", "writing"])
+def test_a_peer_leaves_the_frame_to_its_owner(why: str) -> None:
+    clock = FakeClock()
+    a, link = _executor("a", clock)
+    if why == "writing":
+        assert a._write_lock.acquire()
+        held = threading.Event()
+
+        def attempt() -> None:
+            held.set() if a._issue_for_peer(b"A", clock.now()) is None else None
+
+        peer = threading.Thread(target=attempt)
+        peer.start()
+        peer.join(5.0)  # a peer never waits for the owner's lock
+        a._write_lock.release()
+        assert not peer.is_alive() and held.is_set()
+    else:
+        getattr(a._flags, why).set()
+        assert a._issue_for_peer(b"A", clock.now()) is None
+    assert link.written == []
+
+
+def test_frames_a_peer_wrote_are_announced_and_counted_by_their_owner() -> None:
+    # Two performers on one grid on the real clock: whichever thread wrote a frame, its owner
+    # announces it (its data, planned time and schedule frame) and counts it before the next,
+    # and the cue it played is the one progress shows. Nothing here depends on timing: which
+    # writer issued which frame does (most are issued by a peer: test_executor).
+    from xgo_show.runtime.clock import MonotonicClock
+    from xgo_show.runtime.events import FrameSent
+
+    clock = MonotonicClock()
+    group = IssueGroup()
+    count = 20
+    executors, seen = [], []
+    for name in ("rex", "ivy"):
+        link = Noting()
+        link.open()
+        ex = PerformerExecutor(make_performer(name, count=count, spacing=0.01), link,
+                               clock=clock, profile=MINI, rest_at_end=False, group=group)
+        rows: list[tuple[int | None, float | None, bytes, object, int, str]] = []
+
+        def note(e: FrameSent, ex: PerformerExecutor = ex, rows: list = rows) -> None:  # type: ignore[type-arg]
+            if e.kind == "frame":
+                p = ex.progress
+                rows.append((e.index, e.planned, e.data, e.frame, p.sent, p.cue))
+
+        ex.events.subscribe(note, FrameSent)  # type: ignore[arg-type]
+        executors.append(ex)
+        seen.append(rows)
+    start = clock.now() + 0.05
+    for ex in executors:
+        ex.start(start)
+    assert all(ex.join(10.0) for ex in executors)
+    for ex, rows in zip(executors, seen, strict=True):
+        frames = ex.schedule.frames
+        assert [r[0] for r in rows] == list(range(count))
+        for i, (_, planned, data, frame, sent, cue) in enumerate(rows):
+            assert planned == pytest.approx(start + frames[i].t, abs=1e-9)
+            assert data == frames[i].data and frame is frames[i]
+            # Announced before it counts: the frames before it, and the cue of the last.
+            assert sent == i
+            assert cue == ("" if i == 0 else frames[i - 1].origin.cue)  # type: ignore[union-attr]
