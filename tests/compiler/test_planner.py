@@ -830,3 +830,23 @@ def test_a_fade_ending_a_microsecond_after_a_tick_samples_that_tick() -> None:
     slow = _planned("rider", FadeCue(0.0, origin("f"), "led1", (2, 0, 0), 1.000001))
     assert _colours(slow, "f") == {0: (0, 0, 0), 260000: (1, 0, 0), 760000: (2, 0, 0),
                                    1000001: (2, 0, 0)}
+
+
+def test_samples_holding_any_byte_value_are_filed_whole() -> None:
+    # Bytes 0x0a (a newline) and 0x0d in the samples of a two-register move and of a group
+    # of fades: every value is a byte like another.
+    body_z = MINI.register("body_z")
+    low = body_z.to_physical(5)
+    planner = _planned("mini", SetCue(0.0, origin("s"), {"body_z": low}),
+                       MotionCue(0.1, origin("m"), {"body_z": body_z.to_physical(20),
+                                                    "roll": -19.0}, 1.5))
+    rest = [DofState(low), DofState(0.0)]
+    expected = _move_reference(["body_z", "roll"], 0.1, rest,
+                               [body_z.to_physical(20), -19.0], 1.5, 50.0)
+    assert {b"\n"[0], 0x0D} <= {s[0] for s in expected.values()}
+    assert _samples_of(planner, "m", (BODY_Z, ROLL)) == expected
+    o = origin("glow")
+    group = _planned("rider", FadeCue(0.0, o, "led1", (20, 20, 20), 0.2),
+                     FadeCue(0.0, o, "led2", (0, 13, 10), 0.2))
+    assert {t: entry[1] for t, entry in group.ticks.items()} == {
+        20000 * k: bytes([2 * k] * 3 + [0, round(13 * (k / 50 / 0.2)), k]) for k in range(11)}
