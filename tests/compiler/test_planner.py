@@ -850,3 +850,39 @@ def test_samples_holding_any_byte_value_are_filed_whole() -> None:
                      FadeCue(0.0, o, "led2", (0, 13, 10), 0.2))
     assert {t: entry[1] for t, entry in group.ticks.items()} == {
         20000 * k: bytes([2 * k] * 3 + [0, round(13 * (k / 50 / 0.2)), k]) for k in range(11)}
+
+
+def test_where_a_move_or_fade_hands_over_to_the_next_the_tick_stays_one_sample() -> None:
+    # The first move's target and the next's first sample share 1.0 s: the later sample takes
+    # the earlier's place (the tick's frames are its alone), and the tick stays a sample.
+    planner = _planned("mini", MotionCue(0.0, origin("m"), {"roll": 10.0}, 1.0),
+                       MotionCue(1.0, origin("n"), {"roll": -2.0}, 1.0))
+    entry = planner.ticks[1000000]
+    assert isinstance(entry, tuple) and entry[0].origin == origin("n")
+    assert planner.mixed == set()
+    # A next move on more registers takes the place too; one on fewer cannot (the first
+    # move's other register must still go out): the tick becomes Writes.
+    wider = _planned("mini", MotionCue(0.0, origin("m"), {"roll": 10.0}, 1.0),
+                     MotionCue(1.0, origin("n"), {"roll": -2.0, "pitch": 3.0}, 1.0))
+    entry = wider.ticks[1000000]
+    assert isinstance(entry, tuple) and entry[0].origin == origin("n")
+    narrower = _planned("mini", MotionCue(0.0, origin("m"), {"roll": 10.0, "pitch": 3.0}, 1.0),
+                        MotionCue(1.0, origin("n"), {"roll": -2.0}, 1.0))
+    assert isinstance(narrower.ticks[1000000], list) and narrower.mixed == {1000000}
+    assert _winners(narrower, 1000000) == {
+        ROLL: (bytes([MINI.register("roll").to_byte(10.0)]), "n"),
+        0x37: (bytes([MINI.register("pitch").to_byte(3.0)]), "m")}
+    # Beside a fade (a tick of two sources): the move's sample is replaced, the fade's kept.
+    beside = _planned("rider", FadeCue(0.0, origin("f"), "led1", (255, 0, 0), 2.0),
+                      MotionCue(0.0, origin("m"), {"roll": 5.0}, 0.5),
+                      MotionCue(0.5, origin("n"), {"roll": 0.0}, 0.5))
+    entry = beside.ticks[500000]
+    assert isinstance(entry, Samples)
+    assert [src.origin for src, _ in entry] == [origin("n"), origin("f")]
+    assert beside.mixed == set()
+    # Two fades of one LED handing over at 0.1 s: the second's first colour alone.
+    fades = _planned("rider", FadeCue(0.0, origin("f"), "led1", (255, 0, 0), 0.1),
+                     FadeCue(0.1, origin("g"), "led1", (0, 0, 255), 0.1))
+    entry = fades.ticks[100000]
+    assert isinstance(entry, tuple) and entry == (entry[0], b"\xff\x00\x00")
+    assert entry[0].origin == origin("g") and fades.mixed == set()
