@@ -886,3 +886,42 @@ def test_where_a_move_or_fade_hands_over_to_the_next_the_tick_stays_one_sample()
     entry = fades.ticks[100000]
     assert isinstance(entry, tuple) and entry == (entry[0], b"\xff\x00\x00")
     assert entry[0].origin == origin("g") and fades.mixed == set()
+
+
+def test_a_move_handing_over_beside_another_move_replaces_only_its_own_sample() -> None:
+    # body_z moves all along; roll hands over from r to n at 0.5 s, a tick both moves hold.
+    planner = _planned("mini", MotionCue(0.0, origin("z"), {"body_z": 100.0}, 1.0),
+                       MotionCue(0.0, origin("r"), {"roll": 5.0}, 0.5),
+                       MotionCue(0.5, origin("n"), {"roll": 0.0}, 0.5))
+    entry = planner.ticks[500000]
+    assert isinstance(entry, Samples)
+    assert [src.origin for src, _ in entry] == [origin("z"), origin("n")]
+    assert planner.mixed == set()
+    # n's samples at every tick after it, beside body_z's.
+    assert _samples_of(planner, "n", (ROLL,)) == _move_reference(
+        ["roll"], 0.5, [DofState(5.0)], [0.0], 0.5, 50.0)
+    for t in range(520000, 1000000, 20000):
+        entry = planner.ticks[t]
+        assert isinstance(entry, Samples)
+        assert [src.origin for src, _ in entry] == [origin("z"), origin("n")]
+    # A move on the registers of two others there replaces neither: the tick becomes Writes,
+    # the later cue's bytes going out on both.
+    both = _planned("mini", MotionCue(0.0, origin("r"), {"roll": 5.0}, 0.5),
+                    MotionCue(0.0, origin("p"), {"pitch": 5.0}, 0.5),
+                    MotionCue(0.5, origin("n"), {"roll": 0.0, "pitch": 0.0}, 0.5))
+    assert isinstance(both.ticks[500000], list) and both.mixed == {500000}
+    assert _winners(both, 500000) == {ROLL: (bytes([MINI.register("roll").to_byte(5.0)]), "n"),
+                                      0x37: (bytes([MINI.register("pitch").to_byte(5.0)]), "n")}
+
+
+def test_rows_of_any_width_and_any_bytes_are_cut_whole() -> None:
+    from xgo_show.compiler import planner as module
+
+    module._CUTS.clear()  # the patterns made here, not remembered from another test
+    columns = [[10, 13, 0, 255], [10, 10, 46, 1], [0, 10, 13, 10]]
+    assert module._rows(columns, 4) == [bytes(row) for row in zip(*columns, strict=True)]
+    assert module._rows(columns[:2], 4) == [bytes(row) for row in zip(*columns[:2],
+                                                                        strict=True)]
+    assert module._rows(columns[:1], 4) == [b"\n", b"\r", b"\x00", b"\xff"]
+    assert sorted(module._CUTS) == [2, 3]  # one byte a row needs no pattern
+    assert module._rows(columns, 4) == [bytes(row) for row in zip(*columns, strict=True)]
