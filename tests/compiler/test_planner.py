@@ -925,3 +925,25 @@ def test_rows_of_any_width_and_any_bytes_are_cut_whole() -> None:
     assert module._rows(columns[:1], 4) == [b"\n", b"\r", b"\x00", b"\xff"]
     assert sorted(module._CUTS) == [2, 3]  # one byte a row needs no pattern
     assert module._rows(columns, 4) == [bytes(row) for row in zip(*columns, strict=True)]
+
+
+def test_a_move_to_an_end_interrupted_by_another_to_that_end_is_planned() -> None:
+    # Under way to 20 deg, a second move to 20 with a duration: ruckig's path passes the end
+    # by float noise (up to 1e-8 deg), which goes out as the end's byte (Register.to_byte,
+    # tolerating 1e-9, refused it: "roll = 20 deg is out of range [-20, 20] deg").
+    cases = [(5.9299944989944535, 20.0, 0.585, 0.61, 50.0),
+             (-18.653971399428553, -20.0, 0.254, 0.28, 50.0),
+             (-2.668881002108712, 20.0, 0.719, 0.73, 50.0),
+             (13.409041268034905, -20.0, 0.886, 0.91, 100.0)]
+    roll = MINI.register("roll")
+    for start, end, at, duration, rate in cases:
+        planner = _planned("mini", SetCue(0.0, origin("s"), {"roll": start}),
+                           MotionCue(0.0, origin("m"), {"roll": end}, None),
+                           MotionCue(at, origin("n"), {"roll": end}, duration), rate=rate)
+        assert _errors(planner) == []
+        (lo, hi), = planner.runs[1].plan.extrema()
+        assert lo < -20.0 - 1e-9 or hi > 20.0 + 1e-9  # past the end by more than to_byte allows
+        samples = _samples_of(planner, "n", (ROLL,))
+        assert samples[max(samples)] == bytes([roll.to_byte(end)])
+        assert {s[0] for s in samples.values()} <= set(range(roll.to_byte(-20.0),
+                                                             roll.to_byte(20.0) + 1))

@@ -636,18 +636,16 @@ class XgoPlanner:
         last = max(stops, default=k0 - 1)
         at_time = plan.trajectory.at_time
         start = plan.start
-        tables = [self.layout.byte_table(reg) for reg in run.regs]
-        # While every DoF is sampled and the whole move (ruckig's exact extrema, and the
-        # targets) lies within each register's range, all bytes of a tick come from one
-        # C-level map of bisect over the tables: the hot loop of the compiler.
-        in_range = all(
-            t.lo <= lo and hi <= t.hi and t.lo <= x <= t.hi
-            for t, (lo, hi), x in zip(tables, plan.extrema(), targets, strict=True)
-        )
-        full = min(stops, default=k0 - 1) if in_range else k0 - 1
-        padded = [t.padded for t in tables]
-        # Elsewhere, the table per DoF (out of range, Register.to_byte raises the usual error).
-        spec = [(reg.address, t) for reg, t in zip(run.regs, tables, strict=True)]
+        # Every byte is bisect over the register's padded byte table, which clamps to the
+        # ends' bytes: _motion refused a path leaving the range by more than a millionth, and
+        # what float noise leaves past an end (a move interrupted on its way to an end by
+        # another to it: up to 1e-8 past it) must go out as the end's byte, as
+        # Register.to_byte clamps its own 1e-9 (it raised past that: a valid show refused).
+        # While every DoF is sampled, all bytes of a tick come from one C-level map of bisect
+        # over the tables: the hot loop of the compiler.
+        full = min(stops)
+        padded = [self.layout.byte_table(reg).padded for reg in run.regs]
+        addresses = [reg.address for reg in run.regs]
         origin, order = run.origin, run.order
         src = Source(run.regs, origin, order)
         ticks = self.ticks
@@ -686,9 +684,10 @@ class XgoPlanner:
                 emit_sample(t_us, src, bytes(map(bisect_right, padded, pos)))
                 continue
             writes = []
-            for i, (address, table) in enumerate(spec):
+            for i, address in enumerate(addresses):
                 if k <= stops[i]:
-                    writes.append(Write(address, BYTES[table(pos[i])], origin, order, True))
+                    writes.append(Write(address, BYTES[bisect_right(padded[i], pos[i])], origin,
+                                        order, True))
             emit(t_us, writes)
 
 
