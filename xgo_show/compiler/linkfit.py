@@ -128,8 +128,9 @@ def link_model(walk: XgoPlanner, *, rate: float, link: Link, gap_us: int) -> Lin
     for run in walk.runs:
         plan = run.plan
         tables = [layout.byte_table(reg) for reg in run.regs]
-        # The planner samples through to_byte (which may raise) where a move reaches past
-        # its byte tables: leave that to the full compile.
+        # A move whose path passes its byte tables' ends (float noise past an end, which the
+        # planner clamps: _motion refuses more) is left to the full compile: rare, and not
+        # worth a bound of its own.
         if not all(t.lo <= lo and hi <= t.hi and t.lo <= x <= t.hi for t, (lo, hi), x
                    in zip(tables, plan.extrema(), plan.targets, strict=True)):
             return None
