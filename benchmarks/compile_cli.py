@@ -11,11 +11,14 @@ the one before this session's speed work; its ``xgo_show`` package is extracted 
 archive`` and put first on ``PYTHONPATH``), and in this process: the compiler alone on the show
 built in memory (``compile_show``), and writing the schedule with the version 1 JSON writer
 (the old ``save``, see ``schedule_file.py``) against the version 2 file.
+With ``--pairs N``, compile is then timed N more times in pairs, this revision's run and the
+earlier one's back to back: this VM's speed drifts by a fifth between hours and by several
+per cent within a minute, and a difference within each pair sees less of it than two tables do.
 Targets (issue 12): compile <= 2 s CPU and <= 300 MiB, validate <= 1 s. Prints figures only
 (no asserts). Usage::
 
     python benchmarks/compile_cli.py [--minutes 10] [--performers 10] [--rate 50]
-                                     [--repeat 3] [--before REV | --before none]
+                                     [--repeat 3] [--before REV | --before none] [--pairs N]
 """
 
 from __future__ import annotations
@@ -100,11 +103,34 @@ def commands(exe: list[str], routine: Path, out: Path) -> dict[str, tuple[list[s
     }
 
 
+def paired(argv: list[str], env: dict[str, str], before: dict[str, str], cwd: str,
+           pairs: int) -> None:
+    """``argv`` run ``pairs`` times in each environment, a pair's two runs back to back (which
+    goes first alternates): CPU seconds this one minus before, per pair."""
+    diffs: list[float] = []
+    loads: list[float] = []
+    for i in range(pairs):
+        order = [(env, 1.0), (before, -1.0)]
+        if i % 2:
+            order.reverse()
+        diffs.append(sum(sign * run_child(argv, child_env, cwd).cpu for child_env, sign in order))
+        loads.append(os.getloadavg()[0])
+    print(f"compile, {pairs} pairs, CPU s this minus before: median "
+          f"{statistics.median(diffs):+.3f}, mean {statistics.mean(diffs):+.3f}, min "
+          f"{min(diffs):+.3f}, max {max(diffs):+.3f}; load average {min(loads):.2f}-"
+          f"{max(loads):.2f}")
+
+
 def main() -> None:
     def more(parser: argparse.ArgumentParser) -> None:
         parser.add_argument("--repeat", type=int, default=3)
         parser.add_argument("--before", default=BEFORE,
                             help="git revision to run beside this one ('none': skip)")
+        parser.add_argument("--pairs", type=int, default=0,
+                            help="then time compile this many times more in pairs, this "
+                            "revision and --before one after the other (each pair in turn "
+                            "first): the difference within a pair, when the machine's "
+                            "speed drifts between runs")
 
     args = show_arguments(__doc__, 10.0, more)
     exe = [sys.executable, "-m", "xgo_show"]
@@ -130,6 +156,9 @@ def main() -> None:
                     [u.peak for u in runs], "" if prefix else target)
         print(f"schedule file: {out.stat().st_size:,} bytes; load average now "
               f"{os.getloadavg()[0]:.2f}")
+        if args.pairs > 0 and len(versions) == 2:
+            compile_argv = commands(exe, routine, out)["xgo-show compile SHOW.yaml -o F"][0]
+            paired(compile_argv, versions[0][1], versions[1][1], tmp, args.pairs)
     show = build_show(args.minutes, args.performers, args.rate)
     schedule = compile_show(show)
     row("baseline: compile_show in memory", [in_process(lambda: compile_show(show))
