@@ -165,3 +165,36 @@ def test_frames_a_peer_wrote_are_announced_and_counted_by_their_owner() -> None:
             # Announced before it counts: the frames before it, and the cue of the last.
             assert sent == i
             assert cue == ("" if i == 0 else frames[i - 1].origin.cue)  # type: ignore[union-attr]
+
+
+def test_frames_without_a_cue_play_in_a_group_too() -> None:
+    # Frames the compiler files under no cue (origin None), on the real clock: whichever
+    # writer issues them, both performers play every frame and finish.
+    from dataclasses import replace
+
+    from xgo_show.compiler.schedule import ScheduledFrame
+    from xgo_show.compiler.state import frame_labels
+    from xgo_show.runtime.clock import MonotonicClock
+    from xgo_show.runtime.executor import ExecutorState
+
+    clock = MonotonicClock()
+    group = IssueGroup()
+    executors, links = [], []
+    for name in ("rex", "ivy"):
+        schedule = make_performer(name, count=20, spacing=0.01)
+        schedule = replace(schedule, frames=tuple(
+            ScheduledFrame(f.t, f.data, None, labels=frame_labels(MINI))
+            for f in schedule.frames))
+        link = Noting()
+        link.open()
+        executors.append(PerformerExecutor(schedule, link, clock=clock, profile=MINI,
+                                           rest_at_end=False, group=group))
+        links.append(link)
+    start = clock.now() + 0.05
+    for ex in executors:
+        ex.start(start)
+    assert all(ex.join(10.0) for ex in executors)
+    assert [ex.state for ex in executors] == [ExecutorState.FINISHED] * 2
+    for ex, link in zip(executors, links, strict=True):
+        assert link.written == [f.data for f in ex.schedule.frames]
+        assert ex.progress.cue == ""
