@@ -198,3 +198,26 @@ def test_frames_without_a_cue_play_in_a_group_too() -> None:
     for ex, link in zip(executors, links, strict=True):
         assert link.written == [f.data for f in ex.schedule.frames]
         assert ex.progress.cue == ""
+
+
+def test_a_performer_that_ends_first_is_sent_nothing_more_by_its_peer() -> None:
+    # rex's 5 frames end long before ivy's 30 (one grid, the real clock): whoever wrote
+    # rex's last frame, ivy's later writes never issue it again.
+    from xgo_show.runtime.clock import MonotonicClock
+
+    clock = MonotonicClock()
+    group = IssueGroup()
+    executors, links = [], []
+    for name, count in (("rex", 5), ("ivy", 30)):
+        link = Noting()
+        link.open()
+        executors.append(PerformerExecutor(make_performer(name, count=count, spacing=0.01),
+                                           link, clock=clock, profile=MINI, rest_at_end=False,
+                                           group=group))
+        links.append(link)
+    start = clock.now() + 0.05
+    for ex in executors:
+        ex.start(start)
+    assert all(ex.join(10.0) for ex in executors)
+    for ex, link in zip(executors, links, strict=True):
+        assert link.written == [f.data for f in ex.schedule.frames]
