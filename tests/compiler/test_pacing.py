@@ -29,6 +29,9 @@ def test_wire_time_rounds_up_to_whole_microseconds() -> None:
     assert wire_us(XGO, 9) == 782  # 9 bytes * 86.805 us = 781.25 us
     assert wire_us(Link(9600, 0.001), 25) == 26042
     assert wire_us(XGO, 0) == 0
+    # Exact quotients stay exact: 36 bytes at 115200 baud are 3125 us, not 3126.
+    assert wire_us(XGO, 36) == 3125
+    assert wire_us(SLOW, 3) == 3125
 
 
 @settings(max_examples=200, deadline=None)
@@ -325,6 +328,19 @@ def test_a_frame_exactly_one_period_late_fits_the_link(period_us: int, decimate:
         assert [p.frame for p in result.frames] == [first, second]
         assert result.frames[1].start_us - second.t_us == late_by
         assert [p.frame for p in result.late] == ([second] if late else []), (late_by, period_us)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(2, 40_000))
+def test_only_frames_more_than_a_period_late_are_late_beside_one_that_is(period_us: int) -> None:
+    # A frame exactly one period late fits even when a later one does not (the late list is
+    # made only when some frame is over; each frame is judged on its own then).
+    first, link_free = _busy_for(period_us + 1)
+    second = _planned(link_free - period_us, 1)
+    third = _planned(second.t_us + 1, 1)
+    result = pace([first, second, third], link=SLOW, gap_us=1000, period_us=period_us)
+    assert result.frames[1].start_us - second.t_us == period_us
+    assert [p.frame for p in result.late] == [third]
 
 
 @settings(max_examples=150, deadline=None)
