@@ -526,19 +526,15 @@ class PerformerExecutor:
                 by_peer = None if group is None or entry is None else group.disarm(self, entry)
             if by_peer is not None:
                 self._announce(frame.data, "frame", index, planned, frame, by_peer)
-                index += 1
-                self._sent_frames = index
-                if frame.origin is not None and frame.origin.cue:
-                    self._cue = frame.origin.cue
-                continue
-            if not woke or (deadline < planned and self.clock.now() < planned):
-                continue  # woken by a request, or for a pause: re-check the flags
-            # The wait ended at the deadline, which the link is free by unless a telemetry
-            # request sent meanwhile was late enough to hold it longer: known without a clock
-            # read (each costs a relayed writer's slewed clock some microseconds).
-            ready = self._ready_at <= deadline
-            if not self._write(frame.data, "frame", index, planned, frame, ready=ready):
-                return
+            else:
+                if not woke or (deadline < planned and self.clock.now() < planned):
+                    continue  # woken by a request, or for a pause: re-check the flags
+                # The wait ended at the deadline, which the link is free by unless a telemetry
+                # request sent meanwhile was late enough to hold it longer: known without a
+                # clock read (each costs a relayed writer's slewed clock some microseconds).
+                ready = self._ready_at <= deadline
+                if not self._write(frame.data, "frame", index, planned, frame, ready=ready):
+                    return
             index += 1
             self._sent_frames = index
             if frame.origin is not None and frame.origin.cue:
@@ -733,15 +729,7 @@ class PerformerExecutor:
         # stays ready under the lock (only writes move _ready_at, and they hold it).
         if not ready and self.clock.now() < self._ready_at:
             self.clock.sleep_until(self._ready_at)
-        # The send time is when the write is issued: the bytes leave as soon as it queues them,
-        # and the call may return late only because this thread lost its CPU meanwhile.
-        actual = self.clock.now()
-        self.transport.write(data)
-        link = self.schedule.link
-        # The link is busy for the frame's wire time from the send, and never free before the
-        # write returned (a write that blocked means the bytes left late).
-        after = self.clock.now()
-        self._ready_at = max(actual + link.wire_time(len(data)), after) + link.gap
+        actual, after = self._issue(data)
         if self._group is not None and kind == "frame":
             # Before anything else of this thread's: the others' frames of this instant.
             self._group.issue_due(self, after)
@@ -759,13 +747,23 @@ class PerformerExecutor:
             flags = self._flags
             if flags.wake.is_set() or flags.abort.is_set() or now < self._ready_at:
                 return None  # a request pending, or the link still busy: the owner decides
-            actual = self.clock.now()
-            self.transport.write(data)
-            link = self.schedule.link
-            self._ready_at = max(actual + link.wire_time(len(data)), self.clock.now()) + link.gap
-            return actual
+            return self._issue(data)[0]
         finally:
             self._write_lock.release()
+
+    def _issue(self, data: bytes) -> tuple[float, float]:
+        """Write ``data`` now (the write lock held) and book the link for it: the send time
+        and the time the write returned."""
+        # The send time is when the write is issued: the bytes leave as soon as it queues them,
+        # and the call may return late only because this thread lost its CPU meanwhile.
+        actual = self.clock.now()
+        self.transport.write(data)
+        after = self.clock.now()
+        # The link is busy for the frame's wire time from the send, and never free before the
+        # write returned (a write that blocked means the bytes left late).
+        link = self.schedule.link
+        self._ready_at = max(actual + link.wire_time(len(data)), after) + link.gap
+        return actual, after
 
     def _announce(
         self,
