@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import sys
 import threading
 import time
 
@@ -239,3 +240,14 @@ def test_a_long_wait_sleeps_to_its_margin_then_naps_short_of_the_deadline() -> N
     assert 0.05 - clock.margin - 0.01 < naps[0] <= 0.05 - clock.margin
     # ... then only short naps, each aiming ``aim`` before the deadline, never past it.
     assert all(0 < n < clock.margin + clock.spin - clock.aim for n in naps[1:])
+
+
+def test_timed_waits_are_trusted_to_end_past_the_deadline_only_on_glibc_2_30_or_later() -> None:
+    import platform
+
+    from xgo_show.runtime.clock import _timeouts_on_monotonic
+
+    lib, version = platform.libc_ver()
+    expected = (sys.platform.startswith("linux") and lib == "glibc"
+                and tuple(int(p) for p in version.split(".")[:2]) >= (2, 30))
+    assert _timeouts_on_monotonic() is expected

@@ -110,11 +110,23 @@ def _block_until(deadline: float, interrupt: threading.Event | None) -> bool:
     return not (interrupt is not None and interrupt.is_set())
 
 
-# CPython's timed waits (time.sleep, and a lock's acquire under Event.wait) round the timeout
-# up and wait on CLOCK_MONOTONIC on Linux (sem_clockwait, glibc 2.30 and later), the clock
-# time.monotonic reads: one that ran out ended past its deadline, so the writer's wait needs
-# no clock read to confirm it (a read per frame fewer). Elsewhere the loop above checks.
-_TIMEOUTS_ON_MONOTONIC = sys.platform.startswith("linux")
+def _timeouts_on_monotonic() -> bool:
+    """Whether CPython's timed waits (time.sleep, and a lock's acquire under Event.wait),
+    which round the timeout up, wait on CLOCK_MONOTONIC, the clock time.monotonic reads: on
+    Linux with glibc 2.30 or later (sem_clockwait). Then one that ran out ended past its
+    deadline, and the writer's wait needs no clock read to confirm it (a read per frame
+    fewer). Elsewhere (musl, an older glibc, other systems) the loop above checks."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        name, _, version = (os.confstr("CS_GNU_LIBC_VERSION") or "").partition(" ")
+        major, minor = (int(part) for part in version.split(".")[:2])
+    except (ValueError, OSError):
+        return False  # not glibc, or a version this cannot read: check with the clock
+    return name == "glibc" and (major, minor) >= (2, 30)
+
+
+_TIMEOUTS_ON_MONOTONIC = _timeouts_on_monotonic()
 
 
 #: Seconds a real-time thread sleeps after a write (see :func:`hand_off_cpu`).
