@@ -13,7 +13,7 @@ import pytest
 from tests.runtime.conftest import make_performer
 from xgo_show.errors import TransportError
 from xgo_show.profiles import get_profile
-from xgo_show.runtime.clock import FakeClock
+from xgo_show.runtime.clock import FakeClock, MonotonicClock
 from xgo_show.runtime.executor import IssueGroup, PerformerExecutor
 from xgo_show.sim import create_robot
 from xgo_show.transports.sim import SimTransport
@@ -42,6 +42,15 @@ def _executor(name: str, clock: FakeClock) -> tuple[PerformerExecutor, Noting]:
     return PerformerExecutor(make_performer(name), link, clock=clock, profile=MINI,
                              rest_at_end=False), link
 
+
+
+def play_together(executors: list[PerformerExecutor], clock: MonotonicClock) -> float:
+    """Start every executor at one instant 50 ms from now and wait for all to end: the start."""
+    start = clock.now() + 0.05
+    for ex in executors:
+        ex.start(start)
+    assert all(ex.join(10.0) for ex in executors)
+    return start
 
 def test_the_first_writer_issues_the_others_due_frames_once_and_never_its_own() -> None:
     clock = FakeClock()
@@ -130,7 +139,6 @@ def test_frames_a_peer_wrote_are_announced_and_counted_by_their_owner() -> None:
     # announces it (its data, planned time and schedule frame) and counts it before the next,
     # and the cue it played is the one progress shows. Nothing here depends on timing: which
     # writer issued which frame does (most are issued by a peer: test_executor).
-    from xgo_show.runtime.clock import MonotonicClock
     from xgo_show.runtime.events import FrameSent
 
     clock = MonotonicClock()
@@ -152,10 +160,7 @@ def test_frames_a_peer_wrote_are_announced_and_counted_by_their_owner() -> None:
         ex.events.subscribe(note, FrameSent)  # type: ignore[arg-type]
         executors.append(ex)
         seen.append(rows)
-    start = clock.now() + 0.05
-    for ex in executors:
-        ex.start(start)
-    assert all(ex.join(10.0) for ex in executors)
+    start = play_together(executors, clock)
     for ex, rows in zip(executors, seen, strict=True):
         frames = ex.schedule.frames
         assert [r[0] for r in rows] == list(range(count))
@@ -174,7 +179,6 @@ def test_frames_without_a_cue_play_in_a_group_too() -> None:
 
     from xgo_show.compiler.schedule import ScheduledFrame
     from xgo_show.compiler.state import frame_labels
-    from xgo_show.runtime.clock import MonotonicClock
     from xgo_show.runtime.executor import ExecutorState
 
     clock = MonotonicClock()
@@ -190,10 +194,7 @@ def test_frames_without_a_cue_play_in_a_group_too() -> None:
         executors.append(PerformerExecutor(schedule, link, clock=clock, profile=MINI,
                                            rest_at_end=False, group=group))
         links.append(link)
-    start = clock.now() + 0.05
-    for ex in executors:
-        ex.start(start)
-    assert all(ex.join(10.0) for ex in executors)
+    play_together(executors, clock)
     assert [ex.state for ex in executors] == [ExecutorState.FINISHED] * 2
     for ex, link in zip(executors, links, strict=True):
         assert link.written == [f.data for f in ex.schedule.frames]
@@ -203,8 +204,6 @@ def test_frames_without_a_cue_play_in_a_group_too() -> None:
 def test_a_performer_that_ends_first_is_sent_nothing_more_by_its_peer() -> None:
     # rex's 5 frames end long before ivy's 30 (one grid, the real clock): whoever wrote
     # rex's last frame, ivy's later writes never issue it again.
-    from xgo_show.runtime.clock import MonotonicClock
-
     clock = MonotonicClock()
     group = IssueGroup()
     executors, links = [], []
@@ -215,9 +214,6 @@ def test_a_performer_that_ends_first_is_sent_nothing_more_by_its_peer() -> None:
                                            link, clock=clock, profile=MINI, rest_at_end=False,
                                            group=group))
         links.append(link)
-    start = clock.now() + 0.05
-    for ex in executors:
-        ex.start(start)
-    assert all(ex.join(10.0) for ex in executors)
+    play_together(executors, clock)
     for ex, link in zip(executors, links, strict=True):
         assert link.written == [f.data for f in ex.schedule.frames]
