@@ -6,10 +6,8 @@ for frame and byte for byte. Errors are collected over the whole show and raised
 
 from __future__ import annotations
 
-from operator import attrgetter
-
 from xgo_show.choreo.resolved import ResolvedShow, ResolvedTrack
-from xgo_show.compiler.frames import cue_label, to_us
+from xgo_show.compiler.frames import PlannedFrames, cue_label, to_us
 from xgo_show.compiler.pacing import PaceResult, pace
 from xgo_show.compiler.schedule import FrameColumns, Frames, PerformerSchedule, Schedule
 from xgo_show.compiler.state import frame_labels
@@ -21,9 +19,6 @@ from xgo_show.profiles.model import Link, Profile
 from xgo_show.profiles.registry import get_profile
 
 __all__ = ["compile_diagnostics", "compile_show"]
-
-# A planned frame's fields, read at C level (once per frame of the show)
-_DATA, _ORIGIN, _DURATION = attrgetter("data"), attrgetter("origin"), attrgetter("duration")
 
 
 def compile_show(show: ResolvedShow) -> Schedule:
@@ -153,10 +148,11 @@ def _compile_track(
         ))
     # Columns, made into frames when read (see Frames); labels are derived from the bytes
     # when read (see ScheduledFrame.label): most never are.
-    sent = paced.sent if keep else []
+    # The planned frames' own columns when pacing sent them all (PlannedFrames).
+    sent = PlannedFrames.of(paced.sent if keep else [])
     frames = Frames(FrameColumns(
-        paced.starts if keep else [], list(map(_DATA, sent)), list(map(_ORIGIN, sent)),
-        list(map(_DURATION, sent)), frame_labels(profile),
+        paced.starts if keep else [], sent.data, sent.origins, sent.durations(),
+        frame_labels(profile),
     ))
     end = plan.end if show.end is None else show.end
     if paced.starts:

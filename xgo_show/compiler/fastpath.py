@@ -12,11 +12,11 @@ two roads give the same frames on random tracks (``details=True`` takes the gene
 from __future__ import annotations
 
 from collections.abc import Container, Iterable, Mapping, Sequence
-from itertools import compress, groupby, repeat
+from itertools import chain, compress, groupby, repeat
 from operator import itemgetter, ne
 from typing import NamedTuple, cast
 
-from xgo_show.compiler.frames import BYTES, PlannedFrame, Write
+from xgo_show.compiler.frames import BYTES, PlannedFrames, Write
 from xgo_show.compiler.layout import Layout
 from xgo_show.compiler.merge import Merger, by_address, by_order
 from xgo_show.compiler.sources import (
@@ -134,7 +134,7 @@ class TickFrames:
             r.address: r.initial for r in layout.profile.registers if r.initial is not None
         }
         self.n_known = len(self.known)
-        self.frames: list[PlannedFrame] = []
+        self.frames = PlannedFrames()
         self.samples = 0  # frames holding only samples
         self.live: list[Source] = []
         self.shapes: dict[tuple[Source, ...], int] = {}  # see sources_tick
@@ -257,7 +257,8 @@ class TickFrames:
         plan = self.sample_plans.get(key)
         if plan is None:
             plan = self.plan(key, chunks, masks)
-        append, new = self.frames.append, tuple.__new__
+        wire: list[bytes] = []
+        leads: list[Source] = []
         # Each SampleFrame unpacked at once (cheaper than reading its fields one by one).
         for _, one, pieces, prefix, check_base, lead_chunk, refills in plan:
             if one is not None:
@@ -271,12 +272,11 @@ class TickFrames:
                 ])
                 for address in refills:  # re-sent: now it counts as sent too
                     self.sent[address] = known[address]
-            lead = sources[lead_chunk]
-            # PlannedFrame(...) and merge.wire_bytes inlined: once per frame of a long show
-            append(new(PlannedFrame, (
-                t_us, b"".join((prefix, data, BYTES[~(check_base + sum(data)) & 0xFF], TAIL)),
-                (), (), lead.origin, lead.order, True, False, 0.0,
-            )))
+            leads.append(sources[lead_chunk])
+            # merge.wire_bytes inlined: once per frame of a long show
+            wire.append(b"".join((prefix, data, BYTES[~(check_base + sum(data)) & 0xFF], TAIL)))
+        self.frames.add_samples([t_us] * len(wire), wire, [lead.origin for lead in leads],
+                                [lead.order for lead in leads])
         self.samples += len(plan)
 
     def stretch(self, times: Sequence[int], pairs: Sequence[tuple[Source, bytes]]) -> None:
@@ -329,9 +329,7 @@ class TickFrames:
                         rest[at:stop], cast(list[tuple[bytes, int, int, int]], cuts[at:stop]),
                         strict=True)
                 ]
-                frames.extend(map(tuple.__new__, repeat(PlannedFrame), zip(
-                    ts[at:stop], wire, repeat(()), repeat(()), repeat(origin), repeat(order),
-                    repeat(True), repeat(False), repeat(0.0))))
+                frames.add_run(ts[at:stop], wire, origin, order)
                 self.samples += stop - at
             if stop < count:
                 self.build(ts[stop], keys[stop], ((src, rest[stop]),), (masks[stop],), (src,))
@@ -383,16 +381,19 @@ class TickFrames:
             except ValueError:
                 stop = count
             if stop > at:
-                # build() for each tick, inlined (its one-slice frames only)
-                frames.extend([
-                    tuple.__new__(PlannedFrame, (
-                        t_us, b"".join((prefix, data := row[chunk][1][begin:end],
-                                        BYTES[~(check_base + sum(data)) & 0xFF], TAIL)),
-                        (), (), origins[lead], orders[lead], True, False, 0.0))
-                    for t_us, row, plan in zip(ts[at:stop], rest[at:stop], plans[at:stop],
-                                               strict=True)
-                    for chunk, begin, end, prefix, check_base, lead in plan  # type: ignore[union-attr]
-                ])
+                # build() for each tick, inlined (its one-slice frames only), column by column
+                block = cast(list[tuple[tuple[int, int, int, bytes, int, int], ...]],
+                             plans[at:stop])
+                wire = [
+                    b"".join((prefix, data := row[chunk][1][begin:end],
+                              BYTES[~(check_base + sum(data)) & 0xFF], TAIL))
+                    for row, plan in zip(rest[at:stop], block, strict=True)
+                    for chunk, begin, end, prefix, check_base, _ in plan
+                ]
+                leads = [frame[5] for plan in block for frame in plan]
+                frames.add_samples(
+                    list(chain.from_iterable(map(repeat, ts[at:stop], map(len, block)))), wire,
+                    list(map(origins.__getitem__, leads)), list(map(orders.__getitem__, leads)))
                 self.samples += sum(map(len, plans[at:stop]))  # type: ignore[arg-type]
             if stop < count:
                 self.build(ts[stop], keys[stop], rest[stop], masks[stop], sources)
@@ -457,7 +458,7 @@ def frames_from_ticks(
     mixed: Container[int],
     action_reg: Register | None,
     details: bool = True,
-) -> tuple[list[PlannedFrame], int]:
+) -> tuple[PlannedFrames, int]:
     """Every tick's frames in time order, and how many hold only samples (see TickFrames).
 
     ``mixed`` names the ticks that more than one cue wrote. Without ``details``, frames of

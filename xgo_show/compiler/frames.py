@@ -26,8 +26,10 @@ than a separate frame would (8 bytes of frame overhead plus the silence between 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from operator import attrgetter
+from typing import NamedTuple, overload
 
 from xgo_show.compiler.schedule import to_us
 from xgo_show.diagnostics import Diagnostic, Origin
@@ -36,6 +38,7 @@ __all__ = [
     "BYTES",
     "TIME_EPS",
     "PlannedFrame",
+    "PlannedFrames",
     "TrackPlan",
     "Write",
     "cue_label",
@@ -101,11 +104,112 @@ class PlannedFrame(NamedTuple):
     duration: float = 0.0
 
 
+_T_US, _DATA, _ORIGIN, _ORDER = (attrgetter("t_us"), attrgetter("data"), attrgetter("origin"),
+                                  attrgetter("order"))
+
+
+class PlannedFrames(Sequence[PlannedFrame]):
+    """A performer's planned frames as parallel columns, one entry a frame, in planned order.
+
+    Pacing and the schedule read a frame's time, bytes and cue only, column by column; the fast
+    path (:mod:`~xgo_show.compiler.fastpath`) makes hundreds of thousands of *sample frames*
+    and adds them here as columns (:meth:`add_samples`), with no :class:`PlannedFrame` made a
+    frame nor taken apart again. Any other frame (the general merger's: settings, actions,
+    ...) is added whole (:meth:`extend`) and kept as it is besides. Read as a sequence, a
+    sample frame is made when read: no ``fields`` nor ``written``, droppable, no action, no
+    duration, as the fast path planned them.
+    """
+
+    __slots__ = ("data", "orders", "origins", "t_us", "whole")
+
+    def __init__(self, frames: Iterable[PlannedFrame] = ()) -> None:
+        self.t_us: list[int] = []
+        self.data: list[bytes] = []
+        self.origins: list[Origin | None] = []
+        self.orders: list[int] = []
+        self.whole: dict[int, PlannedFrame] = {}  # frames added whole, by index
+        self.extend(frames)
+
+    @classmethod
+    def of(cls, frames: Sequence[PlannedFrame]) -> PlannedFrames:
+        """``frames`` as columns: themselves when they are, else read off the frames (every
+        one kept whole)."""
+        if isinstance(frames, PlannedFrames):
+            return frames
+        return cls(frames)
+
+    def extend(self, frames: Iterable[PlannedFrame]) -> None:
+        """Add frames, each kept whole."""
+        frames = list(frames)
+        at = len(self.data)
+        self.whole.update(enumerate(frames, at))
+        self.t_us += map(_T_US, frames)
+        self.data += map(_DATA, frames)
+        self.origins += map(_ORIGIN, frames)
+        self.orders += map(_ORDER, frames)
+
+    def add_samples(self, times: Sequence[int], data: Sequence[bytes],
+                    origins: Sequence[Origin | None], orders: Sequence[int]) -> None:
+        """Add sample frames: a time, bytes and cue (origin and order) each."""
+        if not len(times) == len(data) == len(origins) == len(orders):
+            raise ValueError("sample frame columns of different lengths")
+        self.t_us += times
+        self.data += data
+        self.origins += origins
+        self.orders += orders
+
+    def add_run(self, times: Sequence[int], data: Sequence[bytes], origin: Origin | None,
+                order: int) -> None:
+        """Add sample frames all filed under one cue (``origin`` and ``order``)."""
+        count = len(times)
+        self.add_samples(times, data, [origin] * count, [order] * count)
+
+    def durations(self) -> list[float]:
+        """Each frame's ``duration``: 0.0 but in frames added whole (a preset action's)."""
+        out = [0.0] * len(self.data)
+        for index, frame in self.whole.items():
+            out[index] = frame.duration
+        return out
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+    def _made(self, index: int) -> PlannedFrame:
+        frame = self.whole.get(index)
+        if frame is None:
+            return PlannedFrame(self.t_us[index], self.data[index], (), (), self.origins[index],
+                                self.orders[index], True, False, 0.0)
+        return frame
+
+    @overload
+    def __getitem__(self, index: int) -> PlannedFrame: ...
+    @overload
+    def __getitem__(self, index: slice) -> list[PlannedFrame]: ...
+    def __getitem__(self, index: int | slice) -> PlannedFrame | list[PlannedFrame]:
+        at = range(len(self.data))[index]  # negative indices, slices, IndexError: as a list's
+        if isinstance(at, range):
+            return list(map(self._made, at))
+        return self._made(at)
+
+    def __iter__(self) -> Iterator[PlannedFrame]:
+        return map(self._made, range(len(self.data)))
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, (PlannedFrames, list, tuple)):
+            return list(self) == list(other)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]  # mutable, as a list
+
+    def __repr__(self) -> str:
+        return f"PlannedFrames({list(self)!r})"
+
+
 @dataclass
 class TrackPlan:
     """A performer's planned frames, the end of its part, and what went wrong."""
 
-    frames: list[PlannedFrame]
+    frames: Sequence[PlannedFrame]  # PlannedFrames from the XGO planner
     end: float
     diagnostics: list[Diagnostic]
     samples: int = 0  # planned frames that hold only samples

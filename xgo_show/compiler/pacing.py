@@ -29,16 +29,14 @@ import heapq
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from itertools import islice
-from operator import attrgetter, sub
+from operator import sub
 from typing import NamedTuple
 
-from xgo_show.compiler.frames import PlannedFrame, Write
+from xgo_show.compiler.frames import PlannedFrame, PlannedFrames, Write
 from xgo_show.diagnostics import Origin
 from xgo_show.profiles.model import Link
 
 __all__ = ["PaceResult", "Paced", "pace", "wire_us"]
-
-_T_US, _DATA = attrgetter("t_us"), attrgetter("data")
 
 
 def wire_us(link: Link, nbytes: int) -> int:
@@ -142,13 +140,15 @@ def pace(
 
     if not decimate:
         # send() without decimation (so nothing pending, nothing to flush, and every planned
-        # frame sent): this loop runs once per frame of the show, so it reads two columns made
-        # by C-level maps, each frame's planned time and the link time it takes (its wire
-        # time, one per frame length, plus the gap), and finds the late frames afterwards.
+        # frame sent): this loop runs once per frame of the show, so it reads two columns
+        # (PlannedFrames: the fast path made them so), each frame's planned time and the link
+        # time it takes (its wire time, one per frame length, plus the gap), and finds the
+        # late frames afterwards.
         result.sent = frames
         append = starts.append
-        planned = list(map(_T_US, frames))
-        lengths = list(map(len, map(_DATA, frames)))
+        columns = PlannedFrames.of(frames)
+        planned = columns.t_us
+        lengths = list(map(len, columns.data))
         if len(planned) < 2 or (min(map(sub, islice(planned, 1, None), planned))
                                 >= wire_us(link, max(lengths)) + gap_us):
             # Every frame planned at least the longest frame's link time after the one before
@@ -162,8 +162,8 @@ def pace(
             append(start)
             free_us = start + busy
         if frames and max(map(sub, starts, planned)) > period_us:
-            result.late = [Paced(start, frame) for start, t_us, frame
-                           in zip(starts, planned, frames, strict=True)
+            result.late = [Paced(start, columns[i]) for i, start, t_us
+                           in zip(range(len(starts)), starts, planned, strict=True)
                            if start - t_us > period_us]
         return result
     for frame in frames:
