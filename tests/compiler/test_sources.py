@@ -1,5 +1,6 @@
 """sources.py: a source's sample as bytes, each register's span in it, its Writes, any tick entry
-as Writes, and which registers changed since the last sample (byte by byte, whole, by span).
+as Writes, which registers changed since the last sample (byte by byte, whole, by span), and
+the change codes of a stretch of samples.
 """
 
 from __future__ import annotations
@@ -9,7 +10,7 @@ from hypothesis import strategies as st
 
 from tests.compiler.conftest import origin
 from xgo_show.compiler.frames import Write
-from xgo_show.compiler.sources import Samples, Source, change_masks, changes, entry_writes
+from xgo_show.compiler.sources import Samples, Source, change_codes, changes, entry_writes
 from xgo_show.profiles import get_profile
 
 MINI = get_profile("mini")
@@ -68,16 +69,35 @@ def test_changes_name_the_registers_that_differ_from_the_last_sample() -> None:
         True, False)
 
 
+def test_change_codes_mark_each_changed_byte_of_each_sample_with_0x80() -> None:
+    assert change_codes([b"\x01\x02", b"\x01\x03", b"\x00\x03", b"\x00\x03", b"\xff\x7f"]) == [
+        b"\x00\x80", b"\x80\x00", b"\x00\x00", b"\x80\x80"]
+    # One bit, the top one or the lowest, is a change; a byte's change never spills into its
+    # neighbours (0x7f + 0x7f carries no further than its own top bit).
+    assert change_codes([b"\x00\x00\x00", b"\x00\x80\x00", b"\x00\x81\x00", b"\x7f\xff\x7f",
+                         b"\x7e\xff\xff"]) == [
+        b"\x00\x80\x00", b"\x00\x80\x00", b"\x80\x80\x80", b"\x80\x00\x80"]
+    assert change_codes([b"\x05", b"\x05", b"\x06"]) == [b"\x00", b"\x80"]
+    assert change_codes([b"\x05\x06", b"\x05\x07"]) == [b"\x00\x80"]
+
+
+def test_no_code_without_a_sample_before() -> None:
+    assert change_codes([]) == [] and change_codes([b"\x01\x02"]) == []
+
+
 @given(st.sampled_from([(ROLL, PITCH, YAW), (LED1,), (LED1, LED2), (YAW,)]),
        st.lists(st.binary(min_size=6, max_size=6), min_size=1, max_size=12))
-def test_change_masks_are_changes_sample_by_sample(regs, raw) -> None:  # type: ignore[no-untyped-def]
-    # Each of a stretch's samples against the one before, in C-level maps: changes() of each
-    # (unit, one-register and spanned sources alike).
+def test_change_codes_say_which_bytes_and_so_which_registers_changed(regs, raw) -> None:  # type: ignore[no-untyped-def]
+    # Each of a stretch's samples against the one before, all at once: a code byte for each
+    # byte that differs, so that equal codes give equal changes() (unit, one-register and
+    # spanned sources alike).
     src = Source(regs, None, 0)
     size = src.spans[-1][1]
     samples = [r[:size] for r in raw]
     # Repeats, and samples differing in one register only, as well as random ones.
     samples += [samples[-1], samples[-1][:1] + bytes(size - 1)]
-    after, before = samples[1:], samples[:-1]
-    assert list(change_masks(src, after, before)) == [
-        changes(src, a, b) for a, b in zip(after, before, strict=True)]
+    codes = change_codes(samples)
+    assert codes == [bytes(0x80 if x != y else 0 for x, y in zip(a, b, strict=True))
+                     for a, b in zip(samples[1:], samples[:-1], strict=True)]
+    for code, a, b in zip(codes, samples[1:], samples[:-1], strict=True):
+        assert changes(src, a, b) == tuple(any(code[lo:hi]) for lo, hi in src.spans)

@@ -11,7 +11,7 @@ two roads give the same frames on random tracks (``details=True`` takes the gene
 
 from __future__ import annotations
 
-from collections.abc import Container, Iterable, Mapping, Sequence
+from collections.abc import Container, Mapping, Sequence
 from itertools import chain, compress, groupby, repeat
 from operator import itemgetter, ne
 from typing import NamedTuple, cast
@@ -23,7 +23,7 @@ from xgo_show.compiler.sources import (
     Entry,
     Samples,
     Source,
-    change_masks,
+    change_codes,
     changes,
     entry_writes,
 )
@@ -141,13 +141,16 @@ class TickFrames:
         self.shape_numbers: dict[object, int] = {}
         # Frame plans of ticks only sources write, by (registers, changed registers): see build
         self.sample_plans: dict[object, tuple[SampleFrame, ...]] = {}
-        # Of those for one source, the plans that are one frame of one slice of the sample, as
+        # Of those for one source, by its registers then by change code (see
+        # sources.change_codes): the plans that are one frame of one slice of the sample, as
         # (prefix, check_base, begin, end); None: another plan. stretch's road.
-        self.slices: dict[object, tuple[bytes, int, int, int] | None] = {}
-        # Of those for several sources, the plans whose every frame is one slice of one of the
-        # tick's samples, as (chunk, begin, end, prefix, check_base, lead chunk) a frame; None:
-        # another plan. samples_stretch's road.
-        self.rows: dict[object, tuple[tuple[int, int, int, bytes, int, int], ...] | None] = {}
+        self.slices: dict[tuple[int, ...], dict[bytes, tuple[bytes, int, int, int] | None]] = {}
+        # Of those for several sources, by shape (see sources_tick) then by the sources' change
+        # codes: the plans whose every frame is one slice of one of the tick's samples, as
+        # (chunk, begin, end, prefix, check_base, lead chunk) a frame; None: another plan.
+        # samples_stretch's road.
+        self.rows: dict[int, dict[tuple[bytes, ...], tuple[tuple[int, int, int, bytes, int, int],
+                                                           ...] | None]] = {}
 
     def _known_changed(self) -> None:
         if len(self.known) != self.n_known:  # fillers depend on which registers are known
@@ -237,12 +240,10 @@ class TickFrames:
         self, key: object, chunks: Sequence[tuple[Source, bytes]],
         masks: Sequence[tuple[bool, ...]],
     ) -> tuple[SampleFrame, ...]:
-        """Make and keep the sample plan for ``key`` (see :meth:`build`)."""
-        plan = self.sample_plans[key] = sample_plan(self.merger, chunks, masks, self.known)
-        if len(chunks) == 1:
-            one = plan[0].one if len(plan) == 1 else None
-            self.slices[key] = (None if one is None else
-                                (plan[0].prefix, plan[0].check_base, one.begin, one.end))
+        """The sample plan for ``key`` (see :meth:`build`), made once."""
+        plan = self.sample_plans.get(key)
+        if plan is None:
+            plan = self.sample_plans[key] = sample_plan(self.merger, chunks, masks, self.known)
         return plan
 
     def build(
@@ -254,9 +255,7 @@ class TickFrames:
         sources: Sequence[Source],
     ) -> None:
         """The frames of a tick only sources write, by the sample plan cached under ``key``."""
-        plan = self.sample_plans.get(key)
-        if plan is None:
-            plan = self.plan(key, chunks, masks)
+        plan = self.plan(key, chunks, masks)
         wire: list[bytes] = []
         leads: list[Source] = []
         # Each SampleFrame unpacked at once (cheaper than reading its fields one by one).
@@ -289,26 +288,30 @@ class TickFrames:
         src, first = pairs[0]
         self.source_sample(times[0], src, first)
         samples = list(map(_SAMPLE, pairs))
-        rest, prevs, ts = samples[1:], samples[:-1], times[1:]
         src.prev = samples[-1]  # or an equal sample (a tick repeating it sends nothing)
-        changed = list(map(ne, rest, prevs))
-        if not all(changed):
+        codes = change_codes(samples)
+        rest, prevs, ts = samples[1:], samples[:-1], times[1:]
+        unchanged = bytes(len(first))
+        if unchanged in codes:  # the sample before repeated: that tick sends nothing
+            changed = list(map(ne, codes, repeat(unchanged)))
             rest = list(compress(rest, changed))
             prevs = list(compress(prevs, changed))
             ts = list(compress(ts, changed))
+            codes = list(compress(codes, changed))
             if not rest:
                 return
-        masks = list(change_masks(src, rest, prevs))
-        keys = list(zip(repeat(src.addresses), masks))
-        slices = self.slices
-        cuts = list(map(slices.get, keys))
+        table = self.slices.get(src.addresses)
+        if table is None:
+            table = self.slices[src.addresses] = {}
+        cuts = list(map(table.get, codes))
         if None in cuts:  # plans not made yet, or not one slice (build() makes those frames)
             at = cuts.index(None)
             while True:
-                key = keys[at]
-                if key not in slices:
-                    self.plan(key, ((src, rest[at]),), (masks[at],))
-                    cuts = list(map(slices.get, keys))
+                if codes[at] not in table:
+                    mask = changes(src, rest[at], prevs[at])
+                    table[codes[at]] = _slice_plan(
+                        self.plan((src.addresses, mask), ((src, rest[at]),), (mask,)))
+                    cuts = list(map(table.get, codes))
                 try:
                     at = cuts.index(None, at + 1)
                 except ValueError:
@@ -332,7 +335,9 @@ class TickFrames:
                 frames.add_run(ts[at:stop], wire, origin, order)
                 self.samples += stop - at
             if stop < count:
-                self.build(ts[stop], keys[stop], ((src, rest[stop]),), (masks[stop],), (src,))
+                mask = changes(src, rest[stop], prevs[stop])
+                self.build(ts[stop], (src.addresses, mask), ((src, rest[stop]),), (mask,),
+                           (src,))
             at = stop + 1
 
     def samples_stretch(self, sources: tuple[Source, ...], times: Sequence[int],
@@ -347,26 +352,24 @@ class TickFrames:
         rest, ts = rows[1:], times[1:]
         if not rest:
             return
-        columns: list[Iterable[tuple[bool, ...]]] = []
+        columns: list[list[bytes]] = []
         for j, src in enumerate(sources):
             column = list(map(_SAMPLE, map(itemgetter(j), rows)))
-            after, before = column[1:], column[:-1]
-            columns.append(change_masks(src, after, before))
+            columns.append(change_codes(column))
             src.prev = column[-1]
-        masks = list(zip(*columns, strict=True))
-        keys = list(zip(repeat(self.shapes[sources]), masks))
-        fast = self.rows
-        plans = list(map(fast.get, keys))
+        codes = list(zip(*columns, strict=True))
+        shape = self.shapes[sources]
+        table = self.rows.get(shape)
+        if table is None:
+            table = self.rows[shape] = {}
+        plans = list(map(table.get, codes))
         if None in plans:  # plans not made yet, or not of one slice a frame
             at = plans.index(None)
             while True:
-                key = keys[at]
-                if key not in fast:
-                    plan = self.sample_plans.get(key)
-                    if plan is None:
-                        plan = self.plan(key, rest[at], masks[at])
-                    fast[key] = _row_plan(plan)
-                    plans = list(map(fast.get, keys))
+                if codes[at] not in table:
+                    masks = _masks(rest[at], rows[at])
+                    table[codes[at]] = _row_plan(self.plan((shape, masks), rest[at], masks))
+                    plans = list(map(table.get, codes))
                 try:
                     at = plans.index(None, at + 1)
                 except ValueError:
@@ -396,7 +399,8 @@ class TickFrames:
                     list(map(origins.__getitem__, leads)), list(map(orders.__getitem__, leads)))
                 self.samples += sum(map(len, plans[at:stop]))  # type: ignore[arg-type]
             if stop < count:
-                self.build(ts[stop], keys[stop], rest[stop], masks[stop], sources)
+                masks = _masks(rest[stop], rows[stop])
+                self.build(ts[stop], (shape, masks), rest[stop], masks, sources)
             at = stop + 1
 
     def writes_tick(self, t_us: int, bucket: list[Write], mixed: bool) -> None:
@@ -434,6 +438,20 @@ class TickFrames:
             sent.clear()
             known.clear()
         self._known_changed()
+
+
+def _slice_plan(plan: tuple[SampleFrame, ...]) -> tuple[bytes, int, int, int] | None:
+    """A sample plan of one source as stretch reads it: (prefix, check_base, begin, end) when
+    it is one frame of one slice of the sample, else None."""
+    one = plan[0].one if len(plan) == 1 else None
+    return None if one is None else (plan[0].prefix, plan[0].check_base, one.begin, one.end)
+
+
+def _masks(row: Samples, before: Samples) -> tuple[tuple[bool, ...], ...]:
+    """:func:`~xgo_show.compiler.sources.changes` of each source of a tick (``row``) since the
+    tick before (``before``: the same sources)."""
+    return tuple([changes(src, sample, prev)
+                  for (src, sample), (_, prev) in zip(row, before, strict=True)])
 
 
 def _row_plan(plan: tuple[SampleFrame, ...]) -> tuple[tuple[int, int, int, bytes, int, int],
