@@ -8,10 +8,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from tests.compiler.conftest import origin
 from xgo_show.choreo.resolved import ActionCue, MotionCue, SetCue
 from xgo_show.compiler import compile_diagnostics, compile_show, state_at
-from xgo_show.compiler.frames import PlannedFrame, Write
-from xgo_show.compiler.pacing import pace, wire_us
+from xgo_show.compiler.frames import PlannedFrame, PlannedFrames, Write
+from xgo_show.compiler.pacing import Paced, pace, wire_us
 from xgo_show.errors import CompileError
 from xgo_show.profiles import Link, get_profile
 from xgo_show.wire.xgo import write_frame
@@ -371,3 +372,26 @@ def test_resends_never_go_out_before_planned_frames(
     # And replaying the wire leaves every register at its last planned value.
     final = {f.fields[0][0]: f.fields[0][1] for f in planned}
     assert {p.frame.fields[0][0]: p.frame.fields[0][1] for p in result.frames} == final
+
+
+A = origin("a")
+
+
+def test_pacing_reads_planned_frames_columns_and_names_late_frames_as_a_list_s() -> None:
+    frames = PlannedFrames([_planned(0, 32)])  # 40 bytes on the wire: 41,667 us at 9600 baud
+    frames.add_run([1_000, 2_000, 90_000], [b"12345678", b"abcdefgh", b"ABCDEFGH"], A, 5)
+    result = pace(frames, link=SLOW, gap_us=1000, period_us=20_000)
+    plain = pace(list(frames), link=SLOW, gap_us=1000, period_us=20_000)
+    assert result.sent is frames and result.starts == plain.starts
+    assert result.starts == [0, 42_667, 52_001, 90_000]
+    assert result.late == plain.late == [
+        Paced(42_667, PlannedFrame(1_000, b"12345678", (), (), A, 5, True, False, 0.0)),
+        Paced(52_001, PlannedFrame(2_000, b"abcdefgh", (), (), A, 5, True, False, 0.0)),
+    ]
+
+
+def test_planned_frames_a_tick_apart_start_when_planned() -> None:
+    frames = PlannedFrames()
+    frames.add_run([0, 20_000, 40_000], [b"a", b"b", b"c"], A, 0)
+    result = pace(frames, link=SLOW, gap_us=1000, period_us=20_000)
+    assert result.starts == [0, 20_000, 40_000] and result.late == []

@@ -1,8 +1,8 @@
 """PlannedFrames: a performer's planned frames as columns, read as the frames they stand for.
 
 The fast path adds sample frames as columns (time, bytes, cue) and the general merger's frames
-whole; read as a sequence, they must be the very frames a list of PlannedFrame would hold, and
-pacing must pace them as it paces that list.
+whole; read as a sequence, they must be the very frames a list of PlannedFrame would hold
+(test_pacing: pacing paces them as it paces that list).
 """
 
 from __future__ import annotations
@@ -14,8 +14,6 @@ from hypothesis import strategies as st
 from tests.compiler.conftest import examples
 from tests.compiler.conftest import origin as o
 from xgo_show.compiler.frames import PlannedFrame, PlannedFrames, Write
-from xgo_show.compiler.pacing import Paced, pace
-from xgo_show.profiles import Link
 
 A, B = o("a", 1), o("b", 2)
 SET = Write(0x20, b"\x05", A, 0, False)
@@ -156,26 +154,3 @@ def test_columns_read_as_the_list_of_frames_they_stand_for(ops: list[tuple]) -> 
     assert frames.origins == [f.origin for f in plain]
     assert frames.orders == [f.order for f in plain]
     assert frames.durations() == [f.duration for f in plain]
-
-
-SLOW = Link(9600, 0.001)  # 1042 us a byte: a 40-byte frame holds the link 42.7 ms
-
-
-def test_pacing_reads_the_columns_and_names_late_frames_as_the_list_does() -> None:
-    frames = PlannedFrames([SETTING._replace(data=bytes(40))])
-    frames.add_run([1_000, 2_000, 90_000], [b"12345678", b"abcdefgh", b"ABCDEFGH"], A, 5)
-    result = pace(frames, link=SLOW, gap_us=1000, period_us=20_000)
-    plain = pace(list(frames), link=SLOW, gap_us=1000, period_us=20_000)
-    assert result.sent is frames and result.starts == plain.starts
-    assert result.starts == [0, 42_667, 52_001, 90_000]
-    assert result.late == plain.late == [
-        Paced(42_667, _sample(1_000, b"12345678", A, 5)),
-        Paced(52_001, _sample(2_000, b"abcdefgh", A, 5)),
-    ]
-
-
-def test_frames_a_tick_apart_start_when_planned() -> None:
-    frames = PlannedFrames()
-    frames.add_run([0, 20_000, 40_000], [b"a", b"b", b"c"], A, 0)
-    result = pace(frames, link=SLOW, gap_us=1000, period_us=20_000)
-    assert result.starts == [0, 20_000, 40_000] and result.late == []
