@@ -178,7 +178,7 @@ class PlannedFrames(Sequence[PlannedFrame]):
         frame = self.whole.get(index)
         if frame is None:
             return PlannedFrame(self.t_us[index], self.data[index], (), (), self.origins[index],
-                                self.orders[index], True, False, 0.0)
+                                self.orders[index], True, False)  # duration 0.0
         return frame
 
     @overload

@@ -95,13 +95,9 @@ def change_codes(samples: Sequence[bytes]) -> list[bytes]:
     diff = int.from_bytes(joined[width:], "big") ^ int.from_bytes(joined[:-width], "big")
     low = int.from_bytes(b"\x7f" * size, "big")
     code = ((diff & low) + low | diff) & int.from_bytes(b"\x80" * size, "big")
-    cut = _CUTS.get(width)
-    if cut is None:
-        cut = _CUTS[width] = re.compile(b"." * width, re.DOTALL)
-    return cut.findall(code.to_bytes(size, "big"))
-
-
-_CUTS: dict[int, re.Pattern[bytes]] = {}  # width -> a pattern matching that many bytes
+    # Cut every ``width`` bytes (a code byte is 0 or 0x80: never the newline '.' skips);
+    # re keeps the compiled pattern.
+    return re.compile(b"." * width).findall(code.to_bytes(size, "big"))
 
 
 def changes(src: Source, sample: bytes, prev: bytes) -> tuple[bool, ...]:
