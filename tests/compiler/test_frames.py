@@ -5,7 +5,7 @@ from __future__ import annotations
 import itertools
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from xgo_show.choreo.resolved import ActionCue, ArmCue, FadeCue, MotionCue, SetCue
@@ -313,6 +313,10 @@ def test_move_samples_lie_on_the_grid_and_the_target_lands_at_the_end(
 @given(st.one_of(st.sampled_from([50.0, 60.0, 62.5, 100.0, 25.0, 1000.0, 7.0, 1e6, 3e6, 0.5]),
                  st.integers(1, 2000).map(float), st.floats(0.1, 5000.0)),
        st.integers(0, 10**10), st.integers(-3, 400))
+# 101 Hz divides 1,000,001 us, not a second: no whole-microsecond period. Past 2**53 us the
+# range would be exact where round() of a float is not (10**19 + 1 is no float): round() it is.
+@example(101.0, 0, 3)
+@example(1e6, 10**19 + 1, 2)
 def test_tick_times_are_each_ticks_time(rate: float, k0: int, count: int) -> None:
     # A range at rates of a whole-microsecond period, round() a tick otherwise: the same.
     from xgo_show.compiler.frames import tick_times, tick_us
