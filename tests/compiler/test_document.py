@@ -324,7 +324,9 @@ def test_an_xarm_frame_must_be_one_request_of_a_known_command_with_values_in_ran
     problem = xarm_frame_problem(wild)
     assert problem is not None and "1200" in problem
     assert frame_problem(get_profile("xarm"), wild) == problem
-    assert xarm_frame_problem(encode_packet(26, b"\x01\x02\x03\x04")) is None
+    # Motor mode, servo info write and read: framed only.
+    for command, params in ((26, b"\x01\x02\x03\x04"), (27, bytes(range(12))), (28, b"")):
+        assert xarm_frame_problem(encode_packet(command, params)) is None
     # A reply (a voltage reading the board sends back) is not a request.
     reply = encode_packet(15, b"\x10\x27")
     assert xarm_frame_problem(reply) == "an xArm GetBatteryVoltage reply, not a request"
