@@ -484,8 +484,11 @@ def frames_from_ticks(
     decimate); with it, every tick goes through Writes.
     """
     out = TickFrames(layout, link, gap, action_reg)
-    times = sorted(ticks)
-    entries = list(map(ticks.__getitem__, times))
+    filed = list(ticks)
+    times = sorted(filed)
+    # The planner files a long show's ticks in time order (a move's, then the next's): its
+    # entries are then the mapping's values, without a look-up a tick.
+    entries = list(ticks.values()) if times == filed else list(map(ticks.__getitem__, times))
     if details:
         writes_tick = out.writes_tick
         for t_us, entry in zip(times, entries, strict=True):
