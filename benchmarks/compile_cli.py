@@ -43,7 +43,7 @@ from schedule_file import version1_bytes
 from xgo_show.compiler import compile_show
 from xgo_show.compiler.artifact import schedule_to_bytes
 
-BEFORE = "3556bc4"  # main before issue 12's second round (lazy CLI imports, faster loading)
+BEFORE = "6e49d04"  # main before session 9 (frame columns from the fast path, change codes)
 REPO = Path(__file__).resolve().parent.parent
 
 
