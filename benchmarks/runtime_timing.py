@@ -47,7 +47,9 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import gc
+import io
 import json
 import os
 import resource
@@ -57,17 +59,18 @@ import tempfile
 import threading
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
 from xgo_show.profiles import get_profile
 from xgo_show.runtime import clock as clock_module
-from xgo_show.runtime import realtime
+from xgo_show.runtime import realtime, show_runner
 from xgo_show.runtime.clock import MonotonicClock
-from xgo_show.runtime.events import Event, FrameSent
+from xgo_show.runtime.events import Event, FrameSent, ProgressTick
 from xgo_show.runtime.launch import local_runner
-from xgo_show.runtime.report import percentile
+from xgo_show.runtime.report import ProgressPrinter, percentile
+from xgo_show.sim.pty_server import PtyServer
 from xgo_show.transports import open_transport
 from xgo_show.transports.base import Transport
 from xgo_show.wire.xgo import TYPE_READ, write_frame
@@ -83,6 +86,14 @@ class Sims:
     records: list[Path]
     priority: str
     tids: list[int]  # each simulator's serving thread
+    servers: list[PtyServer] = field(default_factory=list)  # in this process (``inproc``)
+
+    def received(self) -> list[list[tuple[float, bytes]]]:
+        """Each simulator's receive records: (monotonic time, frame bytes)."""
+        if self.servers:
+            return [[(f.t, bytes(f.data)) for f in server.robot.received]
+                    for server in self.servers]
+        return [read_records(record) for record in self.records]
 
 
 SIM_FIFO = 20  # the simulators' SCHED_FIFO priority with --sim-fifo: above the writers' 10
@@ -115,6 +126,14 @@ def serve_sim(record: Path, mode: str) -> None:
 
 
 def start_sims(tmp: Path, mode: str) -> Sims:
+    if mode == "inproc":
+        # As dry-run serves them: threads of this process, normal priority, nothing recorded
+        # to a file (each robot keeps what it received, with its receive time).
+        from xgo_show.sim import create_robot
+
+        servers = [PtyServer(create_robot(MODEL)).start() for _ in range(ROBOTS)]
+        return Sims([], [sv.path for sv in servers], [], "in this process, normal priority",
+                    [], servers)
     procs, paths, records, priority, tids = [], [], [], "", []
     for i in range(ROBOTS):
         record = tmp / f"robot{i}.jsonl"
@@ -137,6 +156,8 @@ def start_sims(tmp: Path, mode: str) -> Sims:
 
 
 def stop_sims(sims: Sims) -> None:
+    for server in sims.servers:
+        server.close()
     for proc in sims.procs:
         assert proc.stdin is not None
         proc.stdin.close()
@@ -244,6 +265,11 @@ class Variant:
     handoff: float | None = None  # seconds a real-time writer sleeps after a write
     raise_workers: bool = False  # the pty's kernel workers under SCHED_FIFO (RaisedWorkers)
     helpers: bool = True  # readers and the supervising thread raised too (False: writers only)
+    progress: str = "none"  # the progress display: "live" (a terminal's), "lines" or "none"
+    busy: bool = False  # one more process keeps a CPU busy during this row only
+    early: float | None = None  # clock.EARLY: a real-time wait's last part on the CPU (s)
+    awake: bool | None = None  # realtime.KEEP_AWAKE: idle CPUs kept out of idle states
+    aligned: bool | None = None  # progress published just after a grid instant (or not)
 
 
 @dataclass
@@ -282,9 +308,25 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
             pauses.append((began.pop(), time.monotonic()))
 
     runner.events.subscribe(on_frame, FrameSent)
+    live = None
+    if variant.progress == "live":  # what a terminal shows: rich redraws the table 4 times/s
+        from xgo_show.cli.live import LiveView
+
+        live = LiveView(schedule, _Terminal())
+        runner.events.subscribe(live.on_event, ProgressTick)
+    elif variant.progress == "lines":  # standard output not a terminal: a line every 2 s
+        runner.events.subscribe(ProgressPrinter(out=_Terminal(), tty=False).on_event,
+                                ProgressTick)
     saved, handoff = realtime.policy(), clock_module.HANDOFF
+    early, awake, after = clock_module.EARLY, realtime.KEEP_AWAKE, show_runner.PROGRESS_AFTER
+    if variant.aligned is not None:
+        show_runner.PROGRESS_AFTER = 0.001 if variant.aligned else None
     if variant.handoff is not None:
         clock_module.HANDOFF = variant.handoff
+    if variant.early is not None:
+        clock_module.EARLY = variant.early
+    if variant.awake is not None:
+        realtime.KEEP_AWAKE = variant.awake
     # As the commands do: the writer threads raise themselves; this thread stays normal.
     policy = realtime.configure("required" if variant.realtime else "off").summary
     if variant.nice:
@@ -298,13 +340,16 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
     before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
     workers = RaisedWorkers() if variant.raise_workers else contextlib.nullcontext()
     try:
-        with workers, writers_only(not variant.helpers):
+        with workers, writers_only(not variant.helpers), busy_cpu(variant.busy):
             result = runner.run(lead=0.3, handle_signals=False)
     finally:
         involuntary = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
         gc.callbacks.remove(on_gc)
         realtime.restore(saved)
         clock_module.HANDOFF = handoff
+        clock_module.EARLY, realtime.KEEP_AWAKE, show_runner.PROGRESS_AFTER = early, awake, after
+        if live is not None:
+            live.finish()
         if variant.nice:
             os.setpriority(os.PRIO_PROCESS, 0, 0)
     if not result.completed:
@@ -322,6 +367,32 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
                   if any(a <= t - LATE_MS / 1000 <= b + 0.002 or a <= t <= b for a, b in pauses))
     return OursRun({name: result.start_at for name in links}, issued, sends,
                    [b - a for a, b in pauses], gc_late, involuntary, policy)
+
+
+class _Terminal(io.StringIO):
+    """A terminal that keeps nothing: what a progress display draws on, as on a user's."""
+
+    def isatty(self) -> bool:
+        return True
+
+    def write(self, text: str) -> int:
+        return len(text)
+
+
+@contextlib.contextmanager
+def busy_cpu(active: bool) -> Iterator[None]:
+    """While entered (if ``active``): one more process keeps a CPU busy (normal priority,
+    started from this thread, which is of normal priority too)."""
+    if not active:
+        yield
+        return
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        time.sleep(0.2)
+        yield
+    finally:
+        busy.kill()
+        busy.wait()
 
 
 @contextlib.contextmanager
@@ -447,12 +518,47 @@ def variants(diagnose: bool, raise_workers: bool) -> list[Variant]:
     return out
 
 
+def suspects(rows: str) -> list[Variant]:
+    """``--suspects``: the README demo's situation (robots in lock-step, simulators served by
+    threads of this process as dry-run serves them, its live progress table drawn 4 times a
+    second, telemetry on, the collector held), then one suspect of late writes switched at a
+    time, then the same again; ``rows`` adds the candidate cuts (comma-separated: early
+    wake-up of MS ms ``early=MS``, ``awake`` or ``asleep``)."""
+    base = Variant("the demo's situation", progress="live")
+    only = rows.startswith("only:")
+    rows = rows.removeprefix("only:")
+    out = [] if only else [
+        base,
+        dataclasses.replace(base, name="  gc not held", hold_gc=False),
+        dataclasses.replace(base, name="  progress as lines", progress="lines"),
+        dataclasses.replace(base, name="  no progress display", progress="none"),
+        dataclasses.replace(base, name="  no telemetry", telemetry=False),
+        dataclasses.replace(base, name="  one CPU busy", busy=True),
+    ]
+    for row in filter(None, rows.split(",")):
+        key, _, value = row.partition("=")
+        if key == "early":
+            out.append(dataclasses.replace(base, name=f"  early {value} ms",
+                                           early=float(value) / 1000))
+        elif key in ("aligned", "unaligned"):
+            out.append(dataclasses.replace(base, name=f"  progress {key}",
+                                           aligned=key == "aligned"))
+        elif key in ("awake", "asleep"):
+            what = "kept awake" if key == "awake" else "may idle"
+            out.append(dataclasses.replace(base, name=f"  CPUs {what}", awake=key == "awake"))
+        else:
+            raise SystemExit(f"--suspects: unknown row {row!r}")
+    if not only:
+        out.append(dataclasses.replace(base, name="the demo's again"))
+    return out
+
+
 def p(errs: list[float], q: float) -> float:
     return percentile([abs(e) for e in errs], q)
 
 
-def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
-         plays: list[Variant | None], diagnose: bool) -> None:
+def play(schedule: Schedule, links: dict[str, Transport], sims: Sims,
+         plays: list[Variant | None], diagnose: bool, stalls: Path | None = None) -> None:
     """Play the show once per entry (None: the naive loop) and print one row each."""
     windows: list[tuple[Variant | None, float, float, dict[str, float], OursRun | None,
                         float]] = []
@@ -467,8 +573,8 @@ def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
         # The 1-minute load average as the row ends: about the row's own minute.
         windows.append((variant, t0, time.monotonic(), starts, run, os.getloadavg()[0]))
     time.sleep(0.2)  # the simulators' last records reach their files
-    got = {perf.name: read_records(record)
-           for perf, record in zip(schedule.performers, records, strict=True)}
+    got = {perf.name: received
+           for perf, received in zip(schedule.performers, sims.received(), strict=True)}
     for variant, t0, t1, starts, run, load in windows:
         errs, drifts, delivery = measure(schedule, got, (t0, t1), starts, schedule.control_rate,
                                          None if run is None else run.sends)
@@ -486,23 +592,42 @@ def play(schedule: Schedule, links: dict[str, Transport], records: list[Path],
                        if run.gc_pauses else "0")
                 line += (f" |{late:>5}{bursts(run.issued):>6}{run.gc_late:>4} {gcs:>8}"
                          f"{run.involuntary:>7}")
+            if stalls is not None:
+                # trigger_latency's probe and record (imported once the rows are played: it
+                # imports Zenoh, which has no business in the process measured)
+                from trigger_latency import read_stalls
+
+                line += " | " + stalled(read_stalls(stalls), t0, t1, run.issued)
             if variant is not None:
                 line += f"  ({run.policy})"
         print(line)
 
 
-def header(diagnose: bool) -> None:
+def stalled(stalls: list[tuple[int, float, float]], t0: float, t1: float,
+            issued: list[tuple[float, str, float]]) -> str:
+    """The CPU stalls the probe saw within [t0, t1] (count, longest ms) and how many of the
+    writes issued over 1 ms late were due while a CPU stood still."""
+    mine = [(a, b) for _, a, b in stalls if a < t1 and b > t0]
+    late = [(t - err / 1000, t) for t, _, err in issued if err > LATE_MS]
+    hit = sum(1 for due, t in late if any(a < t and b > due for a, b in mine))
+    longest = max((b - a for a, b in mine), default=0.0) * 1000
+    return f"{len(mine):>3} {longest:>6.1f} {len(late):>5} {hit:>5}"
+
+
+def header(diagnose: bool, *, stalls: bool = False) -> None:
     print(f"{'':<22}{'load':>5} |{'send-time error (receive - planned)':^39} |"
           f"{'issue lateness':^29} |{'delivery (pty+sim)':^24} |")
     line = (f"{'ms':<22}{'avg':>5} |{'p50':>8}{'p99':>8}{'p99.9':>8}{'max':>8}{'drift':>7}"
             f" |{'p50':>7}{'p99':>7}{'p99.9':>8}{'max':>7} |{'p99':>8}{'p99.9':>8}{'max':>8}")
     if diagnose:
         line += f" |{'>1ms':>5}{'burst':>6}{'gc':>4}{'gc n/max':>9}{'invol':>7}"
+    if stalls:
+        line += f" |{'stall':>4}{'max':>7}{'>1ms':>6}{'in st':>6}"
     print(line)
 
 
 def on_sims(schedule: Schedule, tmp: Path, mode: str, plays: list[Variant | None],
-            diagnose: bool) -> None:
+            diagnose: bool, stalls: Path | None = None) -> None:
     """Start simulators of priority ``mode``, play ``plays`` on them, stop them."""
     sims = start_sims(tmp, mode)
     links: dict[str, Transport] = {}
@@ -511,11 +636,44 @@ def on_sims(schedule: Schedule, tmp: Path, mode: str, plays: list[Variant | None
             links[perf.name] = open_transport(path, baudrate=perf.link.baud)
             links[perf.name].open()
         print(f"   (simulators: {sims.priority})")
-        play(schedule, links, sims.records, plays, diagnose)
+        play(schedule, links, sims, plays, diagnose, stalls)
     finally:
         for link in links.values():
             link.close()
         stop_sims(sims)
+
+
+def run_suspects(args: argparse.Namespace) -> None:
+    """``--suspects``: one row per suspect switched, the demo's situation before and after."""
+    schedule = make_schedule(args.seconds, args.rate, lockstep=True)
+    print(f"{ROBOTS} simulated {MODEL}s on ptys, {args.rate:g} frames/s each in lock-step for "
+          f"{args.seconds:g} s per row; {os.cpu_count()} CPUs; load average "
+          f"{os.getloadavg()[0]:.2f} at the start")
+    header(False, stalls=True)
+    with tempfile.TemporaryDirectory() as tmpdir:
+        # The VM's own stalls (a CPU that stands still: the hypervisor), seen by a probe of
+        # trigger_latency.py: a SCHED_FIFO 30 thread per CPU waking every ms.
+        record = Path(tmpdir) / "stalls.txt"
+        probe = subprocess.Popen(
+            [sys.executable, str(Path(__file__).with_name("trigger_latency.py")),
+             "--stall-probe", str(record)], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+            text=True)
+        assert probe.stdout is not None and probe.stdin is not None
+        probe.stdout.readline()
+        try:
+            on_sims(schedule, Path(tmpdir), "inproc", [*suspects(args.suspects)], False, record)
+            if not args.suspects.startswith("only:"):
+                on_sims(schedule, Path(tmpdir), "normal",
+                        [Variant("  sims in own processes", progress="live")], False, record)
+        finally:
+            probe.stdin.close()
+            probe.wait(10)
+    print("\nstall: CPU stalls of 2 ms or more during the row, max the longest (ms); "
+          ">1ms: writes issued over 1 ms late, in st: those due while a CPU stood still.")
+    print("send-time error: the simulators' receive times (in this process but the last "
+          "row); issue lateness: the runner's own. load avg: the 1-minute load average as the "
+          "row ended.")
+    print(f"load average at the end: {os.getloadavg()[0]:.2f}")
 
 
 def main() -> None:
@@ -538,6 +696,10 @@ def main() -> None:
     parser.add_argument("--lockstep", action="store_true",
                         help="every robot's frames at the same times, as a show's grid puts "
                         "them (default: 3.7 ms apart)")
+    parser.add_argument("--suspects", nargs="?", const="", metavar="ROWS",
+                        help="the README demo's situation (lock-step, simulators in this "
+                        "process, live progress table), then each suspect of late writes "
+                        "switched alone, in one run (ROWS: extra rows, e.g. early=0.2,awake)")
     parser.add_argument("--serve-sim", metavar="RECORD", help=argparse.SUPPRESS)
     parser.add_argument("--sim-mode", default="fifo", help=argparse.SUPPRESS)
     parser.add_argument("--raise-workers-child", type=int, help=argparse.SUPPRESS)
@@ -547,6 +709,9 @@ def main() -> None:
         return
     if args.serve_sim:
         serve_sim(Path(args.serve_sim), args.sim_mode)
+        return
+    if args.suspects is not None:
+        run_suspects(args)
         return
     schedule = make_schedule(args.seconds, args.rate, lockstep=args.lockstep)
     loads = [False] if args.no_load else [True] if args.only_load else [False, True]

@@ -251,3 +251,34 @@ def test_timed_waits_are_trusted_to_end_past_the_deadline_only_on_glibc_2_30_or_
     expected = (sys.platform.startswith("linux") and lib == "glibc"
                 and tuple(int(p) for p in version.split(".")[:2]) >= (2, 30))
     assert _timeouts_on_monotonic() is expected
+
+
+def test_an_early_wait_blocks_then_ends_on_the_cpu_never_before_the_deadline(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # clock.EARLY: a real-time wait stops blocking that long before its deadline and runs
+    # out the rest on its CPU. Called directly (the real-time wait itself, in this thread).
+    from xgo_show.runtime import clock as clock_module
+
+    monkeypatch.setattr(clock_module, "EARLY", 0.002)
+    for interrupt in (None, threading.Event()):
+        cpu = time.thread_time()
+        deadline = time.monotonic() + 0.03
+        assert clock_module._block_until(deadline, interrupt)
+        assert time.monotonic() >= deadline
+        # Blocked for all but the last 2 ms: the CPU it used is at most those (a wait that
+        # spun all along would have used about 30 ms).
+        assert time.thread_time() - cpu < 0.015
+
+
+def test_an_early_wait_is_cut_short_by_its_interrupt_while_on_the_cpu(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from xgo_show.runtime import clock as clock_module
+
+    monkeypatch.setattr(clock_module, "EARLY", 5.0)  # the whole wait on the CPU
+    stop = threading.Event()
+    stop.set()
+    t0 = time.monotonic()
+    assert not clock_module._block_until(t0 + 3.0, stop)
+    assert time.monotonic() - t0 < 1.0

@@ -473,8 +473,10 @@ def test_a_snapshot_is_the_furthest_performer_and_the_readings_there_are(
 
 
 def test_progress_ticks_come_once_per_interval_of_clock_time(
-    schedule: Schedule, clock: FakeClock, two: dict[str, Stub]
+    schedule: Schedule, clock: FakeClock, two: dict[str, Stub], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    # The interval alone (moved to just after an instant of the grid: the test of that below).
+    monkeypatch.setattr(show_runner_module, "PROGRESS_AFTER", None)
     runner = runner_for(schedule, two, clock, progress_hz=128.0)  # every 2**-7 s
     ticks = EventRecorder(runner.events, ProgressTick)
     result = in_thread(runner)
@@ -804,3 +806,27 @@ def test_a_short_stop_timeout_gives_up_on_a_stuck_stop_as_soon(
     stuck.set()
     assert res.stops["rex"].error == "safe stop did not finish in time" and res.stops["ivy"].ok
     assert took < 0.9
+
+
+# ---------------------------------------------------------------------- progress between instants
+
+
+def test_progress_is_published_just_after_an_instant_of_the_grid(
+    schedule: Schedule, two: dict[str, Stub], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A listener (the live table: 2-12 ms) holds Python's lock; right after an instant it
+    # delays no frame (show_runner.PROGRESS_AFTER).
+    runner = runner_for(schedule, two, FakeClock(T0))
+    step = 1.0 / schedule.control_rate
+    after = show_runner_module.PROGRESS_AFTER
+    assert after is not None
+    # Show time 3.007 at clock 100.0: 0.25 s later is show time 3.257; the next instant of
+    # the grid is the one at or after it, then PROGRESS_AFTER more.
+    when = runner._after_instant(100.25, 100.0, 3.007)
+    instant = -(-3.257 // step) * step
+    assert when == pytest.approx(100.25 + (instant - 3.257) + after)
+    assert 100.25 < when <= 100.25 + step + 0.001
+    on_grid = runner._after_instant(100.25, 100.0, 3.0)  # already on an instant
+    assert on_grid == pytest.approx(100.25 + after)
+    monkeypatch.setattr(show_runner_module, "PROGRESS_AFTER", None)
+    assert runner._after_instant(100.25, 100.0, 3.007) == 100.25

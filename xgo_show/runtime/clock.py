@@ -22,6 +22,7 @@ import time
 from typing import Protocol
 
 __all__ = [
+    "EARLY",
     "HANDOFF",
     "Clock",
     "FakeClock",
@@ -93,21 +94,30 @@ class MonotonicClock:
 
 
 def _block_until(deadline: float, interrupt: threading.Event | None) -> bool:
-    """A real-time thread's wait: blocked in the kernel until the deadline, never spinning.
+    """A real-time thread's wait: blocked in the kernel until :data:`EARLY` before the
+    deadline, then on its CPU for the rest (at most :data:`EARLY`, holding Python's lock).
 
     A SCHED_FIFO thread that spins keeps every normal thread (the kernel worker that moves
-    its bytes included) off its CPU; it needs no spin either, since it runs the moment its
-    timer fires (with the timer slack at 1 ns it wakes some tens of microseconds late).
+    its bytes included) off its CPU, so it blocks for all but the last :data:`EARLY`: waking
+    from the kernel takes it some tens of microseconds, more from an idle CPU.
     """
     now = time.monotonic
-    while (left := deadline - now()) > 0:
+    early = EARLY
+    while (left := deadline - now()) > early:
         if interrupt is None:
-            time.sleep(left)
-        elif interrupt.wait(left):
+            time.sleep(left - early)
+        elif interrupt.wait(left - early):
             return False
-        if _TIMEOUTS_ON_MONOTONIC:
+        if _TIMEOUTS_ON_MONOTONIC and not early:
             return True  # a timed wait that ran out ended past the deadline: no second read
-    return not (interrupt is not None and interrupt.is_set())
+    if interrupt is None:
+        while now() < deadline:
+            pass
+        return True
+    while now() < deadline:
+        if interrupt.is_set():
+            return False
+    return not interrupt.is_set()
 
 
 def _timeouts_on_monotonic() -> bool:
@@ -131,6 +141,10 @@ _TIMEOUTS_ON_MONOTONIC = _timeouts_on_monotonic()
 
 #: Seconds a real-time thread sleeps after a write (see :func:`hand_off_cpu`).
 HANDOFF = 50e-6
+
+#: Seconds before its deadline a real-time thread's wait stops blocking and finishes on its
+#: CPU (see :func:`_block_until`).
+EARLY = 0.0
 
 
 def is_realtime() -> bool:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import gc
+import math
 import os
 import select
 import signal
@@ -49,13 +50,22 @@ from xgo_show.runtime.events import (
 )
 from xgo_show.runtime.executor import ExecutorState, Progress, ReachFn, SafeStopResult
 from xgo_show.runtime.performer import Performer
-from xgo_show.runtime.realtime import HELPER_PRIORITY, enter_show_thread, leave_show_thread
+from xgo_show.runtime.realtime import (
+    HELPER_PRIORITY,
+    cpus_awake,
+    enter_show_thread,
+    leave_show_thread,
+)
 from xgo_show.runtime.stats import SendStats
 
 __all__ = ["FAILURE_POLICIES", "ShowProgress", "ShowResult", "ShowRunner", "default_reach"]
 
 FAILURE_POLICIES = ("halt_all", "continue")
 _SWITCH_INTERVAL = 0.0005  # seconds
+
+#: Seconds after an instant of the show's grid at which progress is published (see
+#: :meth:`ShowRunner._after_instant`); None: every ``1 / progress_hz`` from whenever.
+PROGRESS_AFTER: float | None = 0.001
 
 
 @dataclass(frozen=True)
@@ -301,6 +311,10 @@ class ShowRunner:
             gc.collect()
             gc.freeze()
             gc.disable()
+        # An idle CPU takes longer to wake a writer: none sleeps deeply while the show plays.
+        awake = contextlib.ExitStack()
+        if not isinstance(self.clock, FakeClock):
+            awake.enter_context(cpus_awake())
         raised = False
         result = ShowResult(False, "")
         self.result = result
@@ -348,6 +362,7 @@ class ShowRunner:
             self._waker.close()
             if raised:
                 leave_show_thread()
+            awake.close()
             sys.setswitchinterval(switch)
             if self.hold_gc:
                 gc.unfreeze()
@@ -369,7 +384,8 @@ class ShowRunner:
     def _supervise(self, result: ShowResult) -> None:
         next_progress = 0.0
         while True:
-            self._waker.wait(self.progress_interval)
+            self._waker.wait(min(self.progress_interval,
+                                 max(0.0, next_progress - self.clock.now())))
             with self._lock:
                 faulted, self._faulted = self._faulted, []
             stop_reason = self._stop_reason
@@ -399,8 +415,26 @@ class ShowRunner:
                 return
             now = self.clock.now()
             if now >= next_progress:
-                next_progress = now + self.progress_interval
-                self.events.publish(ProgressTick(now, self.snapshot()))
+                progress = self.snapshot()
+                self.events.publish(ProgressTick(now, progress))
+                next_progress = self._after_instant(now + self.progress_interval, now,
+                                                    progress.show_time)
+
+    def _after_instant(self, when: float, now: float, show_time: float) -> float:
+        """``when``, moved to :data:`PROGRESS_AFTER` past the show's next instant on its grid
+        (``show_time`` is the show time at clock time ``now``).
+
+        A progress listener runs in this thread and holds Python's lock while it works (the
+        live table takes 2-12 ms to draw on this VM); a writer that wakes meanwhile waits for
+        it. Right after an instant the frames of that instant are out and the next is a grid
+        step away. None (or a show without a grid): ``when`` as it is.
+        """
+        rate = self.schedule.control_rate
+        if PROGRESS_AFTER is None or not rate:
+            return when
+        step = 1.0 / rate
+        at = show_time + (when - now)
+        return when + (math.ceil(at / step) * step - at) + PROGRESS_AFTER
 
     def snapshot(self) -> ShowProgress:
         """Where the show is now."""
