@@ -91,7 +91,8 @@ class Tracer:
             "workqueue/workqueue_execute_start": "function.function == flush_to_ldisc",
             "workqueue/workqueue_execute_end": "function.function == flush_to_ldisc",
             # The simulators' and the kernel workers' wake-ups; every switch (who ran).
-            "sched/sched_waking": f'{sims} || comm ~ "kworker/u*"',
+            # ... and every real-time thread's (the writers', their wake-up latency)
+            "sched/sched_waking": f'{sims} || comm ~ "kworker/u*" || prio < 100',
             "sched/sched_switch": "",
             "raw_syscalls/sys_exit": sim_pids,
         }
@@ -340,10 +341,14 @@ def play_processes(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
                    tracer: Tracer) -> Played:
     """The schedule played by one local process per robot (``--play-child``): the relays'
     shape without Zenoh, a conductor or a clock to estimate."""
+    from relay_variants import read_threads
+
     procs: list[subprocess.Popen[str]] = []
-    for perf, path in zip(schedule.performers, sims.paths, strict=True):
+    threads = [Path(tempfile.mkdtemp()) / "threads" for _ in schedule.performers]
+    for perf, path, names in zip(schedule.performers, sims.paths, threads, strict=True):
         procs.append(subprocess.Popen(
             [sys.executable, __file__, "--play-child", f"{perf.name}={path}",
+             "--threads-file", str(names),
              "--seconds", str(args.seconds), *(["--lockstep"] if args.lockstep else []),
              *(["--handoff-us", str(args.handoff_us)] if args.handoff_us else []),
              *(["--no-realtime"] if args.no_realtime else [])],
@@ -371,9 +376,11 @@ def play_processes(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
                 reply = json.loads(proc.stdout.readline())
                 if not reply["completed"]:
                     raise SystemExit(f"a local process did not complete: {reply['reason']}")
+                named = read_threads(str(threads[i]))
+                roles.update({t: f"proc{i}:{n}" for t, n in named.items()})
                 for t, perf, tid, planned in reply["frames"]:
                     issued.append((t, perf, tid))
-                    roles.setdefault(tid, f"proc{i}:writer")
+                    roles[tid] = f"proc{i}:writer"
                     if t - planned > 0.001:
                         late.append((planned, t, tid))
             time.sleep(0.3)
@@ -393,6 +400,10 @@ def play_processes(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
 def play_child(pair: str, args: argparse.Namespace) -> None:
     """``--play-child NAME=PTY``: play robot NAME's part of the schedule on PTY at the start
     time read from stdin; print every frame's (write time, NAME, writer thread, planned)."""
+    from relay_variants import name_threads
+
+    if args.threads_file:
+        name_threads(args.threads_file)
     name, _, path = pair.partition("=")
     full = make_schedule(args)
     schedule = dataclasses.replace(
@@ -404,7 +415,9 @@ def play_child(pair: str, args: argparse.Namespace) -> None:
     try:
         for line in sys.stdin:
             frames: list[tuple[float, str, int, float]] = []
-            runner = local_runner(schedule, {name: link}, clock=MonotonicClock())
+            # No telemetry: the relays play with --no-telemetry (like for like).
+            runner = local_runner(schedule, {name: link}, clock=MonotonicClock(),
+                                  telemetry=False)
             runner.events.subscribe(functools.partial(_note_frame, frames), FrameSent)
             result = runner.run(start_at=float(line), lead=0.0, handle_signals=False)
             print(json.dumps({"completed": result.completed, "reason": result.reason,
@@ -426,13 +439,14 @@ def make_schedule(args: argparse.Namespace) -> Schedule:
     return rt.make_schedule(args.seconds, 50.0, lockstep=args.lockstep)
 
 
-def _xgo_show(args: argparse.Namespace) -> list[str]:
-    """The command that runs ``xgo-show`` (with ``--handoff-us``: with that hand-off)."""
-    if not args.handoff_us:
-        return [sys.executable, "-m", "xgo_show"]
-    code = ("import sys, xgo_show.runtime.clock as c; c.HANDOFF = float(sys.argv.pop(1)) * 1e-6; "
-            "from xgo_show.cli.main import program; sys.argv[0] = 'xgo-show'; program()")
-    return [sys.executable, "-c", code, str(args.handoff_us)]
+def _xgo_show(args: argparse.Namespace, variant: str = "base", threads: Path | None = None
+              ) -> list[str]:
+    """The command that runs ``xgo-show``: through ``relay_variants.py``, which notes the
+    process's Python threads in ``threads`` and changes ``variant``'s one thing (and the
+    hand-off, with ``--handoff-us``)."""
+    return [sys.executable, str(Path(__file__).resolve().parent / "relay_variants.py"),
+            "--variant", variant, *(["--threads", str(threads)] if threads else []),
+            *(["--handoff-us", str(args.handoff_us)] if args.handoff_us else []), "--"]
 
 
 def _tasks(pid: int) -> dict[int, str]:
@@ -446,12 +460,14 @@ def _tasks(pid: int) -> dict[int, str]:
 
 
 def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tracer: Tracer,
-                tmp: Path, rev: str = "", silent: bool = False) -> Played:
+                tmp: Path, rev: str = "", silent: bool = False, variant: str = "base"
+                ) -> Played:
     """The schedule played by one ``xgo-show relay`` process per robot, this process their
     conductor (heartbeats every 0.1 s, a clock tracker each, as ``run`` does); with ``rev``,
     the relays run that revision's xgo_show. ``silent`` (an experiment): the conductor stops
     its heartbeats and clock tracking once the start is sent, and the relays play on
-    (link-loss policy ``continue``): what the heartbeats and clock bursts cost a delivery."""
+    (link-loss policy ``continue``): what the heartbeats and clock bursts cost a delivery.
+    ``variant``: the relays run with that one thing changed (``relay_variants.py``)."""
     import socket
 
     from xgo_show.compiler.artifact import schedule_to_bytes
@@ -463,17 +479,20 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
     from xgo_show.relay.validate import schedule_digest
 
     procs: list[subprocess.Popen[str]] = []
-    ports, logs = [], []
+    ports, logs, threads = [], [], []
     from relay_sync import extract
+    from relay_variants import read_threads
 
     paths = {"PYTHONPATH": str(extract(rev, tmp / f"rev-{rev}"))} if rev else {}
     for i, (perf, path) in enumerate(zip(schedule.performers, sims.paths, strict=True)):
         with socket.socket() as sock:
             sock.bind(("127.0.0.1", 0))
             ports.append(int(sock.getsockname()[1]))
-        logs.append(tmp / f"relay{i}{rev}.jsonl")
+        tag = f"{rev}{variant}{'silent' if silent else ''}"
+        logs.append(tmp / f"relay{i}{tag}.jsonl")
+        threads.append(tmp / f"relay{i}{tag}.threads")
         procs.append(subprocess.Popen(
-            [*_xgo_show(args), "relay", "--name", f"trace{i}",
+            [*_xgo_show(args, variant, threads[-1]), "relay", "--name", f"trace{i}",
              "--map", f"{perf.name}={path}", "--listen", f"tcp/127.0.0.1:{ports[-1]}",
              "--no-telemetry", "--log", str(logs[-1]),
              *(["--no-realtime"] if args.no_realtime else [])],
@@ -485,7 +504,9 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
     def sample() -> None:  # the relays' threads, with their names (Zenoh's: rx-0, tx-0...)
         while True:
             for i, proc in enumerate(procs):
-                roles.update({t: f"relay{i}:{c}" for t, c in _tasks(proc.pid).items()})
+                named = read_threads(str(threads[i]))  # Python's (all "python" in /proc)
+                roles.update({t: f"relay{i}:{named.get(t, c)}"
+                              for t, c in _tasks(proc.pid).items()})
             roles.update({t: f"conductor:{c}" for t, c in _tasks(os.getpid()).items()})
             if sampling.wait(0.5):
                 return
@@ -564,17 +585,24 @@ def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tra
     for i, (perf, log) in enumerate(zip(schedule.performers, logs, strict=True)):
         mine = [t for t, role in roles.items() if role.startswith(f"relay{i}:")]
         writer = max(mine, key=lambda t: len(queued.get(t, [])))  # the one that writes
+        roles[writer] = f"relay{i}:writer"
+        traced = False
         for line in log.read_text(encoding="utf-8").splitlines():
             rec = json.loads(line)
             if rec.get("event") != "frames_host":
                 continue
+            traced = True
             for _index, planned, actual, _seen in rec["frames"][perf.name]:
                 issued.append((float(actual), perf.name, writer))
                 if actual - planned > 0.001:
                     late.append((float(planned), float(actual), writer))
+        if not traced:  # no tracer (--variants no-tracer): the kernel saw the writes queued
+            issued.extend((t, perf.name, writer) for t, _work in queued.get(writer, [])
+                          if begin <= t)
     issued.sort()
     label = ("relays, one process per robot" + (f" (revision {rev})" if rev else "")
-             + (" (conductor silent during the show)" if silent else ""))
+             + (" (conductor silent during the show)" if silent else "")
+             + (f" (variant {variant})" if variant != "base" else ""))
     return Played(label, lines, issued, late, {}, roles,
                   (begin, time.monotonic()))
 
@@ -628,6 +656,81 @@ def during_delivery(tr: Trace, frames: list[Frame], roles: dict[int, str]) -> No
               f"{percentile(first[k], .5) if first[k] else 0.0:9.3f}")
 
 
+def runs_of(tr: Trace, window: tuple[float, float]) -> dict[int, list[tuple[float, float]]]:
+    """Every task's time on a CPU within ``window``: pid -> [(from, to)], in time order."""
+    out: dict[int, list[tuple[float, float]]] = defaultdict(list)
+    a, b = window
+    for sw in tr.switches.values():
+        for i, (t, _comm, pid, _prio) in enumerate(sw):
+            end = sw[i + 1][0] if i + 1 < len(sw) else b
+            if end <= a or t >= b or pid == 0:
+                continue
+            out[pid].append((max(a, t), min(b, end)))
+    for runs in out.values():
+        runs.sort()
+    return out
+
+
+def cpu_by_thread(tr: Trace, played: Played) -> None:
+    """CPU time per frame of every thread over the whole show (not only during deliveries),
+    by kind, and how often it was switched in; then the writers' own: before the write (from
+    the wake-up that ends the frame's wait) and after it (hand-off, listeners, the loop to the
+    next wait), how many times a writer ran per frame, and its wake-up latency (woken ->
+    on a CPU). What a relay process runs that a local one does not shows here whole."""
+    if not played.issued:
+        return
+    window = (played.issued[0][0] - 0.005, played.issued[-1][0] + 0.025)
+    runs = runs_of(tr, window)
+    n = len(played.issued)
+    total: dict[str, float] = defaultdict(float)
+    count: dict[str, int] = defaultdict(int)
+    comms = {pid: comm for sw in tr.switches.values() for _t, comm, pid, _p in sw}
+    for pid, rs in runs.items():
+        name = played.roles.get(pid)
+        kind = _kind(name) if name else "other:" + re.sub(r"\d+", "N", comms.get(pid, "?"))
+        total[kind] += sum(e - s for s, e in rs) * 1e6
+        count[kind] += len(rs)
+    print(f"CPU over the whole show, every thread, by kind: us per frame ({n} frames) and runs "
+          "per frame")
+    for k, v in sorted(total.items(), key=lambda kv: -kv[1])[:18]:
+        print(f"  {k:<40}{v / n:9.1f}{count[k] / n:8.2f}")
+    writers: dict[int, list[float]] = defaultdict(list)
+    for t, _perf, tid in played.issued:
+        writers[tid].append(t)
+    before: list[float] = []
+    after: list[float] = []
+    per_frame: list[int] = []
+    for tid, issues in writers.items():
+        rs = runs.get(tid, [])
+        starts = [r[0] for r in rs]
+        for k, t in enumerate(issues):
+            nxt = issues[k + 1] if k + 1 < len(issues) else t + 0.02
+            i = max(0, bisect.bisect_right(starts, t) - 1)
+            if not rs or not rs[i][0] <= t <= rs[i][1] + 1e-5:
+                continue
+            before.append((t - rs[i][0]) * 1e6)
+            j = bisect.bisect_right(starts, nxt) - 1  # the run holding the next write
+            mine = [(max(s, t), min(e, nxt if m == j else e)) for m, (s, e) in
+                    enumerate(rs[i:j + 1], start=i)]
+            after.append(sum(e - s for s, e in mine if e > s) * 1e6)
+            per_frame.append(j - i)
+    wake: list[float] = []
+    for tid in writers:
+        ins = tr.switched_in.get(tid, [])
+        for w, _cpu in tr.waking.get(tid, []):
+            if window[0] <= w <= window[1]:
+                i = first_at(ins, w)
+                if i < len(ins):
+                    wake.append((ins[i] - w) * 1e6)
+    if before:
+        print(f"the writers, us per frame: wake-up to write p50 {percentile(before, .5):.1f} / "
+              f"mean {sum(before) / len(before):.1f}; write to the next wait p50 "
+              f"{percentile(after, .5):.1f} / mean {sum(after) / len(after):.1f}; runs per frame "
+              f"mean {sum(per_frame) / len(per_frame):.2f}; wake-up latency p50 "
+              f"{percentile(wake, .5) if wake else 0.0:.1f} / p99 "
+              f"{percentile(wake, .99) if wake else 0.0:.1f} (n={len(wake)})")
+
+
 def report(played: Played, schedule: Schedule, sims: rt.Sims, worst: int) -> None:
     """The figures of one play."""
     lines = played.lines
@@ -673,6 +776,7 @@ def report(played: Played, schedule: Schedule, sims: rt.Sims, worst: int) -> Non
         print(f"{part:<10}{percentile(vals, .5):>8.3f}{percentile(vals, .99):>8.3f}"
               f"{percentile(vals, .999):>8.3f}{max(vals):>8.2f}{len(vals):>7}   {share:5.1f} %")
     during_delivery(tr, frames, played.roles)
+    cpu_by_thread(tr, played)
     late_issues(tr, played.late, played.names, worst)
     slowest = sorted(frames, key=lambda f: f.receive - f.issue)[-worst:]
     slow_writes = [f for f in sorted(frames, key=lambda f: f.parts["write"])[-worst:]
@@ -725,7 +829,12 @@ def main() -> None:
     parser.add_argument("--silent-conductor", action="store_true",
                         help="an experiment: with --relays, then relays whose conductor sends "
                         "nothing during the show (no heartbeats, no clock bursts)")
+    parser.add_argument("--variants", nargs="+", default=[], metavar="NAME",
+                        help="with --relays: then relays with one thing changed each (an "
+                        "experiment; relay_variants.py: no-bookkeeping, plain-clock, "
+                        "no-tracer), in turn in the same run")
     parser.add_argument("--play-child", metavar="NAME=PTY", help=argparse.SUPPRESS)
+    parser.add_argument("--threads-file", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.handoff_us:
         clock.HANDOFF = args.handoff_us * 1e-6
@@ -757,6 +866,10 @@ def main() -> None:
                     print(f"relays done, load average {os.getloadavg()[0]:.2f}")
                     played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir),
                                               silent=True))
+                for variant in args.variants:
+                    print(f"relays done, load average {os.getloadavg()[0]:.2f}")
+                    played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir),
+                                              variant=variant))
                 print(f"relays done, load average {os.getloadavg()[0]:.2f}")
         finally:
             tracer.close()
