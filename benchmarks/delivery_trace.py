@@ -55,6 +55,7 @@ import time
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -74,6 +75,8 @@ TRACEFS = Path("/sys/kernel/tracing")
 LINE = re.compile(r"^\s*(?P<comm>.+?)-(?P<pid>\d+)\s+\[(?P<cpu>\d+)\]\s+\S+\s+"
                   r"(?P<t>\d+\.\d+): (?P<event>\w+): (?P<rest>.*)$")
 KV = re.compile(r"(\w+)=(\S+)")
+#: seconds from a play's start command to its start (the trace runs meanwhile)
+LEAD = 0.6
 
 
 class Tracer:
@@ -267,7 +270,8 @@ class Played:
     late: list[tuple[float, float, int]]  # (planned, issued, writer) of writes > 1 ms late
     names: dict[int, str]  # the writers' process's threads (in this process only)
     roles: dict[int, str]  # thread id -> a name for the tables of what ran
-    window: tuple[float, float]  # the simulators' receive times that belong to this play
+    windows: list[tuple[float, float]]  # the simulators' receive times that belong to it
+    load: float = dataclasses.field(default_factory=lambda: os.getloadavg()[0])
 
 
 def play_local(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
@@ -334,49 +338,97 @@ def play_local(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
             link.close()
     roles = {tid: f"local:{name[:18]}" for tid, name in names.items()}
     return Played("local runner, one process, 4 robots", lines, issued, late, names, roles,
-                  (begin, time.monotonic()))
+                  [(begin, time.monotonic())])
 
 
-def play_processes(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
-                   tracer: Tracer) -> Played:
+class Group:
+    """Players of the schedule that stay up between plays, so several kinds of players can
+    play in turn, round after round (``--rounds``), each round under the same load."""
+
+    label = ""
+
+    def __init__(self) -> None:
+        self.played: Played | None = None
+        self.rounds: list[Played] = []
+
+    def open(self) -> None:
+        """Start the processes; return when they are ready to play."""
+
+    def play_once(self, tracer: Tracer) -> Played:
+        """One traced play of the schedule."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Stop the processes."""
+
+    def play(self, tracer: Tracer) -> None:
+        """One traced play, added to the earlier ones (:attr:`played`, :attr:`rounds`)."""
+        one = self.play_once(tracer)
+        if not one.issued:
+            return
+        self.rounds.append(one)
+        if self.played is None:  # a copy: the next rounds are added to it
+            self.played = dataclasses.replace(
+                one, lines=list(one.lines), issued=list(one.issued), late=list(one.late),
+                roles=dict(one.roles), windows=list(one.windows))
+            return
+        p = self.played
+        p.lines.extend(one.lines)
+        p.issued.extend(one.issued)
+        p.issued.sort()
+        p.late.extend(one.late)
+        p.roles.update(one.roles)
+        p.windows.extend(one.windows)
+
+
+class Processes(Group):
     """The schedule played by one local process per robot (``--play-child``): the relays'
     shape without Zenoh, a conductor or a clock to estimate."""
-    from relay_variants import read_threads
 
-    procs: list[subprocess.Popen[str]] = []
-    threads = [Path(tempfile.mkdtemp()) / "threads" for _ in schedule.performers]
-    for perf, path, names in zip(schedule.performers, sims.paths, threads, strict=True):
-        procs.append(subprocess.Popen(
-            [sys.executable, __file__, "--play-child", f"{perf.name}={path}",
-             "--threads-file", str(names),
-             "--seconds", str(args.seconds), *(["--lockstep"] if args.lockstep else []),
-             *(["--handoff-us", str(args.handoff_us)] if args.handoff_us else []),
-             *(["--no-realtime"] if args.no_realtime else [])],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True))
-    issued: list[tuple[float, str, int]] = []
-    late: list[tuple[float, float, int]] = []
-    roles: dict[int, str] = {}
-    try:
-        for proc in procs:
+    def __init__(self, args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
+                 tmp: Path) -> None:
+        super().__init__()
+        self.args, self.schedule, self.sims = args, schedule, sims
+        self.threads = [tmp / f"proc{i}.threads" for i in range(len(schedule.performers))]
+        self.procs: list[subprocess.Popen[str]] = []
+        self.label = f"local, {len(schedule.performers)} processes, one robot each"
+
+    def open(self) -> None:
+        args = self.args
+        for perf, path, names in zip(self.schedule.performers, self.sims.paths, self.threads,
+                                     strict=True):
+            self.procs.append(subprocess.Popen(
+                [sys.executable, __file__, "--play-child", f"{perf.name}={path}",
+                 "--threads-file", str(names),
+                 "--seconds", str(args.seconds), *(["--lockstep"] if args.lockstep else []),
+                 *(["--handoff-us", str(args.handoff_us)] if args.handoff_us else []),
+                 *(["--no-realtime"] if args.no_realtime else [])],
+                stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True))
+        for proc in self.procs:
             assert proc.stdout is not None
             if proc.stdout.readline().strip() != "ready":
                 raise SystemExit("a local process did not start")
-        for i, proc in enumerate(procs):
-            roles.update({t: f"proc{i}:{c}" for t, c in _tasks(proc.pid).items()})
+
+    def play_once(self, tracer: Tracer) -> Played:
+        from relay_variants import read_threads
+
+        issued: list[tuple[float, str, int]] = []
+        late: list[tuple[float, float, int]] = []
+        roles: dict[int, str] = {}
         begin = time.monotonic()
         tracer.start()
         try:
-            start_at = time.monotonic() + 1.0
-            for proc in procs:
+            start_at = time.monotonic() + LEAD
+            for proc in self.procs:
                 assert proc.stdin is not None
                 proc.stdin.write(f"{start_at!r}\n")
                 proc.stdin.flush()
-            for i, proc in enumerate(procs):
+            for i, proc in enumerate(self.procs):
                 assert proc.stdout is not None
                 reply = json.loads(proc.stdout.readline())
                 if not reply["completed"]:
                     raise SystemExit(f"a local process did not complete: {reply['reason']}")
-                named = read_threads(str(threads[i]))
+                named = read_threads(str(self.threads[i]))
                 roles.update({t: f"proc{i}:{n}" for t, n in named.items()})
                 for t, perf, tid, planned in reply["frames"]:
                     issued.append((t, perf, tid))
@@ -386,15 +438,189 @@ def play_processes(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
             time.sleep(0.3)
         finally:
             lines = tracer.stop()
-    finally:
-        for proc in procs:
+        issued.sort()
+        return Played(self.label, lines, issued, late, {}, roles, [(begin, time.monotonic())])
+
+    def close(self) -> None:
+        for proc in self.procs:
             if proc.stdin is not None:
                 proc.stdin.close()
-        for proc in procs:
+        for proc in self.procs:
             proc.wait(10)
-    issued.sort()
-    return Played(f"local, {len(procs)} processes, one robot each", lines, issued, late, {},
-                  roles, (begin, time.monotonic()))
+
+
+class Relays(Group):
+    """The schedule played by one ``xgo-show relay`` process per robot, this process their
+    conductor (heartbeats every 0.1 s, a clock tracker each, as ``run`` does); with ``rev``,
+    the relays run that revision's xgo_show. ``silent`` (an experiment): the conductor stops
+    its heartbeats and clock tracking once the start is sent, and the relays play on
+    (link-loss policy ``continue``): what the heartbeats and clock bursts cost a delivery (one
+    play only: the relays then let their silent conductor go).
+    ``variant``: the relays run with that one thing changed (``relay_variants.py``)."""
+
+    def __init__(self, args: argparse.Namespace, schedule: Schedule, sims: rt.Sims,
+                 tmp: Path, rev: str = "", silent: bool = False, variant: str = "base",
+                 group: int = 0) -> None:
+        super().__init__()
+        self.args, self.schedule, self.sims, self.tmp = args, schedule, sims, tmp
+        self.rev, self.silent, self.variant = rev, silent, variant
+        self.names = [f"trace{group}-{i}" for i in range(len(schedule.performers))]
+        tag = f"{group}"
+        self.logs = [tmp / f"relay{i}-{tag}.jsonl" for i in range(len(schedule.performers))]
+        self.threads = [tmp / f"relay{i}-{tag}.threads" for i in range(len(schedule.performers))]
+        self.procs: list[subprocess.Popen[str]] = []
+        self.roles: dict[int, str] = {}
+        self.session: Any = None
+        self.clients: list[Any] = []
+        self.trackers: list[Any] = []
+        self.texts: list[str] = []
+        self.shas: list[str] = []
+        self.seen = [0] * len(schedule.performers)  # frames_host records already read
+        self.label = ("relays, one process per robot" + (f" (revision {rev})" if rev else "")
+                      + (" (conductor silent during the show)" if silent else "")
+                      + (f" (variant {variant})" if variant != "base" else ""))
+
+    def open(self) -> None:
+        import socket
+
+        from relay_sync import extract
+
+        from xgo_show.compiler.artifact import schedule_to_bytes
+        from xgo_show.net.keys import relay_key
+        from xgo_show.net.session import SessionOptions, open_session
+        from xgo_show.net.testhooks import TRACE_ENV
+        from xgo_show.net.timesync import ClockTracker
+        from xgo_show.relay.client import RelayClient
+        from xgo_show.relay.validate import schedule_digest
+
+        args, rev = self.args, self.rev
+        ports = []
+        paths = {"PYTHONPATH": str(extract(rev, self.tmp / f"rev-{rev}"))} if rev else {}
+        for i, (perf, path) in enumerate(zip(self.schedule.performers, self.sims.paths,
+                                             strict=True)):
+            with socket.socket() as sock:
+                sock.bind(("127.0.0.1", 0))
+                ports.append(int(sock.getsockname()[1]))
+            self.procs.append(subprocess.Popen(
+                [*_xgo_show(args, self.variant, self.threads[i]), "relay",
+                 "--name", self.names[i], "--map", f"{perf.name}={path}",
+                 "--listen", f"tcp/127.0.0.1:{ports[-1]}", "--no-telemetry",
+                 "--log", str(self.logs[i]), *(["--no-realtime"] if args.no_realtime else [])],
+                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                env={**os.environ, TRACE_ENV: "1", **paths}))
+        for proc in self.procs:
+            assert proc.stdout is not None
+            if "ready" not in proc.stdout.readline():
+                err = proc.stderr.read() if proc.stderr else ""
+                raise SystemExit(f"a relay did not start: {err}")
+        self.session = open_session(SessionOptions(
+            connect=tuple(f"tcp/127.0.0.1:{p}" for p in ports), listen=("tcp/127.0.0.1:0",)))
+        for name, perf in zip(self.names, self.schedule.performers, strict=True):
+            client = RelayClient(self.session, name)
+            client.request("hello", timeout=10.0)  # resent until the session has a route
+            client.start_heartbeat(period=0.1, watchdog=0.5)
+            self.clients.append(client)
+            tracker = ClockTracker(self.session, relay_key("xgo-show", name, "time"),
+                                   conductor=client.conductor.id, interval=1.0)
+            tracker.start()
+            self.trackers.append(tracker)
+            self.texts.append(schedule_to_bytes(
+                dataclasses.replace(self.schedule, performers=(perf,))).decode("ascii"))
+            self.shas.append(schedule_digest(self.texts[-1]))
+
+    def _sample(self) -> None:
+        """The relays' threads, with their names (Zenoh's: rx-0, tx-0...; Python's, all
+        "python" in /proc, from relay_variants.py's notes)."""
+        from relay_variants import read_threads
+
+        for i, proc in enumerate(self.procs):
+            named = read_threads(str(self.threads[i]))
+            self.roles.update({t: f"relay{i}:{named.get(t, c)}"
+                               for t, c in _tasks(proc.pid).items()})
+        self.roles.update({t: f"conductor:{c}" for t, c in _tasks(os.getpid()).items()})
+
+    def play_once(self, tracer: Tracer) -> Played:
+        if self.silent and self.played is not None:
+            return Played(self.label, [], [], [], {}, {}, [])
+        for client, text, sha in zip(self.clients, self.texts, self.shas, strict=True):
+            if not client.upload(text, sha, watchdog_ms=3000,
+                                 link_loss="continue" if self.silent else "stop")["preflight_ok"]:
+                raise SystemExit(f"relay {client.relay}: the pre-flight failed")
+        sampling = threading.Event()
+
+        def sample() -> None:
+            while True:
+                self._sample()
+                if sampling.wait(0.5):
+                    return
+
+        sampler = threading.Thread(target=sample, daemon=True)
+        sampler.start()
+        begin = time.monotonic()
+        tracer.start()
+        clients = self.clients
+        try:
+            start_at = time.monotonic() + LEAD
+            for client, sha in zip(clients, self.shas, strict=True):
+                client.request("start", sha256=sha, start_at=start_at, offset=0.0)
+            deadline = start_at + self.schedule.duration + 15.0
+            if self.silent:  # nothing from the conductor until the show is over
+                for client in clients:
+                    client.stop_heartbeat()
+                for tracker in self.trackers:
+                    tracker.close()
+                self.trackers = []
+                time.sleep(max(0.0, start_at + self.schedule.duration + 1.0 - time.monotonic()))
+                clients = []  # released by now (their watchdog): nothing to ask them
+            for client in clients:
+                while client.command("heartbeat")["show"]["state"] not in ("ended", "idle"):
+                    if time.monotonic() > deadline:
+                        raise SystemExit(f"relay {client.relay}: the show did not end")
+                    time.sleep(0.1)
+            time.sleep(0.3)
+        finally:
+            lines = tracer.stop()
+            sampling.set()
+            sampler.join()
+        self._sample()
+        issued: list[tuple[float, str, int]] = []
+        late: list[tuple[float, float, int]] = []
+        queued = parse([ln for ln in lines if "workqueue_queue_work" in ln]).queued
+        for i, (perf, log) in enumerate(zip(self.schedule.performers, self.logs, strict=True)):
+            mine = [t for t, role in self.roles.items() if role.startswith(f"relay{i}:")]
+            writer = max(mine, key=lambda t: len(queued.get(t, [])))  # the one that writes
+            self.roles[writer] = f"relay{i}:writer"
+            records = [rec for rec in map(json.loads, log.read_text(encoding="utf-8")
+                                          .splitlines()) if rec.get("event") == "frames_host"]
+            new, self.seen[i] = records[self.seen[i]:], len(records)
+            for rec in new:
+                for _index, planned, actual, _seen in rec["frames"][perf.name]:
+                    issued.append((float(actual), perf.name, writer))
+                    if actual - planned > 0.001:
+                        late.append((float(planned), float(actual), writer))
+            if not new:  # no tracer (--variants no-tracer): the kernel saw the writes queued
+                issued.extend((t, perf.name, writer) for t, _work in queued.get(writer, [])
+                              if begin <= t)
+        issued.sort()
+        return Played(self.label, lines, issued, late, {}, dict(self.roles),
+                      [(begin, time.monotonic())])
+
+    def close(self) -> None:
+        for client in self.clients:
+            client.stop_heartbeat()
+        for tracker in self.trackers:
+            tracker.close()
+        if self.session is not None:
+            self.session.close()
+        for proc in self.procs:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+        for proc in self.procs:
+            try:
+                proc.wait(10)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait(5)
 
 
 def play_child(pair: str, args: argparse.Namespace) -> None:
@@ -457,154 +683,6 @@ def _tasks(pid: int) -> dict[int, str]:
             with contextlib.suppress(OSError):
                 out[int(task)] = Path(f"/proc/{pid}/task/{task}/comm").read_text().strip()
     return out
-
-
-def play_relays(args: argparse.Namespace, schedule: Schedule, sims: rt.Sims, tracer: Tracer,
-                tmp: Path, rev: str = "", silent: bool = False, variant: str = "base"
-                ) -> Played:
-    """The schedule played by one ``xgo-show relay`` process per robot, this process their
-    conductor (heartbeats every 0.1 s, a clock tracker each, as ``run`` does); with ``rev``,
-    the relays run that revision's xgo_show. ``silent`` (an experiment): the conductor stops
-    its heartbeats and clock tracking once the start is sent, and the relays play on
-    (link-loss policy ``continue``): what the heartbeats and clock bursts cost a delivery.
-    ``variant``: the relays run with that one thing changed (``relay_variants.py``)."""
-    import socket
-
-    from xgo_show.compiler.artifact import schedule_to_bytes
-    from xgo_show.net.keys import relay_key
-    from xgo_show.net.session import SessionOptions, open_session
-    from xgo_show.net.testhooks import TRACE_ENV
-    from xgo_show.net.timesync import ClockTracker
-    from xgo_show.relay.client import RelayClient
-    from xgo_show.relay.validate import schedule_digest
-
-    procs: list[subprocess.Popen[str]] = []
-    ports, logs, threads = [], [], []
-    from relay_sync import extract
-    from relay_variants import read_threads
-
-    paths = {"PYTHONPATH": str(extract(rev, tmp / f"rev-{rev}"))} if rev else {}
-    for i, (perf, path) in enumerate(zip(schedule.performers, sims.paths, strict=True)):
-        with socket.socket() as sock:
-            sock.bind(("127.0.0.1", 0))
-            ports.append(int(sock.getsockname()[1]))
-        tag = f"{rev}{variant}{'silent' if silent else ''}"
-        logs.append(tmp / f"relay{i}{tag}.jsonl")
-        threads.append(tmp / f"relay{i}{tag}.threads")
-        procs.append(subprocess.Popen(
-            [*_xgo_show(args, variant, threads[-1]), "relay", "--name", f"trace{i}",
-             "--map", f"{perf.name}={path}", "--listen", f"tcp/127.0.0.1:{ports[-1]}",
-             "--no-telemetry", "--log", str(logs[-1]),
-             *(["--no-realtime"] if args.no_realtime else [])],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-            env={**os.environ, TRACE_ENV: "1", **paths}))
-    roles: dict[int, str] = {}
-    sampling = threading.Event()
-
-    def sample() -> None:  # the relays' threads, with their names (Zenoh's: rx-0, tx-0...)
-        while True:
-            for i, proc in enumerate(procs):
-                named = read_threads(str(threads[i]))  # Python's (all "python" in /proc)
-                roles.update({t: f"relay{i}:{named.get(t, c)}"
-                              for t, c in _tasks(proc.pid).items()})
-            roles.update({t: f"conductor:{c}" for t, c in _tasks(os.getpid()).items()})
-            if sampling.wait(0.5):
-                return
-
-    session = None
-    clients: list[RelayClient] = []
-    trackers: list[ClockTracker] = []
-    try:
-        for proc in procs:
-            assert proc.stdout is not None
-            if "ready" not in proc.stdout.readline():
-                err = proc.stderr.read() if proc.stderr else ""
-                raise SystemExit(f"a relay did not start: {err}")
-        session = open_session(SessionOptions(
-            connect=tuple(f"tcp/127.0.0.1:{p}" for p in ports), listen=("tcp/127.0.0.1:0",)))
-        shas = []
-        for i, perf in enumerate(schedule.performers):
-            client = RelayClient(session, f"trace{i}")
-            client.request("hello", timeout=10.0)  # resent until the session has a route
-            client.start_heartbeat(period=0.1, watchdog=0.5)
-            clients.append(client)
-            tracker = ClockTracker(session, relay_key("xgo-show", f"trace{i}", "time"),
-                                   conductor=client.conductor.id, interval=1.0)
-            tracker.start()
-            trackers.append(tracker)
-            text = schedule_to_bytes(dataclasses.replace(schedule, performers=(perf,))).decode(
-                "ascii")
-            shas.append(schedule_digest(text))
-            if not client.upload(text, shas[-1], watchdog_ms=3000,
-                                 link_loss="continue" if silent else "stop")["preflight_ok"]:
-                raise SystemExit(f"relay trace{i}: the pre-flight failed")
-        sampler = threading.Thread(target=sample, daemon=True)
-        sampler.start()
-        begin = time.monotonic()
-        tracer.start()
-        try:
-            start_at = time.monotonic() + 1.0
-            for client, sha in zip(clients, shas, strict=True):
-                client.request("start", sha256=sha, start_at=start_at, offset=0.0)
-            deadline = start_at + schedule.duration + 15.0
-            if silent:  # nothing from the conductor until the show is over
-                for client in clients:
-                    client.stop_heartbeat()
-                for tracker in trackers:
-                    tracker.close()
-                time.sleep(max(0.0, start_at + schedule.duration + 1.0 - time.monotonic()))
-                clients = []  # released by now (their watchdog): nothing to ask them
-            for client in clients:
-                while client.command("heartbeat")["show"]["state"] not in ("ended", "idle"):
-                    if time.monotonic() > deadline:
-                        raise SystemExit(f"relay {client.relay}: the show did not end")
-                    time.sleep(0.1)
-            time.sleep(0.3)
-        finally:
-            lines = tracer.stop()
-            sampling.set()
-    finally:
-        for client in clients:
-            client.stop_heartbeat()
-        for tracker in trackers:
-            tracker.close()
-        if session is not None:
-            session.close()  # type: ignore[no-untyped-call]
-        for proc in procs:
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-        for proc in procs:
-            try:
-                proc.wait(10)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait(5)
-    issued: list[tuple[float, str, int]] = []
-    late: list[tuple[float, float, int]] = []
-    queued = parse([ln for ln in lines if "workqueue_queue_work" in ln]).queued
-    for i, (perf, log) in enumerate(zip(schedule.performers, logs, strict=True)):
-        mine = [t for t, role in roles.items() if role.startswith(f"relay{i}:")]
-        writer = max(mine, key=lambda t: len(queued.get(t, [])))  # the one that writes
-        roles[writer] = f"relay{i}:writer"
-        traced = False
-        for line in log.read_text(encoding="utf-8").splitlines():
-            rec = json.loads(line)
-            if rec.get("event") != "frames_host":
-                continue
-            traced = True
-            for _index, planned, actual, _seen in rec["frames"][perf.name]:
-                issued.append((float(actual), perf.name, writer))
-                if actual - planned > 0.001:
-                    late.append((float(planned), float(actual), writer))
-        if not traced:  # no tracer (--variants no-tracer): the kernel saw the writes queued
-            issued.extend((t, perf.name, writer) for t, _work in queued.get(writer, [])
-                          if begin <= t)
-    issued.sort()
-    label = ("relays, one process per robot" + (f" (revision {rev})" if rev else "")
-             + (" (conductor silent during the show)" if silent else "")
-             + (f" (variant {variant})" if variant != "base" else ""))
-    return Played(label, lines, issued, late, {}, roles,
-                  (begin, time.monotonic()))
 
 
 def _kind(label: str) -> str:
@@ -679,8 +757,11 @@ def cpu_by_thread(tr: Trace, played: Played) -> None:
     on a CPU). What a relay process runs that a local one does not shows here whole."""
     if not played.issued:
         return
-    window = (played.issued[0][0] - 0.005, played.issued[-1][0] + 0.025)
-    runs = runs_of(tr, window)
+    windows = play_windows(played)
+    runs: dict[int, list[tuple[float, float]]] = defaultdict(list)
+    for window in windows:
+        for pid, rs in runs_of(tr, window).items():
+            runs[pid].extend(rs)
     n = len(played.issued)
     total: dict[str, float] = defaultdict(float)
     count: dict[str, int] = defaultdict(int)
@@ -694,34 +775,8 @@ def cpu_by_thread(tr: Trace, played: Played) -> None:
           "per frame")
     for k, v in sorted(total.items(), key=lambda kv: -kv[1])[:18]:
         print(f"  {k:<40}{v / n:9.1f}{count[k] / n:8.2f}")
-    writers: dict[int, list[float]] = defaultdict(list)
-    for t, _perf, tid in played.issued:
-        writers[tid].append(t)
-    before: list[float] = []
-    after: list[float] = []
-    per_frame: list[int] = []
-    for tid, issues in writers.items():
-        rs = runs.get(tid, [])
-        starts = [r[0] for r in rs]
-        for k, t in enumerate(issues):
-            nxt = issues[k + 1] if k + 1 < len(issues) else t + 0.02
-            i = max(0, bisect.bisect_right(starts, t) - 1)
-            if not rs or not rs[i][0] <= t <= rs[i][1] + 1e-5:
-                continue
-            before.append((t - rs[i][0]) * 1e6)
-            j = bisect.bisect_right(starts, nxt) - 1  # the run holding the next write
-            mine = [(max(s, t), min(e, nxt if m == j else e)) for m, (s, e) in
-                    enumerate(rs[i:j + 1], start=i)]
-            after.append(sum(e - s for s, e in mine if e > s) * 1e6)
-            per_frame.append(j - i)
-    wake: list[float] = []
-    for tid in writers:
-        ins = tr.switched_in.get(tid, [])
-        for w, _cpu in tr.waking.get(tid, []):
-            if window[0] <= w <= window[1]:
-                i = first_at(ins, w)
-                if i < len(ins):
-                    wake.append((ins[i] - w) * 1e6)
+    w = writer_stats(tr, played, windows, runs)
+    before, after, per_frame, wake = w["before"], w["after"], w["runs"], w["wake"]
     if before:
         print(f"the writers, us per frame: wake-up to write p50 {percentile(before, .5):.1f} / "
               f"mean {sum(before) / len(before):.1f}; write to the next wait p50 "
@@ -731,15 +786,122 @@ def cpu_by_thread(tr: Trace, played: Played) -> None:
               f"{percentile(wake, .99) if wake else 0.0:.1f} (n={len(wake)})")
 
 
-def report(played: Played, schedule: Schedule, sims: rt.Sims, worst: int) -> None:
-    """The figures of one play."""
-    lines = played.lines
+def play_windows(played: Played) -> list[tuple[float, float]]:
+    """Each play's first write - 5 ms to its last write + 25 ms (the trace has nothing
+    between two plays)."""
+    windows = []
+    for a, b in played.windows:
+        ts = [t for t, _perf, _tid in played.issued if a <= t <= b]
+        if ts:
+            windows.append((ts[0] - 0.005, ts[-1] + 0.025))
+    return windows
+
+
+def writer_stats(tr: Trace, played: Played, windows: list[tuple[float, float]],
+                 runs: dict[int, list[tuple[float, float]]]) -> dict[str, list[float]]:
+    """The writers' CPU per frame (us): ``before`` its write (from the wake-up that ended
+    the frame's wait), ``after`` it (to the next frame's wake-up: the write's return, the
+    hand-off, the listeners, the loop to the next wait); ``runs`` per frame; ``wake`` latency
+    (woken -> on a CPU)."""
+    writers: dict[int, list[float]] = defaultdict(list)
+    for t, _perf, tid in played.issued:
+        writers[tid].append(t)
+    before: list[float] = []
+    after: list[float] = []
+    per_frame: list[float] = []
+    for tid, issues in writers.items():
+        rs = runs.get(tid, [])
+        starts = [r[0] for r in rs]
+        for k, t in enumerate(issues):
+            nxt = issues[k + 1] if k + 1 < len(issues) else t + 0.02
+            if nxt - t > 0.1:  # the last frame of a play: the next is another play's
+                continue
+            i = max(0, bisect.bisect_right(starts, t) - 1)
+            if not rs or not rs[i][0] <= t <= rs[i][1] + 1e-5:
+                continue
+            before.append((t - rs[i][0]) * 1e6)
+            j = bisect.bisect_right(starts, nxt) - 1  # the run holding the next write
+            mine = [(max(s, t), min(e, nxt if m == j else e)) for m, (s, e) in
+                    enumerate(rs[i:j + 1], start=i)]
+            after.append(sum(e - s for s, e in mine if e > s) * 1e6)
+            per_frame.append(float(j - i))
+    wake: list[float] = []
+    for tid in writers:
+        ins = tr.switched_in.get(tid, [])
+        for w, _cpu in tr.waking.get(tid, []):
+            if any(a <= w <= b for a, b in windows):
+                i = first_at(ins, w)
+                if i < len(ins):
+                    wake.append((ins[i] - w) * 1e6)
+    return {"before": before, "after": after, "runs": per_frame, "wake": wake}
+
+
+def received_of(played: Played, schedule: Schedule, sims: rt.Sims) -> dict[str, list[float]]:
+    """Each robot's receive times of the schedule's frames in ``played``'s plays."""
     received = {}
     wanted = {bytes(f.data) for p in schedule.performers for f in p.frames}
     for perf, record in zip(schedule.performers, sims.records, strict=True):
         received[perf.name] = [t for t, data in rt.read_records(record)
                                if data[3] != TYPE_READ and data in wanted
-                               and played.window[0] <= t <= played.window[1]]
+                               and any(a <= t <= b for a, b in played.windows)]
+    return received
+
+
+def by_round(groups: list[Group], schedule: Schedule, sims: rt.Sims) -> None:
+    """Every round's figures side by side (the groups played in turn, so a round's columns
+    saw the same load), and each group's difference from the first, round by round."""
+    sim_tid = {p.name: tid for p, tid in zip(schedule.performers, sims.tids, strict=True)}
+    rows: dict[str, dict[str, list[float]]] = {}
+    for g in groups:
+        cols: dict[str, list[float]] = defaultdict(list)
+        for one in g.rounds:
+            tr = parse(one.lines)
+            frames = breakdown(tr, one.issued, received_of(one, schedule, sims), sim_tid)
+            windows = play_windows(one)
+            runs: dict[int, list[tuple[float, float]]] = defaultdict(list)
+            for window in windows:
+                for pid, rs in runs_of(tr, window).items():
+                    runs[pid].extend(rs)
+            w = writer_stats(tr, one, windows, runs)
+            cols["delivery p50 (ms)"].append(
+                percentile([(f.receive - f.issue) * 1000 for f in frames], .5) if frames else 0)
+            cols["kw first ran p50 (ms)"].append(percentile(
+                [f.parts["write"] + f.parts["kw wait"] for f in frames], .5) if frames else 0)
+            for key, label in (("before", "writer before write (us/frame)"),
+                               ("after", "writer after write (us/frame)")):
+                cols[label].append(sum(w[key]) / len(w[key]) if w[key] else 0.0)
+            # in all (a relay without the tracer has its write time from the kernel's trace,
+            # where the write queues the bytes: later than the runtime's, so "before" is longer)
+            cols["writer in all (us/frame)"].append(
+                cols["writer before write (us/frame)"][-1]
+                + cols["writer after write (us/frame)"][-1])
+            cols["loadavg"].append(one.load)
+        rows[g.label] = cols
+    if not rows:
+        return
+    first = groups[0].label
+    print(f"\n== round by round ({len(groups[0].rounds)} rounds; groups in turn, the order "
+          "rotated each round)")
+    for metric in next(iter(rows.values())):
+        print(f"{metric}:")
+        for label, cols in rows.items():
+            vals = cols[metric]
+            text = " ".join(f"{v:7.3f}" if metric.endswith("(ms)") else f"{v:7.1f}"
+                            for v in vals)
+            line = f"  {label[:58]:<58} {text}"
+            if label != first and metric != "loadavg":
+                diffs = sorted(a - b for a, b in zip(vals, rows[first][metric], strict=False))
+                if diffs:
+                    mid = diffs[len(diffs) // 2] if len(diffs) % 2 else (
+                        diffs[len(diffs) // 2 - 1] + diffs[len(diffs) // 2]) / 2
+                    line += f"   - first: median {mid:+.3f} [{diffs[0]:+.3f}, {diffs[-1]:+.3f}]"
+            print(line)
+
+
+def report(played: Played, schedule: Schedule, sims: rt.Sims, worst: int) -> None:
+    """The figures of one play."""
+    lines = played.lines
+    received = received_of(played, schedule, sims)
     print(f"\n== {played.label}: {len(lines)} trace lines")
     stacks: dict[str, int] = defaultdict(int)
     for i, line in enumerate(lines):
@@ -833,6 +995,10 @@ def main() -> None:
                         help="with --relays: then relays with one thing changed each (an "
                         "experiment; relay_variants.py: no-bookkeeping, plain-clock, "
                         "no-tracer), in turn in the same run")
+    parser.add_argument("--rounds", type=int, default=1,
+                        help="play the local processes and the relays (every kind asked for) "
+                        "in turn this many times, each --seconds long, and print every round's "
+                        "figures side by side")
     parser.add_argument("--play-child", metavar="NAME=PTY", help=argparse.SUPPRESS)
     parser.add_argument("--threads-file", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -846,38 +1012,51 @@ def main() -> None:
           f"{'normal' if args.no_realtime else 'SCHED_FIFO 10'}; "
           f"{'one CPU busy' if args.busy else 'no extra load'}; {args.seconds:g} s")
     played: list[Played] = []
+    groups: list[Group] = []
     with tempfile.TemporaryDirectory() as tmpdir:
-        sims = rt.start_sims(Path(tmpdir), args.sim)
+        tmp = Path(tmpdir)
+        sims = rt.start_sims(tmp, args.sim)
         tracer = Tracer(sims.tids)
         try:
             if not args.only_relays:
                 played.append(play_local(args, schedule, sims, tracer))
                 print(f"local runner done, load average {os.getloadavg()[0]:.2f}")
             if args.processes:
-                played.append(play_processes(args, schedule, sims, tracer))
-                print(f"local processes done, load average {os.getloadavg()[0]:.2f}")
+                groups.append(Processes(args, schedule, sims, tmp))
             if args.relays or args.only_relays:
-                played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir)))
+                groups.append(Relays(args, schedule, sims, tmp, group=len(groups)))
                 if args.before:
-                    print(f"relays done, load average {os.getloadavg()[0]:.2f}")
-                    played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir),
-                                              args.before))
-                if args.silent_conductor:
-                    print(f"relays done, load average {os.getloadavg()[0]:.2f}")
-                    played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir),
-                                              silent=True))
+                    groups.append(Relays(args, schedule, sims, tmp, args.before,
+                                         group=len(groups)))
                 for variant in args.variants:
-                    print(f"relays done, load average {os.getloadavg()[0]:.2f}")
-                    played.append(play_relays(args, schedule, sims, tracer, Path(tmpdir),
-                                              variant=variant))
-                print(f"relays done, load average {os.getloadavg()[0]:.2f}")
+                    groups.append(Relays(args, schedule, sims, tmp, variant=variant,
+                                         group=len(groups)))
+                if args.silent_conductor:
+                    groups.append(Relays(args, schedule, sims, tmp, silent=True,
+                                         group=len(groups)))
+            for g in groups:
+                g.open()
+            for r in range(args.rounds):
+                order = groups[r % len(groups):] + groups[:r % len(groups)] if groups else []
+                for g in order:
+                    g.play(tracer)
+                print(f"round {r + 1} of {args.rounds} done, load average "
+                      f"{os.getloadavg()[0]:.2f}", flush=True)
         finally:
             tracer.close()
+            for g in groups:
+                g.close()
             rt.stop_sims(sims)
+        played.extend(g.played for g in groups if g.played is not None)
         for p in played:
             p.roles.update({tid: f"sim{i}" for i, tid in enumerate(sims.tids)})
+        for g in groups:
+            for one in g.rounds:
+                one.roles.update({tid: f"sim{i}" for i, tid in enumerate(sims.tids)})
         for p in played:
             report(p, schedule, sims, args.worst)
+        if args.rounds > 1:
+            by_round(groups, schedule, sims)
 
 def late_issues(tr: Trace, late: list[tuple[float, float, int]], names: dict[int, str],
                 worst: int) -> None:
