@@ -599,8 +599,9 @@ class Relays(Group):
                     if actual - planned > 0.001:
                         late.append((float(planned), float(actual), writer))
             if not new:  # no tracer (--variants no-tracer): the kernel saw the writes queued
-                issued.extend((t, perf.name, writer) for t, _work in queued.get(writer, [])
-                              if begin <= t)
+                n = len(perf.frames)
+                issued.extend((t, perf.name, writer) for t, _work in
+                              [q for q in queued.get(writer, []) if q[0] >= start_at][:n])
         issued.sort()
         return Played(self.label, lines, issued, late, {}, dict(self.roles),
                       [(begin, time.monotonic())])
@@ -696,6 +697,7 @@ def during_delivery(tr: Trace, frames: list[Frame], roles: dict[int, str]) -> No
     when it first ran after the write), and how long the frame's own writer ran in that time
     (its hand-off's wake-up, its listeners)."""
     cpus = sorted(tr.switches)
+    cpu_times = {cpu: [x[0] for x in tr.switches[cpu]] for cpu in cpus}
     total: dict[str, float] = defaultdict(float)
     first: dict[str, list[float]] = defaultdict(list)
     own: list[float] = []
@@ -704,8 +706,7 @@ def during_delivery(tr: Trace, frames: list[Frame], roles: dict[int, str]) -> No
         began: dict[str, float] = {}
         for cpu in cpus:
             sw = tr.switches[cpu]
-            times = [x[0] for x in sw]
-            i = max(0, bisect.bisect_right(times, f.issue) - 1)
+            i = max(0, bisect.bisect_right(cpu_times[cpu], f.issue) - 1)
             while i < len(sw) and sw[i][0] < f.receive:
                 t, comm, pid, prio = sw[i]
                 end = min(f.receive, sw[i + 1][0]) if i + 1 < len(sw) else f.receive
@@ -999,6 +1000,9 @@ def main() -> None:
                         help="play the local processes and the relays (every kind asked for) "
                         "in turn this many times, each --seconds long, and print every round's "
                         "figures side by side")
+    parser.add_argument("--lock", metavar="FILE",
+                        help="hold an exclusive flock on FILE while playing (/work/bench.lock), "
+                        "not while working the figures out")
     parser.add_argument("--play-child", metavar="NAME=PTY", help=argparse.SUPPRESS)
     parser.add_argument("--threads-file", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -1013,6 +1017,13 @@ def main() -> None:
           f"{'one CPU busy' if args.busy else 'no extra load'}; {args.seconds:g} s")
     played: list[Played] = []
     groups: list[Group] = []
+    lock = contextlib.ExitStack()
+    if args.lock:  # held while playing only: the figures are worked out after
+        import fcntl
+
+        held = lock.enter_context(open(args.lock, "a+b"))  # noqa: SIM115
+        fcntl.flock(held, fcntl.LOCK_EX)
+        print(f"{args.lock} taken, load average {os.getloadavg()[0]:.2f}", flush=True)
     with tempfile.TemporaryDirectory() as tmpdir:
         tmp = Path(tmpdir)
         sims = rt.start_sims(tmp, args.sim)
@@ -1047,6 +1058,8 @@ def main() -> None:
             for g in groups:
                 g.close()
             rt.stop_sims(sims)
+            lock.close()
+        print(f"played; load average {os.getloadavg()[0]:.2f}", flush=True)
         played.extend(g.played for g in groups if g.played is not None)
         for p in played:
             p.roles.update({tid: f"sim{i}" for i, tid in enumerate(sims.tids)})
