@@ -1,0 +1,168 @@
+"""A relayed robot's writer thread: its CPU per frame against a local one's, one relay addition
+at a time.
+
+A relay plays its robots with the same executor as a local ``xgo-show run``; what its writer
+thread does more is (1) read a slewing clock (:class:`~xgo_show.net.slew.SlewingClock`, the
+conductor's time) instead of the monotonic clock, (2) hand every event to the bookkeeping
+thread (:class:`~xgo_show.relay.deferred.DeferredListeners`: a queue and a kernel timer armed
+per batch) and (3) in the benchmarks only, the test tracer (``XGO_SHOW_TEST_TRACE``). This plays
+the same one-robot show in this process under each configuration in turn, round after round
+(so every configuration sees the same load), with the writer under SCHED_FIFO as a relay's is,
+and reads the writer thread's own CPU time (``time.thread_time``, in the writer, at every
+frame) and the bookkeeping thread's: CPU per frame, not wall time, so the load on the machine
+moves the figures far less than it moves a delivery. The link is pyserial's ``loop://`` (no
+pseudo-terminal, no kernel worker): only the writer's own work is measured.
+
+``--rate`` sets the frames per second: at a show's 20-50 frames/s every frame finds the caches
+cold (the machine ran other things between two frames), at 500/s they stay warm; the ratio is
+how much a frame's work costs more in a real show than in ``timeit``. Usage (root, or another
+way to SCHED_FIFO)::
+
+    python benchmarks/relay_writer_cpu.py [--rounds 8] [--frames 400] [--rate 50] [--rate 500]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
+from xgo_show.net.offset import Timebase
+from xgo_show.net.slew import SlewingClock
+from xgo_show.net.testhooks import StartTracer
+from xgo_show.profiles import get_profile
+from xgo_show.relay.deferred import DeferredListeners
+from xgo_show.relay.forward import EventCollector
+from xgo_show.runtime import realtime
+from xgo_show.runtime.clock import Clock, MonotonicClock
+from xgo_show.runtime.events import Event, EventBus, FrameSent
+from xgo_show.runtime.launch import local_runner
+from xgo_show.runtime.report import percentile
+from xgo_show.runtime.runlog import RunLog
+from xgo_show.transports import open_transport
+from xgo_show.wire.xgo import write_frame
+
+MODEL = "mini"
+
+#: name -> (slewing clock, bookkeeping, tracer)
+CONFIGS: dict[str, tuple[bool, bool, bool]] = {
+    "local (monotonic clock, no bookkeeping)": (False, False, False),
+    "+ slewing clock": (True, False, False),
+    "+ bookkeeping hand-off (no run log file)": (False, True, False),
+    "+ test tracer": (False, False, True),
+    "relay as shipped (clock + bookkeeping)": (True, True, False),
+    "relay in the benchmarks (+ tracer)": (True, True, True),
+}
+
+
+def make_schedule(frames: int, rate: float) -> Schedule:
+    profile = get_profile(MODEL)
+    reg = profile.register("body_z")
+    rows = tuple(
+        ScheduledFrame(k / rate, write_frame(reg.address, bytes((0x40 + k % 128,)),
+                                             write_type=profile.write_type))
+        for k in range(frames)
+    )
+    perf = PerformerSchedule("robot", MODEL, profile.link, rows, end=rows[-1].t + 0.05)
+    return Schedule("writer cpu", "-", (perf,), rate)
+
+
+@dataclass
+class Meter:
+    """CPU time of the thread that publishes each frame, read in that thread."""
+
+    times: list[float] = field(default_factory=list)
+
+    def on_frame(self, ev: Event) -> None:
+        if isinstance(ev, FrameSent) and ev.kind == "frame":
+            self.times.append(time.thread_time())
+
+    def per_frame(self) -> float:
+        """us of CPU per frame, from the second frame to the last (whole frame cycles)."""
+        t = self.times[1:]
+        return (t[-1] - t[0]) / (len(t) - 1) * 1e6 if len(t) > 2 else 0.0
+
+
+def play(config: tuple[bool, bool, bool], schedule: Schedule) -> tuple[float, float]:
+    """Writer and bookkeeping-thread CPU per frame (us) of one play under ``config``."""
+    slew, bookkeeping, tracer = config
+    clock: Clock = MonotonicClock()
+    if slew:
+        clock = SlewingClock(MonotonicClock())
+        clock.follow(Timebase(0.0, 20e-6, time.monotonic(), 1e-4, 1e-6))  # 20 ppm, as a relay
+    events = EventBus()
+    meter = Meter()
+    events.subscribe(meter.on_frame, FrameSent)
+    booked_meter = Meter()
+    closers: list[Callable[[], object]] = []
+    if bookkeeping:
+        booked = EventBus()
+        booked.subscribe(booked_meter.on_frame, FrameSent)
+        deferred = DeferredListeners(events, [booked.publish])
+        log = RunLog(None, keep=False)
+        sub = log.attach(booked)
+        collector = EventCollector(booked)
+        closers += [deferred.close, sub.close, collector.close]
+    if tracer:
+        start_tracer = StartTracer(events, clock, lambda event, **fields: None)
+        closers.append(start_tracer.close)
+    link = open_transport("loop://", baudrate=schedule.performers[0].link.baud)
+    link.open()
+    try:
+        runner = local_runner(schedule, {"robot": link}, clock=clock, events=events,
+                              telemetry=False)
+        result = runner.run(lead=0.1, handle_signals=False)
+        if not result.completed:
+            raise SystemExit(f"the show did not complete: {result.reason}")
+    finally:
+        for close in closers:
+            close()
+        link.close()
+    return meter.per_frame(), booked_meter.per_frame()
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=8)
+    parser.add_argument("--frames", type=int, default=400)
+    parser.add_argument("--rate", type=float, action="append",
+                        help="frames per second (repeatable; default 50 and 500)")
+    args = parser.parse_args()
+    realtime.configure("required")
+    rates = args.rate or [50.0, 500.0]
+    print(f"{args.rounds} rounds of {args.frames} frames per configuration and rate, in turn; "
+          f"writer SCHED_FIFO {realtime.PRIORITY}; load average {os.getloadavg()[0]:.2f}")
+    for rate in rates:
+        schedule = make_schedule(args.frames, rate)
+        writer: dict[str, list[float]] = {name: [] for name in CONFIGS}
+        books: dict[str, list[float]] = {name: [] for name in CONFIGS}
+        loads = []
+        names = list(CONFIGS)
+        for r in range(args.rounds):
+            for name in names[r % len(names):] + names[:r % len(names)]:
+                w, b = play(CONFIGS[name], schedule)
+                writer[name].append(w)
+                books[name].append(b)
+            loads.append(os.getloadavg()[0])
+        print(f"\n{rate:g} frames/s, load average {min(loads):.2f}-{max(loads):.2f}: writer CPU "
+              "per frame (us): median and range of the rounds; its difference from local, "
+              "round by round (median [min, max]); the bookkeeping thread's CPU per frame")
+        base = writer[names[0]]
+        for name in names:
+            vals = writer[name]
+            diffs = sorted(a - b for a, b in zip(vals, base, strict=True))
+            text = (f"{percentile(diffs, .5):+6.1f} [{diffs[0]:+6.1f}, {diffs[-1]:+6.1f}]"
+                    if name != names[0] else " " * 24)
+            kept = [b for b in books[name] if b > 0]
+            book = f"{percentile(kept, .5):6.1f}" if kept else "     -"
+            print(f"  {name:<42} {percentile(vals, .5):6.1f} ({min(vals):5.1f}-{max(vals):5.1f})"
+                  f"  {text}  {book}")
+
+
+if __name__ == "__main__":
+    threading.current_thread().name = "relay_writer_cpu"
+    main()
