@@ -153,6 +153,23 @@ def test_a_file_log_keeps_nothing_in_memory_unless_asked(tmp_path: Path) -> None
     assert memory.records == []
 
 
+def test_a_log_that_writes_nowhere_makes_no_record(monkeypatch: pytest.MonkeyPatch) -> None:
+    import xgo_show.runtime.runlog as runlog
+
+    made: list[object] = []
+    monkeypatch.setattr(runlog.json, "dumps", lambda record, **kw: made.append(record) or "{}")
+    bus = EventBus()
+    nowhere = RunLog(None, keep=False)
+    nowhere.attach(bus)
+    bus.publish(FrameSent(1.0, "rex", "frame", 0, 1.0, b"\x01", "", 0.0, 0.0, None))
+    nowhere.event("fault", performer="rex")
+    assert made == [] and nowhere.records == []
+    kept = RunLog(None)  # the same events, kept: made
+    kept.attach(bus)
+    bus.publish(FrameSent(1.0, "rex", "frame", 0, 1.0, b"\x01", "", 0.0, 0.0, None))
+    assert len(made) == 1 and [r["kind"] for r in kept.records] == ["frame"]
+
+
 def test_events_reach_the_disk_at_once_frames_when_closed(tmp_path: Path) -> None:
     path = tmp_path / "run.jsonl"
     log = RunLog(path)

@@ -71,6 +71,8 @@ class RunLog(Closing):
 
     def write(self, kind: str, *, flush: bool = False, **fields: Any) -> None:
         """Append one record."""
+        if self._file is None and not self._keep:
+            return  # it would go nowhere: not even made (see on_event)
         record: dict[str, Any] = {"kind": kind, "mono": round(time.monotonic(), 6), **fields}
         line = json.dumps(record, default=str)
         with self._lock:
@@ -91,6 +93,10 @@ class RunLog(Closing):
 
     def on_event(self, ev: Event) -> None:
         """One runtime event -> one record (progress ticks are not logged)."""
+        if self._file is None and not self._keep:
+            # A log that writes nowhere (a relay or run without --log) makes no record: on a
+            # relay this ran for every frame, 4 ms after its write, at real-time priority.
+            return
         if isinstance(ev, FrameSent):
             self.write(
                 "frame",
