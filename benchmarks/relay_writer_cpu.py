@@ -5,7 +5,8 @@ A relay plays its robots with the same executor as a local ``xgo-show run``; wha
 thread does more is (1) read a slewing clock (:class:`~xgo_show.net.slew.SlewingClock`, the
 conductor's time) instead of the monotonic clock, (2) hand every event to the bookkeeping
 thread (:class:`~xgo_show.relay.deferred.DeferredListeners`: a queue and a kernel timer armed
-per batch) and (3) in the benchmarks only, the test tracer (``XGO_SHOW_TEST_TRACE``). This plays
+per batch; that thread then writes the run log and collects the events for the conductor) and
+(3) in the benchmarks only, the test tracer (``XGO_SHOW_TEST_TRACE``). This plays
 the same one-robot show in this process under each configuration in turn, round after round
 (so every configuration sees the same load), with the writer under SCHED_FIFO as a relay's is,
 and reads the writer thread's own CPU time (``time.thread_time``, in the writer, at every
@@ -48,14 +49,15 @@ from xgo_show.wire.xgo import write_frame
 
 MODEL = "mini"
 
-#: name -> (slewing clock, bookkeeping, tracer)
-CONFIGS: dict[str, tuple[bool, bool, bool]] = {
-    "local (monotonic clock, no bookkeeping)": (False, False, False),
-    "+ slewing clock": (True, False, False),
-    "+ bookkeeping hand-off (no run log file)": (False, True, False),
-    "+ test tracer": (False, False, True),
-    "relay as shipped (clock + bookkeeping)": (True, True, False),
-    "relay in the benchmarks (+ tracer)": (True, True, True),
+#: name -> (slewing clock, bookkeeping, tracer, run log file)
+CONFIGS: dict[str, tuple[bool, bool, bool, str | None]] = {
+    "local (monotonic clock, no bookkeeping)": (False, False, False, None),
+    "+ slewing clock": (True, False, False, None),
+    "+ bookkeeping hand-off (no run log file)": (False, True, False, None),
+    "+ bookkeeping, run log to a file": (False, True, False, os.devnull),
+    "+ test tracer": (False, False, True, None),
+    "relay as shipped (clock + bookkeeping)": (True, True, False, None),
+    "relay in the benchmarks (+ tracer)": (True, True, True, None),
 }
 
 
@@ -87,9 +89,10 @@ class Meter:
         return (t[-1] - t[0]) / (len(t) - 1) * 1e6 if len(t) > 2 else 0.0
 
 
-def play(config: tuple[bool, bool, bool], schedule: Schedule) -> tuple[float, float]:
+def play(config: tuple[bool, bool, bool, str | None], schedule: Schedule
+         ) -> tuple[float, float]:
     """Writer and bookkeeping-thread CPU per frame (us) of one play under ``config``."""
-    slew, bookkeeping, tracer = config
+    slew, bookkeeping, tracer, path = config
     clock: Clock = MonotonicClock()
     if slew:
         clock = SlewingClock(MonotonicClock())
@@ -103,10 +106,10 @@ def play(config: tuple[bool, bool, bool], schedule: Schedule) -> tuple[float, fl
         booked = EventBus()
         booked.subscribe(booked_meter.on_frame, FrameSent)
         deferred = DeferredListeners(events, [booked.publish])
-        log = RunLog(None, keep=False)
+        log = RunLog(path, keep=False)  # as `xgo-show relay` makes it (--log FILE or none)
         sub = log.attach(booked)
         collector = EventCollector(booked)
-        closers += [deferred.close, sub.close, collector.close]
+        closers += [deferred.close, sub.close, collector.close, log.close]
     if tracer:
         start_tracer = StartTracer(events, clock, lambda event, **fields: None)
         closers.append(start_tracer.close)
