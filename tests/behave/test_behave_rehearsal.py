@@ -149,7 +149,7 @@ def test_telemetry_every_quarter_second_while_online_and_the_fall_as_90_deg(
           - {at: 1.3, performer: ada, offline: true}
           - {at: 3.1, performer: ada, online: true}
         """, b)
-    bus, seen = EventBus(), []
+    bus, seen = EventBus(), list[Event]()
     bus.subscribe(seen.append)
     assert trace(b, s, bus) == [
         "0.6 script: rex falls over",
