@@ -217,3 +217,41 @@ def test_a_performer_that_ends_first_is_sent_nothing_more_by_its_peer() -> None:
     play_together(executors, clock)
     for ex, link in zip(executors, links, strict=True):
         assert link.written == [f.data for f in ex.schedule.frames]
+
+
+def test_a_writer_on_virtual_time_neither_issues_a_peers_frames_nor_arms_its_own() -> None:
+    # Each fake clock jumps on its own: an instant of one is no instant of another, so an
+    # executor on a FakeClock plays as if it had no group. Its thread alone runs: nothing
+    # depends on timing.
+    group = IssueGroup()
+    peer, peer_link = _executor("peer", FakeClock())
+    entry = group.arm(peer, 0.0, b"P")  # due long ago
+    clock = FakeClock()
+    link = Noting()
+    link.open()
+    ex = PerformerExecutor(make_performer("rex", count=3), link, clock=clock, profile=MINI,
+                           rest_at_end=False, group=group)
+    ex.start(clock.now())
+    assert ex.join(10.0)
+    assert link.written == [f.data for f in ex.schedule.frames]
+    assert peer_link.written == [] and not entry.claimed
+    assert group._armed == {peer: entry}
+
+
+def test_a_writer_that_wrote_its_own_frames_leaves_nothing_armed() -> None:
+    # One writer of a group on the real clock writes all its frames itself (no peer runs):
+    # each taken back as it is written, so a peer's later write issues none of them again.
+    # Deterministic: whenever each frame goes out, the writer writes it.
+    clock = MonotonicClock()
+    group = IssueGroup()
+    link = Noting()
+    link.open()
+    ex = PerformerExecutor(make_performer("rex", count=5, spacing=0.002), link, clock=clock,
+                           profile=MINI, rest_at_end=False, group=group)
+    ex.start(clock.now())
+    assert ex.join(10.0)
+    frames = [f.data for f in ex.schedule.frames]
+    assert link.written == frames
+    w, _ = _executor("w", FakeClock())
+    group.issue_due(w, clock.now() + 60.0)
+    assert link.written == frames
