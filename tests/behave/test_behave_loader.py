@@ -259,3 +259,177 @@ def test_routine_file_problems_are_errors_at_load(tmp_path: Path) -> None:
     assert "b.yaml:4:6: error: routines.a: routine 'a' does not load" in text
     assert "b.yaml:5:6: error: routines.b: routine 'b' has a part for 'ivy'" in text
     assert "b.yaml:6:6: error: routines.c: routine 'c': no such file" in text
+
+
+def _routines(tmp_path: Path) -> None:
+    """duo: rex (a Mini) and ada (a Rider), with a phrase of two parameters both can play;
+    solo: rex alone."""
+    (tmp_path / "duo.yaml").write_text(textwrap.dedent("""\
+        show: duo
+        performers: {rex: {model: mini}, ada: {model: rider}}
+        phrases:
+          rise:
+            params: {to: 100, hold: 1}
+            cues:
+              - move: {body_z: $to}
+                duration: $hold
+        tracks:
+          rex: [{phrase: rise}]
+          ada: [{phrase: rise}]
+        """))
+    (tmp_path / "solo.yaml").write_text(
+        "show: solo\nperformers: {rex: {model: mini}}\n"
+        "tracks: {rex: [{move: {body_z: 100}, duration: 1}]}\n")
+
+
+def test_phrases_and_writes_are_compiled_under_their_names(tmp_path: Path) -> None:
+    _routines(tmp_path)
+    path = tmp_path / "b.yaml"
+    path.write_text(textwrap.dedent("""\
+        behaviour: B
+        performers: {rex: {model: mini}, ada: {model: rider}, ivy: {model: mini}}
+        routines: {duo: duo.yaml, solo: solo.yaml}
+        rules:
+          - name: r
+            when: [{startup: true}]
+            do:
+              - {play: duo, phrase: rise}
+              - {play: duo, phrase: rise, with: {to: 110, hold: 2}, performers: [ada]}
+              - {play: duo, phrase: rise, with: {to: 105}, performers: [rex]}
+              - {set: {body_z: 90}, performers: [ada]}
+              - {set: {body_z: 95}}
+        """))
+    b = load_behaviour(path)
+    assert b.path == str(path)
+    assert {name: b.routine_performers(name) for name in b.routines} == {
+        "duo": ("rex", "ada"),
+        "solo": ("rex",),
+        "duo.rise": ("rex", "ada"),
+        "duo.rise(hold=2,to=110)": ("ada",),
+        "duo.rise(to=105)": ("rex",),
+    }
+    assert b.routines["duo.rise(hold=2,to=110)"].performers[0].end == 2.0
+    assert b.routines["duo.rise(to=105)"].performers[0].end == 1.0
+    assert {k: tuple(p.name for p in s.performers) for k, s in b.writes.items()} == {
+        "r.do[3]": ("ada",), "r.do[4]": ("rex", "ada", "ivy")}
+    assert [p.model for p in b.writes["r.do[4]"].performers] == ["mini", "rider", "mini"]
+
+
+def test_a_rules_performers_must_have_a_part_in_what_it_plays(tmp_path: Path) -> None:
+    _routines(tmp_path)
+    path = tmp_path / "b.yaml"
+    path.write_text(textwrap.dedent("""\
+        behaviour: B
+        performers: {rex: {model: mini}, ada: {model: rider}, ivy: {model: mini}}
+        routines: {duo: duo.yaml, solo: solo.yaml}
+        rules:
+          - {name: a, when: [{startup: true}], do: [{play: duo, performers: [ivy, rex]}]}
+          - {name: b, when: [{startup: true}], do: [{loop: solo, performers: [ada]}]}
+        """))
+    _, diags = check_behaviour(path)
+    assert [d.format() for d in diags] == [
+        f"{path}:5:70: error: rules[0].do[0].performers[0]: routine 'duo' has no part for "
+        "'ivy' (it has rex, ada)",
+        f"{path}:6:71: error: rules[1].do[0].performers[0]: routine 'solo' has no part for "
+        "'ada' (it has rex)",
+    ]
+
+
+def test_routines_that_do_not_fit_the_behaviour_are_errors_and_left_out(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _routines(tmp_path)
+    (tmp_path / "bad.yaml").write_text("show: x\nperformers: {rex: {model: mini}}\n"
+                                      "tracks: {rex: [{move: {pitch: 99}, duration: 1},\n"
+                                      "              {move: {roll: 99}, duration: 1}]}\n")
+    (tmp_path / "rider.yaml").write_text("show: y\nperformers: {rex: {model: rider}}\n"
+                                        "tracks: {rex: [{move: {body_z: 100}, duration: 1}]}\n")
+    path = tmp_path / "b.yaml"
+    path.write_text(textwrap.dedent("""\
+        behaviour: B
+        performers: {rex: {model: mini}, ivy: {model: mini}}
+        routines:
+          gone: nowhere.yaml
+          gone2: nowhere2.yaml
+          bad: bad.yaml
+          bad2: bad.yaml
+          duo: duo.yaml
+          rider: rider.yaml
+          solo: solo.yaml
+        rules:
+          - name: r
+            when: [{startup: true}]
+            do: [{play: duo, performers: [ivy]}, {play: rider, performers: [ivy]},
+                 {play: duo, phrase: rise}, {play: solo, performers: [ivy]}]
+        """))
+    # duo and rider are left out: a rule playing them on ivy is not told they have no part
+    # for ivy, nor is their phrase compiled
+    _, diags = check_behaviour(path)
+    bad = (f"{tmp_path / 'bad.yaml'}: 2 error(s): {tmp_path / 'bad.yaml'}:3:31: error: "
+           "tracks.rex[0].move.pitch: pitch = 99 deg is out of range [-22, 22] deg (and 1 more)")
+    assert [d.format() for d in diags] == [
+        f"{path}:4:9: error: routines.gone: routine 'gone': no such file "
+        f"{str(tmp_path / 'nowhere.yaml')!r}",
+        f"{path}:5:10: error: routines.gone2: routine 'gone2': no such file "
+        f"{str(tmp_path / 'nowhere2.yaml')!r}",
+        f"{path}:6:8: error: routines.bad: routine 'bad' does not load: {bad}",
+        f"{path}:7:9: error: routines.bad2: routine 'bad2' does not load: {bad}",
+        f"{path}:8:8: error: routines.duo: routine 'duo' has a part for 'ada', not a performer "
+        "of this behaviour (rex, ivy)",
+        f"{path}:9:10: error: routines.rider: routine 'rider' plays 'rex' as a rider; the "
+        "behaviour says mini",
+        f"{path}:15:63: error: rules[0].do[3].performers[0]: routine 'solo' has no part for "
+        "'ivy' (it has rex)",
+    ]
+
+
+def test_an_unknown_model_and_every_error_in_load_behaviours_message(tmp_path: Path) -> None:
+    _routines(tmp_path)
+    path = tmp_path / "b.yaml"
+    path.write_text(textwrap.dedent("""\
+        behaviour: B
+        performers: {rex: {model: mini}, bob: {model: minni}}
+        routines: {solo: solo.yaml}
+        rules:
+          - {name: r, when: [{startup: true}], do: [{play: soloo}]}
+        """))
+    with pytest.raises(ChoreographyError) as err:
+        load_behaviour(path)
+    errors = [
+        f"{path}:2:47: error: performers.bob.model: unknown robot model 'minni'; valid: mini, "
+        "lite, rider, xarm",
+        f"{path}:5:52: error: rules[0].do[0].play: no routine 'soloo'; did you mean 'solo'? "
+        "(routines: solo)",
+    ]
+    assert str(err.value).splitlines() == [f"{path}: 2 error(s):", *errors]
+    assert [d.format() for d in err.value.diagnostics] == errors
+
+
+def test_a_routine_the_compiler_refuses_otherwise_is_an_error_at_the_routine(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Any error of the package's tree from compiling (a profile's layout the merger cannot
+    # match, a schedule check), not only a routine's own problems, is told at the routine.
+    import xgo_show.compiler
+    from xgo_show.errors import ProfileError
+
+    def refuse(show: object) -> None:
+        raise ProfileError("mini: 2 bytes at 0x30 do not match the register layout")
+
+    monkeypatch.setattr(xgo_show.compiler, "compile_show", refuse)
+    _routines(tmp_path)
+    path = tmp_path / "b.yaml"
+    path.write_text(textwrap.dedent("""\
+        behaviour: B
+        performers: {rex: {model: mini}}
+        routines: {solo: solo.yaml, again: solo.yaml}
+        rules:
+          - {name: r, when: [{startup: true}], do: [{play: solo}]}
+        """))
+    _, diags = check_behaviour(path)
+    assert [d.format() for d in diags] == [
+        f"{path}:3:18: error: routines.solo: routine 'solo' does not compile: mini: 2 bytes "
+        "at 0x30 do not match the register layout",
+        f"{path}:3:36: error: routines.again: routine 'again' does not compile: mini: 2 bytes "
+        "at 0x30 do not match the register layout",
+    ]
