@@ -147,6 +147,7 @@ def test_telemetry_every_quarter_second_while_online_and_the_fall_as_90_deg(
           - {at: 0.6, performer: rex, fall: true}
           - {at: 1.1, performer: rex, recover: true}
           - {at: 1.3, performer: ada, offline: true}
+          - {at: 2.1, performer: rex, fall: true}
           - {at: 3.1, performer: ada, online: true}
         """, b)
     bus, seen = EventBus(), list[Event]()
@@ -160,6 +161,10 @@ def test_telemetry_every_quarter_second_while_online_and_the_fall_as_90_deg(
         # last heard at 1.25: offline 0.6 s later; back at the first reading after 3.1
         "1.85 rule gone: fired: ada offline (0.6 s without telemetry)",
         "1.85 rule gone: published: lost",
+        # on its feet again since the reading at 1.25 (the trigger re-armed): a second fall
+        "2.1 script: rex falls over",
+        "2.25 rule tilt: fired: rex tilted 90 deg > 0.5",
+        "2.25 rule tilt: published: tilted",
         "3.1 script: ada comes back online",
         "3.25 rule back: fired: ada back online",
         "3.25 rule back: published: found",
@@ -167,7 +172,7 @@ def test_telemetry_every_quarter_second_while_online_and_the_fall_as_90_deg(
     assert all(isinstance(e, BehaviourNote) for e in seen)
     assert [f"{e.t:g} {e.rule} {e.kind}" for e in seen if isinstance(e, BehaviourNote)] == [
         "0.75 tilt fired", "0.75 tilt published", "1.85 gone fired", "1.85 gone published",
-        "3.25 back fired", "3.25 back published"]
+        "2.25 tilt fired", "2.25 tilt published", "3.25 back fired", "3.25 back published"]
 
 
 def test_the_virtual_robots_readings(tmp_path: Path) -> None:
@@ -292,6 +297,7 @@ def test_rehearse_hands_back_the_engine_as_the_script_left_it(tmp_path: Path) ->
     engine = rehearse(b, s, lambda t, line: None)
     assert (engine.playing("rex"), engine.playing("ada")) == (None, "duo")
     assert engine.wall(0.0) == dt.datetime(2026, 1, 1, 12, 0)
+    assert engine.wall(90.5) == dt.datetime(2026, 1, 1, 12, 1, 30, 500000)
 
 
 def test_writes_go_only_to_the_actions_performers(tmp_path: Path) -> None:
@@ -369,4 +375,51 @@ def test_a_script_with_several_bad_names_lists_each(tmp_path: Path) -> None:
     assert str(err.value).splitlines()[1:] == [
         f"{path}:3:22: error: events[0].trigger: no rule waits for trigger 'gone'",
         f"{path}:4:24: error: events[1].performer: no performer 'bob'",
+    ]
+
+
+def test_a_time_window_is_read_on_the_wall_clock_as_the_script_goes_on(tmp_path: Path) -> None:
+    b = behaviour(tmp_path, """\
+        - {name: g, mode: parallel, when: [{trigger: go}], if: {time: {after: "08:00"}},
+           do: [{publish: went}]}
+        """)
+    s = script(tmp_path, """\
+        start: "07:59:30"
+        duration: 60
+        events: [{at: 10, trigger: go}, {at: 40, trigger: go}]
+        """, b)
+    assert trace(b, s) == [
+        "10 script: trigger go",
+        "10 rule g: skipped: trigger go: conditions do not hold",
+        "40 script: trigger go",
+        "40 rule g: fired: trigger go",
+        "40 rule g: published: went",
+    ]
+
+
+def test_a_robot_cut_is_said_once_and_a_stale_end_leaves_the_routine_playing(
+    tmp_path: Path,
+) -> None:
+    b = behaviour(tmp_path, """\
+        - {name: idle, when: [{startup: true}], do: [{loop: one}]}
+        - {name: g, when: [{trigger: go}], do: [{play: one}]}
+        - {name: hush, mode: parallel, when: [{trigger: hush}], do: [{stop: [rex]}]}
+        """, "triggers: [go, hush]\n")
+    s = script(tmp_path, """\
+        duration: 6
+        events:
+          - {at: 3.5, trigger: go}
+          - {at: 4.75, trigger: hush}
+          - {at: 5.5, trigger: hush}
+        """, b)
+    # the loop's end due at 4.5 is stale: at 4.75 rex still plays g's one (from 3.5), and at
+    # 5.5 there is nothing left to cut
+    assert trace(b, s)[6:] == [
+        "4.75 script: trigger hush",
+        "4.75 rule hush: fired: trigger hush",
+        "4.75 rule hush: action: rex rest",
+        "4.75 rex: one cut after 1.25 s: rest",
+        "5.5 script: trigger hush",
+        "5.5 rule hush: fired: trigger hush",
+        "5.5 rule hush: action: rex rest",
     ]
