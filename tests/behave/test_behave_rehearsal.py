@@ -410,16 +410,16 @@ def test_a_robot_cut_is_said_once_and_a_stale_end_leaves_the_routine_playing(
         events:
           - {at: 3.5, trigger: go}
           - {at: 4.75, trigger: hush}
-          - {at: 5.5, trigger: hush}
+          - {at: 4.9, trigger: hush}
         """, b)
     # the loop's end due at 4.5 is stale: at 4.75 rex still plays g's one (from 3.5), and at
-    # 5.5 there is nothing left to cut
+    # 4.9 (before that one's end was due) there is nothing left to cut
     assert trace(b, s)[6:] == [
         "4.75 script: trigger hush",
         "4.75 rule hush: fired: trigger hush",
         "4.75 rule hush: action: rex rest",
         "4.75 rex: one cut after 1.25 s: rest",
-        "5.5 script: trigger hush",
-        "5.5 rule hush: fired: trigger hush",
-        "5.5 rule hush: action: rex rest",
+        "4.9 script: trigger hush",
+        "4.9 rule hush: fired: trigger hush",
+        "4.9 rule hush: action: rex rest",
     ]
