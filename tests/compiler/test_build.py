@@ -197,3 +197,32 @@ def test_validate_bounds_the_link_with_the_shows_own_gap() -> None:
     assert compile_diagnostics(_show({"rex": ("mini", move)})) == ()
     _, diags = _both(_show({"rex": ("mini", move)}, gap=0.05))
     assert [d.path for d in diags] == ["tracks.rex"]
+
+
+def test_validate_finds_a_burst_of_settings_more_than_a_period_late() -> None:
+    # Two settings far apart in the Mini's table are two frames: the second starts 1.98 ms
+    # after the first, later than a period at 600 Hz (1.67 ms) but within two. validate must
+    # bound the lateness by one period, as the compile refuses it.
+    show = _show({"rex": ("mini", [SetCue(0.0, origin("set"), {"show_mode": "normal",
+                                                                 "gait": "trot"})])},
+                 control_rate=600.0)
+    text, _ = _both(show)
+    assert text.splitlines()[1] == (
+        "show.yaml:1:5: error: tracks.rex: the link does not fit cue 'set': its frame planned "
+        "at 0.000 s could only start at 0.002 s, more than one control period (1.667 ms) late "
+        "at 115200 baud with 1.2 ms between frames; write fewer registers at once or lower "
+        "control_rate, or set decimate: true")
+
+
+def test_validate_warns_of_samples_decimated_half_a_period_late() -> None:
+    # Three registers far apart are three frames a tick at 150 Hz: the last starts about 4 ms
+    # late, within a period (6.67 ms) but past half of one, where decimate drops a sample.
+    # validate bounds a decimating show by half a period, so it warns as the compile does.
+    show = _show({"rex": ("mini", [MotionCue(0.0, origin("m"), {"vx": 3.0, "leg1_x": 3.0,
+                                                                "servo_11": -4.0}, 1.0)])},
+                 control_rate=150.0, decimate=True)
+    warnings = compile_show(show).warnings
+    assert compile_diagnostics(show) == warnings
+    assert [d.format() for d in warnings] == [
+        "show.yaml:1:5: warning: tracks.rex: decimated 1 of 36 trajectory sample frames to fit "
+        "the link (first at 0.000 s); their values went out with later frames"]
