@@ -344,6 +344,8 @@ def test_routines_that_do_not_fit_the_behaviour_are_errors_and_left_out(
                                       "              {move: {roll: 99}, duration: 1}]}\n")
     (tmp_path / "rider.yaml").write_text("show: y\nperformers: {rex: {model: rider}}\n"
                                         "tracks: {rex: [{move: {body_z: 100}, duration: 1}]}\n")
+    (tmp_path / "fast.yaml").write_text("show: f\nperformers: {rex: {model: mini}}\n"
+                                       "tracks: {rex: [{move: {pitch: 20}, duration: 0.05}]}\n")
     path = tmp_path / "b.yaml"
     path.write_text(textwrap.dedent("""\
         behaviour: B
@@ -356,6 +358,7 @@ def test_routines_that_do_not_fit_the_behaviour_are_errors_and_left_out(
           duo: duo.yaml
           rider: rider.yaml
           solo: solo.yaml
+          fast: fast.yaml
         rules:
           - name: r
             when: [{startup: true}]
@@ -378,7 +381,12 @@ def test_routines_that_do_not_fit_the_behaviour_are_errors_and_left_out(
         "of this behaviour (rex, ivy)",
         f"{path}:9:10: error: routines.rider: routine 'rider' plays 'rex' as a rider; the "
         "behaviour says mini",
-        f"{path}:15:63: error: rules[0].do[3].performers[0]: routine 'solo' has no part for "
+        # a compile's error has a line of its own for each problem: one line here
+        f"{path}:11:9: error: routines.fast: routine 'fast' does not load: show 'f' cannot be "
+        f"compiled (1 error): {tmp_path / 'fast.yaml'}:3:16: error: tracks.rex: the move to "
+        "pitch 20 needs at least 0.69 s under its limits (pitch: velocity 60 deg/s, "
+        "acceleration 300 deg/s², jerk 2000 deg/s³) but is given 0.05 s",
+        f"{path}:16:63: error: rules[0].do[3].performers[0]: routine 'solo' has no part for "
         "'ivy' (it has rex)",
     ]
 
