@@ -7,20 +7,20 @@ routines, so that a rule's performers can be told apart."""
 from __future__ import annotations
 
 import datetime as dt
-import textwrap
 from pathlib import Path
 
 import pytest
 
+from tests.behave.conftest import write_behaviour
 from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import QUEUE_LIMIT, BehaviourNote, Engine
 from xgo_show.runtime.events import Event, FaultRaised, TelemetryRead
 
-MOVE = "    - move: {{body_z: 100}}\n      duration: {d}\n"
+# Each routine's parts and their lengths in seconds.
 ROUTINES = {
-    "one": ("rex",),
-    "two": ("ada",),
-    "duo": ("rex", "ada"),
+    "one": {"rex": 1.0},
+    "two": {"ada": 1.0},
+    "duo": {"rex": 1.0, "ada": 1.0},
 }
 
 
@@ -49,19 +49,7 @@ class Rig:
     def __init__(self, tmp_path: Path, rules: str, extra: str = "", *,
                  wall: dt.datetime = dt.datetime(2026, 1, 1, 8, 0), start: float = 0.0,
                  started: bool = True) -> None:
-        for name, performers in ROUTINES.items():
-            models = {"rex": "mini", "ada": "rider"}
-            body = "".join(f"  {p}:\n" + MOVE.format(d=1.0) for p in performers)
-            (tmp_path / f"{name}.yaml").write_text(
-                f"show: {name}\nperformers: {{"
-                + ", ".join(f"{p}: {{model: {models[p]}}}" for p in performers)
-                + "}\ntracks:\n" + body)
-        path = tmp_path / "b.yaml"
-        path.write_text(textwrap.dedent("""\
-            behaviour: T
-            performers: {rex: {model: mini}, ada: {model: rider}}
-            routines: {one: one.yaml, two: two.yaml, duo: duo.yaml}
-            """) + extra + "rules:\n" + textwrap.indent(textwrap.dedent(rules), "  "))
+        path = write_behaviour(tmp_path, ROUTINES, rules, extra)
         self.stage = Stage()
         self.notes: list[str] = []
         self.engine = Engine(load_behaviour(path), self.stage, emit=self._emit,

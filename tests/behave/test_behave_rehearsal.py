@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from tests.behave.conftest import write_behaviour
 from xgo_show.behave import load_behaviour
 from xgo_show.behave.engine import BehaviourNote
 from xgo_show.behave.loader import Behaviour
@@ -31,24 +32,10 @@ ROUTINES = {
     "one": {"rex": 1.5},
     "duo": {"rex": 1.0, "ada": 2.0},
 }
-MODELS = {"rex": "mini", "ada": "rider"}
 
 
 def behaviour(tmp_path: Path, rules: str, extra: str = "triggers: [go]\n") -> Behaviour:
-    for name, parts in ROUTINES.items():
-        tracks = "".join(f"  {p}:\n    - move: {{body_z: 100}}\n      duration: {d}\n"
-                         for p, d in parts.items())
-        (tmp_path / f"{name}.yaml").write_text(
-            f"show: {name}\nperformers: {{"
-            + ", ".join(f"{p}: {{model: {MODELS[p]}}}" for p in parts)
-            + "}\ntracks:\n" + tracks)
-    path = tmp_path / "b.yaml"
-    path.write_text(textwrap.dedent("""\
-        behaviour: T
-        performers: {rex: {model: mini}, ada: {model: rider}}
-        routines: {one: one.yaml, duo: duo.yaml}
-        """) + extra + "rules:\n" + textwrap.indent(textwrap.dedent(rules), "  "))
-    return load_behaviour(path)
+    return load_behaviour(write_behaviour(tmp_path, ROUTINES, rules, extra))
 
 
 def script(tmp_path: Path, text: str, b: Behaviour) -> RehearsalScript:
