@@ -282,23 +282,28 @@ def _routines(tmp_path: Path) -> None:
         "tracks: {rex: [{move: {body_z: 100}, duration: 1}]}\n")
 
 
-def test_phrases_and_writes_are_compiled_under_their_names(tmp_path: Path) -> None:
+def _of_three(tmp_path: Path, rules: str) -> Path:
+    """A behaviour of rex, ada and ivy playing :func:`_routines`' duo and solo by ``rules``."""
     _routines(tmp_path)
     path = tmp_path / "b.yaml"
-    path.write_text(textwrap.dedent("""\
-        behaviour: B
-        performers: {rex: {model: mini}, ada: {model: rider}, ivy: {model: mini}}
-        routines: {duo: duo.yaml, solo: solo.yaml}
-        rules:
-          - name: r
-            when: [{startup: true}]
-            do:
-              - {play: duo, phrase: rise}
-              - {play: duo, phrase: rise, with: {to: 110, hold: 2}, performers: [ada]}
-              - {play: duo, phrase: rise, with: {to: 105}, performers: [rex]}
-              - {set: {body_z: 90}, performers: [ada]}
-              - {set: {body_z: 95}}
-        """))
+    path.write_text("behaviour: B\n"
+                    "performers: {rex: {model: mini}, ada: {model: rider}, ivy: {model: mini}}\n"
+                    "routines: {duo: duo.yaml, solo: solo.yaml}\nrules:\n"
+                    + textwrap.indent(textwrap.dedent(rules), "  "))
+    return path
+
+
+def test_phrases_and_writes_are_compiled_under_their_names(tmp_path: Path) -> None:
+    path = _of_three(tmp_path, """\
+        - name: r
+          when: [{startup: true}]
+          do:
+            - {play: duo, phrase: rise}
+            - {play: duo, phrase: rise, with: {to: 110, hold: 2}, performers: [ada]}
+            - {play: duo, phrase: rise, with: {to: 105}, performers: [rex]}
+            - {set: {body_z: 90}, performers: [ada]}
+            - {set: {body_z: 95}}
+        """)
     b = load_behaviour(path)
     assert b.path == str(path)
     assert {name: b.routine_performers(name) for name in b.routines} == {
@@ -316,16 +321,10 @@ def test_phrases_and_writes_are_compiled_under_their_names(tmp_path: Path) -> No
 
 
 def test_a_rules_performers_must_have_a_part_in_what_it_plays(tmp_path: Path) -> None:
-    _routines(tmp_path)
-    path = tmp_path / "b.yaml"
-    path.write_text(textwrap.dedent("""\
-        behaviour: B
-        performers: {rex: {model: mini}, ada: {model: rider}, ivy: {model: mini}}
-        routines: {duo: duo.yaml, solo: solo.yaml}
-        rules:
-          - {name: a, when: [{startup: true}], do: [{play: duo, performers: [ivy, rex]}]}
-          - {name: b, when: [{startup: true}], do: [{loop: solo, performers: [ada]}]}
-        """))
+    path = _of_three(tmp_path, """\
+        - {name: a, when: [{startup: true}], do: [{play: duo, performers: [ivy, rex]}]}
+        - {name: b, when: [{startup: true}], do: [{loop: solo, performers: [ada]}]}
+        """)
     _, diags = check_behaviour(path)
     assert [d.format() for d in diags] == [
         f"{path}:5:70: error: rules[0].do[0].performers[0]: routine 'duo' has no part for "
