@@ -237,30 +237,6 @@ def test_invalid_behaviour_reports_located_error(
     assert [d.format() for d in diags] == [f"{path}:{e}" for e in errors]
 
 
-def test_routine_file_problems_are_errors_at_load(tmp_path: Path) -> None:
-    (tmp_path / "broken.yaml").write_text("show: x\nperformers: {rex: {model: mini}}\n"
-                                         "tracks: {rex: [{move: {pitch: 99}, duration: 1}]}\n")
-    (tmp_path / "other.yaml").write_text("show: y\nperformers: {ivy: {model: mini}}\n"
-                                        "tracks: {ivy: [{move: {pitch: 5}, duration: 1}]}\n")
-    path = tmp_path / "b.yaml"
-    path.write_text(textwrap.dedent("""\
-        behaviour: B
-        performers: {rex: {model: mini}}
-        routines:
-          a: broken.yaml
-          b: other.yaml
-          c: nowhere.yaml
-        rules:
-          - {name: r, when: [{startup: true}], do: [{play: a}]}
-        """))
-    with pytest.raises(ChoreographyError) as err:
-        load_behaviour(path)
-    text = str(err.value)
-    assert "b.yaml:4:6: error: routines.a: routine 'a' does not load" in text
-    assert "b.yaml:5:6: error: routines.b: routine 'b' has a part for 'ivy'" in text
-    assert "b.yaml:6:6: error: routines.c: routine 'c': no such file" in text
-
-
 def _routines(tmp_path: Path) -> None:
     """duo: rex (a Mini) and ada (a Rider), with a phrase of two parameters both can play;
     solo: rex alone."""
@@ -334,9 +310,7 @@ def test_a_rules_performers_must_have_a_part_in_what_it_plays(tmp_path: Path) ->
     ]
 
 
-def test_routines_that_do_not_fit_the_behaviour_are_errors_and_left_out(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
+def test_routines_that_do_not_fit_the_behaviour_are_errors_and_left_out(tmp_path: Path) -> None:
     _routines(tmp_path)
     (tmp_path / "bad.yaml").write_text("show: x\nperformers: {rex: {model: mini}}\n"
                                       "tracks: {rex: [{move: {pitch: 99}, duration: 1},\n"
