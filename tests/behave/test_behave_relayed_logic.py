@@ -1,0 +1,328 @@
+"""The conductor's side of a behaviour's relayed performers (behave/relayed.py) in this
+process, over the recording session (tests/relay/recording.py) in place of Zenoh: what opening
+claims and uploads to each relay (each routine's and write's part under the relay's robot
+names, by its SHA-256) and its refusals, the commands the engine's actions become (robots,
+hashes, a start time on the relay's clock), the lead of a play on several hosts, what the
+heartbeats' answers bring back (events, ended plays), a refused command as a fault, a lost
+relay, and closing. test_behave_relayed.py plays the same over real relays in other
+processes; this file is what behave/relayed.py's mutation run measures."""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.behave.conftest import write_behaviour
+from tests.conftest import wait_until
+from tests.relay.recording import Answer, Query, RecordingSession, answer
+from xgo_show.behave import load_behaviour
+from xgo_show.behave.loader import Behaviour
+from xgo_show.behave.relayed import MIN_PLAY_LEAD, RelayedStage
+from xgo_show.compiler.artifact import schedule_from_bytes
+from xgo_show.errors import SetupError
+from xgo_show.net import messages as msg
+from xgo_show.relay.performer import RTT_FACTOR
+from xgo_show.relay.validate import schedule_digest
+from xgo_show.runtime.clock import MonotonicClock
+from xgo_show.runtime.events import Event, EventBus, FaultRaised, TelemetryRead
+
+ROUTINES = {"one": {"rex": 1.0}, "duo": {"rex": 1.0, "ada": 2.0}}
+URLS = {"rex": "zenoh:hall/dog1", "ada": "zenoh:yard/rio"}
+AHEAD = {"hall": 100.0, "yard": -50.0}  # each relay's clock against this process's
+
+
+class Relays:
+    """Answers as relays hall (dog1, a Mini; dog2, a Lite) and yard (rio, a Rider) would:
+    each with its clock ``AHEAD``, refusing the ops in ``refuse``, silent once ``silent``;
+    heartbeats answered with ``status`` (once, then an empty one)."""
+
+    def __init__(self) -> None:
+        self.robots: dict[str, list[dict[str, Any]]] = {
+            "hall": [{"name": "dog1", "model": "mini"}, {"name": "dog2", "model": "lite"}],
+            "yard": [{"name": "rio", "model": "rider"}],
+        }
+        self.refuse: dict[tuple[str, str], str] = {}
+        self.silent: set[str] = set()
+        self.status: dict[str, dict[str, Any]] = {}
+        self.lock = threading.Lock()
+
+    def __call__(self, q: Query) -> Sequence[Answer]:
+        relay = q.key.split("/")[2]
+        if relay in self.silent:
+            return []
+        now = time.monotonic() + AHEAD[relay]
+        if (relay, q.op) in self.refuse:
+            return [answer(q, relay=relay, relay_time=now, error=self.refuse[(relay, q.op)])]
+        if q.op == "hello":
+            return [answer(q, relay=relay, relay_time=now,
+                           description={"relay": relay, "robots": self.robots[relay]})]
+        if q.op == "heartbeat":
+            with self.lock:
+                show = self.status.pop(relay, {})
+            return [answer(q, relay=relay, relay_time=now, show=show)]
+        return [answer(q, relay=relay, relay_time=now)]
+
+
+class Rig:
+    """A RelayedStage of a behaviour of rex (on hall) and ada (on yard), over ``relays``;
+    what it calls back and publishes noted."""
+
+    def __init__(self, tmp_path: Path, relays: Relays | None = None, *,
+                 urls: dict[str, str] | None = None, watchdog: float = 5.0,
+                 watch: float | None = 0.02) -> None:
+        self.behaviour: Behaviour = load_behaviour(write_behaviour(tmp_path, ROUTINES, """\
+            - {name: g, when: [{trigger: go}], do: [{play: duo}, {set: {body_z: 90},
+               performers: [ada]}]}
+            """, "triggers: [go]\n"))
+        self.relays = relays if relays is not None else Relays()
+        self.session = RecordingSession(self.relays)
+        self.events = EventBus()
+        self.seen: list[Event] = []
+        self.events.subscribe(self.seen.append)
+        self.ended: list[tuple[str, int]] = []
+        self.lost: list[tuple[tuple[str, ...], str]] = []
+        self.stage = RelayedStage(
+            self.behaviour, URLS if urls is None else urls,
+            session=self.session,  # type: ignore[arg-type]
+            conductor=msg.Conductor("c1", "alice"), namespace="ns", clock=MonotonicClock(),
+            events=self.events, on_ended=lambda p, i: self.ended.append((p, i)),
+            on_lost=lambda ps, why: self.lost.append((ps, why)), watchdog=watchdog,
+            watch_interval=watch, telemetry_interval=0.5, timeout=1.0)
+
+    def sent(self, relay: str, *, beats: bool = False) -> list[dict[str, Any]]:
+        """The requests sent to ``relay`` (heartbeats left out unless ``beats``), as sent."""
+        return [q.request for q in self.session.queries
+                if q.key == f"ns/relay/{relay}/cmd" and (beats or q.op != "heartbeat")]
+
+    def ops(self, relay: str) -> list[str]:
+        return [r["op"] for r in self.sent(relay)]
+
+
+def _fix_offsets(rig: Rig) -> None:
+    """Each relay's clock offset as AHEAD says, kept: no later exchange is quicker than 0 s."""
+    for name, relay in rig.stage.relays.items():
+        relay.client.link.offset = AHEAD[name]
+        relay.client.link.best_rtt = 0.0
+
+
+def _fields(request: dict[str, Any]) -> dict[str, Any]:
+    """A request's own fields (not the protocol's)."""
+    common = {"v", "op", "seq", "conductor", "conductor_name", "sent", "t"}
+    return {k: v for k, v in request.items() if k not in common}
+
+
+def test_open_claims_each_relay_uploads_its_parts_and_opens_its_stage(tmp_path: Path) -> None:
+    rig = Rig(tmp_path)
+    rig.stage.open()
+    try:
+        assert rig.stage.performers == ("rex", "ada")
+        assert rig.ops("hall") == ["hello", "stage_upload", "stage_upload", "stage_open"]
+        assert rig.ops("yard") == ["hello", "stage_upload", "stage_upload", "stage_open"]
+        hall, yard = rig.stage.relays["hall"], rig.stage.relays["yard"]
+        # Each part under the relay's robot names, without a port, kept by its digest.
+        uploads = {relay: [_fields(r) for r in rig.sent(relay) if r["op"] == "stage_upload"]
+                   for relay in ("hall", "yard")}
+        for relay, keys in (("hall", ["one", "duo"]), ("yard", ["duo", "g.do[1]"])):
+            names = []
+            for key, fields in zip(keys, uploads[relay], strict=True):
+                assert fields["sha256"] == schedule_digest(fields["schedule"])
+                assert rig.stage.relays[relay].hashes[key] == fields["sha256"]
+                schedule = schedule_from_bytes(fields["schedule"].encode("ascii"))
+                names.append([(p.name, p.port) for p in schedule.performers])
+            assert names == ([[("dog1", None)], [("dog1", None)]] if relay == "hall"
+                             else [[("rio", None)], [("rio", None)]])
+        assert set(hall.hashes) == {"one", "duo"} and set(yard.hashes) == {"duo", "g.do[1]"}
+        assert _fields(rig.sent("hall")[-1]) == {"robots": ["dog1"], "watch": 0.02,
+                                                 "telemetry": 0.5, "watchdog_ms": 5000}
+        assert _fields(rig.sent("yard")[-1])["robots"] == ["rio"]
+        # Held from then on: heartbeats flow to both.
+        wait_until(lambda: all(any(r["op"] == "heartbeat" for r in rig.sent(n, beats=True))
+                               for n in ("hall", "yard")))
+    finally:
+        rig.stage.close()
+    assert rig.ops("hall")[-2:] == ["stage_stop", "release"]
+    assert _fields(rig.sent("hall")[-2]) == {"robots": ["dog1"], "reason": "behaviour ended"}
+
+
+@pytest.mark.parametrize(("change", "error"), [
+    ("missing", "rex: relay hall has no robot 'dog1' (it has dog2)"),
+    ("none", "rex: relay hall has no robot 'dog1' (it has none)"),
+    ("model", "rex: dog1 on relay hall is a lite, not a mini"),
+    ("refused", "relay hall: held by bob"),
+    ("upload", "relay hall: no room"),
+])
+def test_a_relay_that_cannot_play_its_part_is_a_setup_error_and_is_released(
+    tmp_path: Path, change: str, error: str
+) -> None:
+    relays = Relays()
+    if change == "missing":
+        relays.robots["hall"] = [{"name": "dog2", "model": "lite"}]
+    elif change == "none":
+        relays.robots["hall"] = []
+    elif change == "model":
+        relays.robots["hall"] = [{"name": "dog1", "model": "lite"}]
+    elif change == "refused":
+        relays.refuse[("hall", "hello")] = "held by bob"
+    else:
+        relays.refuse[("hall", "stage_upload")] = "no room"
+    # yard first: opened, then released when hall fails
+    rig = Rig(tmp_path, relays, urls={"ada": URLS["ada"], "rex": URLS["rex"]})
+    with pytest.raises(SetupError) as err:
+        rig.stage.open()
+    assert str(err.value) == error
+    assert rig.ops("yard")[-2:] == ["stage_stop", "release"]
+    assert rig.ops("hall")[-1] == ("hello" if change == "refused" else "release")
+    assert not any(r.opened for r in rig.stage.relays.values())
+
+
+def test_the_engines_actions_become_commands_to_the_relays_of_their_performers(
+    tmp_path: Path,
+) -> None:
+    rig = Rig(tmp_path, watch=None)
+    rig.stage.open()
+    try:
+        hall, yard = rig.stage.relays["hall"], rig.stage.relays["yard"]
+        _fix_offsets(rig)
+        before = {n: len(rig.sent(n)) for n in ("hall", "yard")}
+        rig.stage.play("duo", ("rex", "ada"), 7, 1.0, at=500.0)
+        rig.stage.play("one", ("rex", "ada"), 8, 1.0)  # yard has no part of one
+        rig.stage.rest(("ada",), 2.0)
+        rig.stage.safe_stop(("rex", "ada"), "rule fall", 3.0)
+        rig.stage.write("g.do[1]", ("ada", "rex"), 4.0)  # hall has no part of it
+        wait_until(lambda: len(rig.sent("hall")) == before["hall"] + 3
+                   and len(rig.sent("yard")) == before["yard"] + 4)
+        new = {n: [(r["op"], _fields(r)) for r in rig.sent(n)[before[n]:]]
+               for n in ("hall", "yard")}
+        # The start time on each relay's clock: its offset from this one added.
+        assert new["hall"] == [
+            ("stage_play", {"robots": ["dog1"], "sha256": hall.hashes["duo"], "play": 7,
+                            "at": 600.0}),
+            ("stage_play", {"robots": ["dog1"], "sha256": hall.hashes["one"], "play": 8,
+                            "at": None}),
+            ("stage_stop", {"robots": ["dog1"], "reason": "rule fall"}),
+        ]
+        assert new["yard"] == [
+            ("stage_play", {"robots": ["rio"], "sha256": yard.hashes["duo"], "play": 7,
+                            "at": 450.0}),
+            ("stage_rest", {"robots": ["rio"]}),
+            ("stage_stop", {"robots": ["rio"], "reason": "rule fall"}),
+            ("stage_write", {"robots": ["rio"], "sha256": yard.hashes["g.do[1]"]}),
+        ]
+        assert rig.seen == []  # every command accepted: no fault
+    finally:
+        rig.stage.close()
+
+
+def test_a_play_on_several_hosts_leads_by_the_slowest_relays_worst_round_trip(
+    tmp_path: Path,
+) -> None:
+    rig = Rig(tmp_path)
+    stage = rig.stage
+    hall, yard = stage.relays["hall"].client.link, stage.relays["yard"].client.link
+    assert (stage.hosts(("rex",)), stage.hosts(("rex", "ada")), stage.hosts(())) == (1, 2, 0)
+    assert stage.lead(("rex", "ada")) == MIN_PLAY_LEAD  # no round trip seen yet
+    hall.recent.extend([0.01, 0.004])
+    yard.recent.extend([0.001])
+    assert stage.lead(("rex",)) == RTT_FACTOR * 0.01 / 2
+    assert RTT_FACTOR * 0.001 / 2 < MIN_PLAY_LEAD
+    assert stage.lead(("ada",)) == MIN_PLAY_LEAD
+    assert stage.lead(("ada", "rex")) == RTT_FACTOR * 0.01 / 2
+    yard.recent.append(0.02)
+    assert stage.lead(("ada", "rex")) == RTT_FACTOR * 0.02 / 2
+    assert stage.lead(("rex",)) == RTT_FACTOR * 0.01 / 2
+    # A relay lost plays nothing more: it counts neither as a host nor for the lead.
+    stage.relays["yard"].lost = "gone"
+    assert stage.hosts(("rex", "ada")) == 1
+    assert stage.lead(("ada", "rex")) == RTT_FACTOR * 0.01 / 2
+
+
+def test_a_refused_command_is_a_fault_of_each_performer_of_its_relay(tmp_path: Path) -> None:
+    relays = Relays()
+    relays.refuse[("yard", "stage_rest")] = "not open"
+    rig = Rig(tmp_path, relays, watch=None)
+    rig.stage.open()
+    try:
+        rig.stage.rest(("ada", "rex"), 1.0)
+        wait_until(lambda: any(isinstance(e, FaultRaised) for e in list(rig.seen)))
+        faults = [(e.performer, e.reason) for e in rig.seen if isinstance(e, FaultRaised)]
+        assert faults == [("ada", "stage_rest: relay yard: not open")]
+    finally:
+        rig.stage.close()
+
+
+def test_heartbeat_answers_bring_the_relays_events_and_ended_plays(tmp_path: Path) -> None:
+    relays = Relays()
+    rig = Rig(tmp_path, relays)
+    rig.stage.open()
+    try:
+        _fix_offsets(rig)
+        with relays.lock:
+            relays.status["yard"] = {"stage": {"ended": "none"}}
+            relays.status["hall"] = {
+                "events": [["t", "dog1", "battery", 55.0, 110.0],
+                           ["t", "dog2", "battery", 1.0, 110.0]],
+                "stage": {"ended": [["dog1", 3], ["dog2", 4], ["dog1", "5"], ["dog1"], "x",
+                                    ["dog1", 6]]},
+            }
+        wait_until(lambda: len(rig.ended) == 2)
+        assert rig.ended == [("rex", 3), ("rex", 6)]
+        reads = [e for e in rig.seen if isinstance(e, TelemetryRead)]
+        # the relay's time 110 s on this clock: less its offset (100 s)
+        assert [(e.t, e.performer, e.name, e.value) for e in reads] == [
+            (10.0, "rex", "battery", 55.0)]
+    finally:
+        rig.stage.close()
+
+
+def test_a_silent_relay_is_lost_its_performers_named_and_sent_nothing_more(
+    tmp_path: Path,
+) -> None:
+    # (only yard's side is checked: on a loaded machine hall's heartbeats may starve too)
+    relays = Relays()
+    rig = Rig(tmp_path, relays, watchdog=0.3)
+    rig.stage.open()
+    try:
+        relays.silent.add("yard")
+        wait_until(lambda: any(ps == ("ada",) for ps, _ in list(rig.lost)), timeout=10.0)
+        why = next(why for ps, why in rig.lost if ps == ("ada",))
+        assert why.startswith("relay yard lost: no answer for ")
+        assert why.endswith(" ms (watchdog 300 ms); it safe-stops its robots")
+        assert int(why.split("no answer for ")[1].split(" ms")[0]) >= 300
+        assert rig.stage.relays["yard"].lost == why
+        sent = len(rig.sent("yard"))
+        rig.stage.play("duo", ("rex", "ada"), 1, 1.0)
+        rig.stage.rest(("ada",), 2.0)
+        assert len(rig.sent("yard")) == sent
+    finally:
+        rig.stage.close()
+    # Closing: the lost relay is released (sent again while it stays silent) without a stop:
+    # its watchdog stopped its robots.
+    assert set(rig.ops("yard")[sent:]) == {"release"}
+
+
+def test_close_releases_only_the_relays_opened_and_once(tmp_path: Path) -> None:
+    rig = Rig(tmp_path, watch=None)
+    rig.stage.close("never opened")
+    assert rig.session.queries == []
+    rig.stage.open()
+    rig.stage.close("show over")
+    rig.stage.close("again")
+    for relay, robots in (("hall", ["dog1"]), ("yard", ["rio"])):
+        stops = [_fields(r) for r in rig.sent(relay) if r["op"] == "stage_stop"]
+        assert stops == [{"robots": robots, "reason": "show over"}]
+        assert rig.ops(relay).count("release") == 1
+
+
+def test_requests_are_json_of_the_relay_protocol(tmp_path: Path) -> None:
+    # (what _fields leaves out is the protocol's own: checked once here)
+    rig = Rig(tmp_path, watch=None)
+    rig.stage.open()
+    rig.stage.close()
+    first = json.loads(rig.session.queries[0].payload)
+    assert first["op"] == "hello" and first["v"] == msg.PROTOCOL_VERSION
