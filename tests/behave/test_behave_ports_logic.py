@@ -1,0 +1,264 @@
+"""The behaviour's stage over ports (behave/ports.py) in this process, on simulated robots
+behind in-process transports (no pty) on the real clock, with routines of half a second or so:
+what each seat writes and in which order (a routine's frames, the rest and the default posture
+before a routine that pre-empts another, frames written beside, a safe stop), which play has
+finished, one reader a port across executors, a start time given, and the runner's inputs
+(triggers, routine ends, stop). Nothing here is timed: each test waits for what it checks.
+test_behave_ports.py plays the same on ptys in real time; this file is what behave/ports.py's
+mutation run measures."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.behave.conftest import write_behaviour
+from tests.conftest import wait_until
+from xgo_show.behave import load_behaviour
+from xgo_show.behave.engine import BehaviourNote
+from xgo_show.behave.loader import Behaviour
+from xgo_show.behave.ports import WATCH_INTERVAL, BehaviourRunner, PortStage
+from xgo_show.profiles import get_profile
+from xgo_show.runtime.clock import MonotonicClock
+from xgo_show.runtime.events import Event, EventBus, FrameSent
+from xgo_show.runtime.safety import rest_frames, stop_frames
+from xgo_show.sim import create_robot
+from xgo_show.transports.sim import SimTransport
+
+ROUTINES = {"one": {"rex": 0.4}, "duo": {"rex": 0.4, "ada": 0.6}, "long": {"rex": 5.0}}
+MODELS = {"rex": "mini", "ada": "rider"}
+
+
+def _behaviour(tmp_path: Path, rules: str = "- {name: g, when: [{trigger: go}], "
+               "do: [{play: one}, {set: {pace: slow}, performers: [rex]}]}\n",
+               extra: str = "triggers: [go]\n") -> Behaviour:
+    return load_behaviour(write_behaviour(tmp_path, ROUTINES, rules, extra))
+
+
+def _links() -> dict[str, SimTransport]:
+    links = {p: SimTransport(create_robot(m)) for p, m in MODELS.items()}
+    for link in links.values():
+        link.open()
+    return links
+
+
+class Staged:
+    """A PortStage of rex and ada on simulated robots, every frame written noted."""
+
+    def __init__(self, b: Behaviour, **options: object) -> None:
+        self.behaviour = b
+        self.events = EventBus()
+        self.seen: list[FrameSent] = []
+        self.events.subscribe(self.seen.append, FrameSent)  # type: ignore[arg-type]
+        self.links = _links()
+        self.stage = PortStage(b.routines, b.writes, MODELS, self.links,
+                               clock=MonotonicClock(), events=self.events, **options)  # type: ignore[arg-type]
+
+    def written(self, performer: str, *, reads: bool = False) -> list[tuple[str, bytes]]:
+        """(kind, data) of each frame written to ``performer`` (telemetry reads left out)."""
+        return [(e.kind, e.data) for e in list(self.seen)
+                if e.performer == performer and (reads or e.kind != "read")]
+
+    def frames(self, routine: str, performer: str) -> list[tuple[str, bytes]]:
+        part = next(p for p in self.behaviour.routines[routine].performers
+                    if p.name == performer)
+        return [("frame", f.data) for f in part.frames]
+
+
+@pytest.fixture
+def staged(tmp_path: Path) -> Iterator[Staged]:
+    s = Staged(_behaviour(tmp_path))
+    s.stage.start()
+    try:
+        yield s
+    finally:
+        s.stage.close()
+
+
+def _rest(performer: str, kind: str = "rest") -> list[tuple[str, bytes]]:
+    """The rest frames: ``rest`` at a routine's end, ``set`` when the next executor sends
+    them first (a routine cut)."""
+    return [(kind, f.data) for f in rest_frames(get_profile(MODELS[performer]))]
+
+
+def _posture(performer: str) -> list[tuple[str, bytes]]:
+    profile = get_profile(MODELS[performer])
+    return [("set", f.data) for f in stop_frames(profile)[len(rest_frames(profile)):]]
+
+
+def test_each_seat_watches_from_the_start_with_one_reader(staged: Staged) -> None:
+    seats = staged.stage.seats
+    assert set(seats) == {"rex", "ada"}
+    for name, seat in seats.items():
+        assert seat.routine is None and seat.executor is not None
+        assert seat.executor.schedule.frames == ()
+        assert seat.transport is staged.links[name]
+    readers = sorted(t.name for t in threading.enumerate() if "behave reader" in t.name)
+    assert readers == ["xgo-show behave reader ada", "xgo-show behave reader rex"]
+    # Telemetry is read while watching: requests go out and readings come back.
+    wait_until(lambda: any(e.kind == "read" for e in list(staged.seen)))
+    assert staged.stage.finished("rex") is None  # watching: no routine finished
+
+
+def test_a_routine_plays_on_its_performers_then_is_finished_once(staged: Staged) -> None:
+    stage = staged.stage
+    stage.play("duo", ("rex",), 3, 0.0)
+    seat = stage.seats["rex"]
+    assert seat.routine == "duo" and seat.play_id == 3
+    assert stage.seats["ada"].routine is None  # ada was not asked
+    executor = seat.executor
+    assert executor is not None
+    assert executor.join(5.0)
+    assert staged.written("rex") == staged.frames("duo", "rex") + _rest("rex")
+    assert staged.written("ada") == []
+    assert stage.finished("ada") is None  # watching
+    assert stage.finished("rex") == 3
+    assert seat.routine is None and seat.executor is not executor  # watching again
+    assert stage.finished("rex") is None  # once
+
+
+def test_a_routine_pre_empted_hands_over_through_rest_and_default_posture(
+    staged: Staged,
+) -> None:
+    stage = staged.stage
+    stage.play("long", ("rex",), 1, 0.0)
+    wait_until(lambda: len(staged.written("rex")) >= 3)
+    stage.play("one", ("rex",), 2, 0.5)
+    seat = stage.seats["rex"]
+    assert (seat.routine, seat.play_id) == ("one", 2)
+    assert seat.executor is not None and seat.executor.join(5.0)
+    sent = staged.written("rex")
+    cut = next(i for i, (kind, _) in enumerate(sent) if kind != "frame")
+    # Cut mid-move: the next executor's first frames rest the robot (speeds to neutral) and
+    # bring it to its default posture, then the routine from its first frame.
+    assert sent[cut:] == (_rest("rex", "set") + _posture("rex") + staged.frames("one", "rex")
+                          + _rest("rex"))
+
+
+def test_a_rest_ends_the_routine_through_the_rest_posture_and_watches(staged: Staged) -> None:
+    stage = staged.stage
+    stage.play("long", ("rex",), 1, 0.0)
+    wait_until(lambda: len(staged.written("rex")) >= 3)
+    stage.rest(("rex",), 0.5)
+    seat = stage.seats["rex"]
+    assert seat.routine is None and seat.executor is not None
+    wait_until(lambda: staged.written("rex")[-3:] == _rest("rex", "set"))
+    sent = staged.written("rex")
+    cut = next(i for i, (kind, _) in enumerate(sent) if kind != "frame")
+    assert sent[cut:] == _rest("rex", "set")  # by the watcher; then telemetry reads alone
+    assert stage.finished("rex") is None
+
+
+def test_a_safe_stop_sends_the_stop_then_watches(staged: Staged) -> None:
+    stage = staged.stage
+    stage.play("long", ("rex",), 1, 0.0)
+    wait_until(lambda: len(staged.written("rex")) >= 3)
+    stage.safe_stop(("rex",), "rule fall", 0.5)
+    seat = stage.seats["rex"]
+    assert seat.routine is None and seat.executor is not None
+    sent = staged.written("rex")
+    cut = next(i for i, (kind, _) in enumerate(sent) if kind != "frame")
+    profile = get_profile("mini")
+    assert sent[cut:] == [("stop", f.data) for f in stop_frames(profile)]
+
+
+def test_writes_go_beside_what_plays_or_before_what_comes_next(staged: Staged) -> None:
+    stage = staged.stage
+    pace = [("set", f.data) for f in staged.behaviour.writes["g.do[1]"].performers[0].frames]
+    stage.write("g.do[1]", ("rex",), 0.0)  # beside the watcher
+    wait_until(lambda: staged.written("rex") == pace)
+    stage.write("g.do[1]", ("ada",), 0.0)  # not ada's: the write is rex's alone
+    stage.play("long", ("rex",), 1, 0.0)
+    wait_until(lambda: len(staged.written("rex")) >= 4)
+    stage.write("g.do[1]", ("rex",), 0.2)  # beside the routine
+    wait_until(lambda: staged.written("rex").count(pace[0]) == 2)
+    assert staged.written("ada") == []
+    # Between two executors (none writing), frames wait for the next one's start.
+    seat = stage.seats["rex"]
+    seat.end(rest=False)
+    seat.send([(data, "pace") for _, data in pace])
+    assert seat._pending == [(data, "pace") for _, data in pace]
+    seat.watch()
+    wait_until(lambda: staged.written("rex").count(pace[0]) == 3)
+    assert seat._pending == []
+
+
+def test_a_routine_given_a_start_time_starts_then(tmp_path: Path) -> None:
+    s = Staged(_behaviour(tmp_path))
+    s.stage.start()
+    try:
+        at = s.stage.clock.now() + 0.3
+        s.stage.play("one", ("rex",), 1, 0.0, at=at)
+        wait_until(lambda: any(k == "frame" for k, _ in s.written("rex")))
+        first = next(e for e in s.seen if e.kind == "frame")
+        assert first.t >= at and first.planned == pytest.approx(at, abs=1e-9)
+        # A time already past: now.
+        before = s.stage.clock.now()
+        s.stage.play("one", ("rex",), 2, 0.0, at=before - 10.0)
+        executor = s.stage.seats["rex"].executor
+        assert executor is not None and executor.join(5.0)
+        second = [e for e in s.seen if e.kind == "frame" and e.index == 0][-1]
+        assert second.planned is not None and second.planned >= before
+    finally:
+        s.stage.close()
+
+
+def test_telemetry_rates_reach_the_seats_poller(tmp_path: Path) -> None:
+    s = Staged(_behaviour(tmp_path), telemetry_interval=0.5, watch_interval=None)
+    seat = s.stage.seats["rex"]
+    assert seat.poller.interval == 0.5
+    assert seat.poller.watch == {}
+    t = Staged(_behaviour(tmp_path))
+    assert t.stage.seats["rex"].poller.interval == 0.25
+    assert t.stage.seats["rex"].poller.watch == {"status": WATCH_INTERVAL,
+                                                 "attitude": WATCH_INTERVAL}
+    assert WATCH_INTERVAL == 0.02
+
+
+def test_close_ends_every_executor_and_reader(tmp_path: Path) -> None:
+    s = Staged(_behaviour(tmp_path))
+    s.stage.start()
+    s.stage.play("long", ("rex",), 1, 0.0)
+    executors = [seat.executor for seat in s.stage.seats.values()]
+    s.stage.close()
+    assert all(e is not None and e.join(0.0) for e in executors)
+    assert all(seat.executor is None for seat in s.stage.seats.values())
+    assert not any("behave reader" in t.name for t in threading.enumerate())
+
+
+def test_the_runner_plays_on_triggers_and_routine_ends_and_stops_safely(
+    tmp_path: Path,
+) -> None:
+    b = _behaviour(tmp_path, """\
+        - {name: g, when: [{trigger: go}], do: [{play: duo}]}
+        - {name: e, when: [{routine_ended: duo, performers: [ada]}], do: [{publish: done}]}
+        """)
+    bus = EventBus()
+    notes: list[str] = []
+    said: list[str] = []
+
+    def note(e: Event) -> None:
+        if isinstance(e, BehaviourNote):
+            notes.append(f"{e.rule} {e.kind}: {e.text}")
+
+    bus.subscribe(note)
+    links = _links()
+    runner = BehaviourRunner(b, links, events=bus, say=lambda t, line: said.append(line))
+    thread = threading.Thread(target=runner.run, kwargs={"duration": 20.0})
+    thread.start()
+    try:
+        runner.trigger("go")
+        wait_until(lambda: "e published: done" in notes, timeout=10.0)
+    finally:
+        runner.stop()
+        thread.join(10.0)
+    assert not thread.is_alive()
+    assert notes == ["g fired: trigger go", "g action: rex, ada plays duo",
+                     "e fired: duo ended on ada", "e published: done"]
+    assert said == [f"rule {n.split(' ', 1)[0]}: {n.split(' ', 1)[1]}" for n in notes]
+    assert all(seat.executor is None for seat in runner.stage.seats.values())
+    # The robots were stopped safely at the end, and the port is read by no one.
+    assert not any("behave reader" in t.name for t in threading.enumerate())
