@@ -99,7 +99,7 @@ def test_each_seat_watches_from_the_start_with_one_reader(staged: Staged) -> Non
     readers = sorted(t.name for t in threading.enumerate() if "behave reader" in t.name)
     assert readers == ["xgo-show behave reader ada", "xgo-show behave reader rex"]
     # Telemetry is read while watching: requests go out and readings come back.
-    wait_until(lambda: any(e.kind == "read" for e in list(staged.seen)))
+    wait_until(lambda: any(e.kind == "read" for e in list(staged.seen)), timeout=10.0)
     assert staged.stage.finished("rex") is None  # watching: no routine finished
 
 
@@ -125,7 +125,7 @@ def test_a_routine_pre_empted_hands_over_through_rest_and_default_posture(
 ) -> None:
     stage = staged.stage
     stage.play("long", ("rex",), 1, 0.0)
-    wait_until(lambda: len(staged.written("rex")) >= 3)
+    wait_until(lambda: len(staged.written("rex")) >= 3, timeout=10.0)
     stage.play("one", ("rex",), 2, 0.5)
     seat = stage.seats["rex"]
     assert (seat.routine, seat.play_id) == ("one", 2)
@@ -141,11 +141,11 @@ def test_a_routine_pre_empted_hands_over_through_rest_and_default_posture(
 def test_a_rest_ends_the_routine_through_the_rest_posture_and_watches(staged: Staged) -> None:
     stage = staged.stage
     stage.play("long", ("rex",), 1, 0.0)
-    wait_until(lambda: len(staged.written("rex")) >= 3)
+    wait_until(lambda: len(staged.written("rex")) >= 3, timeout=10.0)
     stage.rest(("rex",), 0.5)
     seat = stage.seats["rex"]
     assert seat.routine is None and seat.executor is not None
-    wait_until(lambda: staged.written("rex")[-3:] == _rest("rex", "set"))
+    wait_until(lambda: staged.written("rex")[-3:] == _rest("rex", "set"), timeout=10.0)
     sent = staged.written("rex")
     cut = next(i for i, (kind, _) in enumerate(sent) if kind != "frame")
     assert sent[cut:] == _rest("rex", "set")  # by the watcher; then telemetry reads alone
@@ -155,7 +155,7 @@ def test_a_rest_ends_the_routine_through_the_rest_posture_and_watches(staged: St
 def test_a_safe_stop_sends_the_stop_then_watches(staged: Staged) -> None:
     stage = staged.stage
     stage.play("long", ("rex",), 1, 0.0)
-    wait_until(lambda: len(staged.written("rex")) >= 3)
+    wait_until(lambda: len(staged.written("rex")) >= 3, timeout=10.0)
     stage.safe_stop(("rex",), "rule fall", 0.5)
     seat = stage.seats["rex"]
     assert seat.routine is None and seat.executor is not None
@@ -169,12 +169,12 @@ def test_writes_go_beside_what_plays_or_before_what_comes_next(staged: Staged) -
     stage = staged.stage
     pace = [("set", f.data) for f in staged.behaviour.writes["g.do[1]"].performers[0].frames]
     stage.write("g.do[1]", ("rex",), 0.0)  # beside the watcher
-    wait_until(lambda: staged.written("rex") == pace)
+    wait_until(lambda: staged.written("rex") == pace, timeout=10.0)
     stage.write("g.do[1]", ("ada",), 0.0)  # not ada's: the write is rex's alone
     stage.play("long", ("rex",), 1, 0.0)
-    wait_until(lambda: len(staged.written("rex")) >= 4)
+    wait_until(lambda: len(staged.written("rex")) >= 4, timeout=10.0)
     stage.write("g.do[1]", ("rex",), 0.2)  # beside the routine
-    wait_until(lambda: staged.written("rex").count(pace[0]) == 2)
+    wait_until(lambda: staged.written("rex").count(pace[0]) == 2, timeout=10.0)
     assert staged.written("ada") == []
     # Between two executors (none writing), frames wait for the next one's start.
     seat = stage.seats["rex"]
@@ -182,7 +182,7 @@ def test_writes_go_beside_what_plays_or_before_what_comes_next(staged: Staged) -
     seat.send([(data, "pace") for _, data in pace])
     assert seat._pending == [(data, "pace") for _, data in pace]
     seat.watch()
-    wait_until(lambda: staged.written("rex").count(pace[0]) == 3)
+    wait_until(lambda: staged.written("rex").count(pace[0]) == 3, timeout=10.0)
     assert seat._pending == []
 
 
@@ -192,7 +192,7 @@ def test_a_routine_given_a_start_time_starts_then(tmp_path: Path) -> None:
     try:
         at = s.stage.clock.now() + 0.3
         s.stage.play("one", ("rex",), 1, 0.0, at=at)
-        wait_until(lambda: any(k == "frame" for k, _ in s.written("rex")))
+        wait_until(lambda: any(k == "frame" for k, _ in s.written("rex")), timeout=10.0)
         first = next(e for e in s.seen if e.kind == "frame")
         assert first.t >= at and first.planned == pytest.approx(at, abs=1e-9)
         # A time already past: now.

@@ -143,7 +143,7 @@ def test_open_claims_each_relay_uploads_its_parts_and_opens_its_stage(tmp_path: 
         assert _fields(rig.sent("yard")[-1])["robots"] == ["rio"]
         # Held from then on: heartbeats flow to both.
         wait_until(lambda: all(any(r["op"] == "heartbeat" for r in rig.sent(n, beats=True))
-                               for n in ("hall", "yard")))
+                               for n in ("hall", "yard")), timeout=10.0)
     finally:
         rig.stage.close()
     assert rig.ops("hall")[-2:] == ["stage_stop", "release"]
@@ -196,7 +196,7 @@ def test_the_engines_actions_become_commands_to_the_relays_of_their_performers(
         rig.stage.safe_stop(("rex", "ada"), "rule fall", 3.0)
         rig.stage.write("g.do[1]", ("ada", "rex"), 4.0)  # hall has no part of it
         wait_until(lambda: len(rig.sent("hall")) == before["hall"] + 3
-                   and len(rig.sent("yard")) == before["yard"] + 4)
+                   and len(rig.sent("yard")) == before["yard"] + 4, timeout=10.0)
         new = {n: [(r["op"], _fields(r)) for r in rig.sent(n)[before[n]:]]
                for n in ("hall", "yard")}
         # The start time on each relay's clock: its offset from this one added.
@@ -249,7 +249,7 @@ def test_a_refused_command_is_a_fault_of_each_performer_of_its_relay(tmp_path: P
     rig.stage.open()
     try:
         rig.stage.rest(("ada", "rex"), 1.0)
-        wait_until(lambda: any(isinstance(e, FaultRaised) for e in list(rig.seen)))
+        wait_until(lambda: any(isinstance(e, FaultRaised) for e in list(rig.seen)), timeout=10.0)
         faults = [(e.performer, e.reason) for e in rig.seen if isinstance(e, FaultRaised)]
         assert faults == [("ada", "stage_rest: relay yard: not open")]
     finally:
@@ -270,7 +270,7 @@ def test_heartbeat_answers_bring_the_relays_events_and_ended_plays(tmp_path: Pat
                 "stage": {"ended": [["dog1", 3], ["dog2", 4], ["dog1", "5"], ["dog1"], "x",
                                     ["dog1", 6]]},
             }
-        wait_until(lambda: len(rig.ended) == 2)
+        wait_until(lambda: len(rig.ended) == 2, timeout=10.0)
         assert rig.ended == [("rex", 3), ("rex", 6)]
         reads = [e for e in rig.seen if isinstance(e, TelemetryRead)]
         # the relay's time 110 s on this clock: less its offset (100 s)
