@@ -50,6 +50,7 @@ class Relays:
         self.refuse: dict[tuple[str, str], str] = {}
         self.silent: set[str] = set()
         self.status: dict[str, dict[str, Any]] = {}
+        self.described: dict[str, dict[str, Any]] = {}  # a description given as is
         self.lock = threading.Lock()
 
     def __call__(self, q: Query) -> Sequence[Answer]:
@@ -60,8 +61,9 @@ class Relays:
         if (relay, q.op) in self.refuse:
             return [answer(q, relay=relay, relay_time=now, error=self.refuse[(relay, q.op)])]
         if q.op == "hello":
-            return [answer(q, relay=relay, relay_time=now,
-                           description={"relay": relay, "robots": self.robots[relay]})]
+            description = self.described.get(relay,
+                                             {"relay": relay, "robots": self.robots[relay]})
+            return [answer(q, relay=relay, relay_time=now, description=description)]
         if q.op == "heartbeat":
             with self.lock:
                 show = self.status.pop(relay, {})
@@ -76,10 +78,14 @@ class Rig:
     def __init__(self, tmp_path: Path, relays: Relays | None = None, *,
                  urls: dict[str, str] | None = None, watchdog: float = 5.0,
                  watch: float | None = 0.02) -> None:
-        self.behaviour: Behaviour = load_behaviour(write_behaviour(tmp_path, ROUTINES, """\
+        path = write_behaviour(tmp_path, ROUTINES, """\
             - {name: g, when: [{trigger: go}], do: [{play: duo}, {set: {body_z: 90},
                performers: [ada]}]}
-            """, "triggers: [go]\n"))
+            """, "triggers: [go]\n")
+        duo = tmp_path / "duo.yaml"  # a routine may name its robots' ports: not a relay's
+        duo.write_text(duo.read_text().replace("rex: {model: mini}",
+                                               "rex: {model: mini, port: /dev/ttyUSB0}"))
+        self.behaviour: Behaviour = load_behaviour(path)
         self.relays = relays if relays is not None else Relays()
         self.session = RecordingSession(self.relays)
         self.events = EventBus()
@@ -138,6 +144,12 @@ def test_open_claims_each_relay_uploads_its_parts_and_opens_its_stage(tmp_path: 
             assert names == ([[("dog1", None)], [("dog1", None)]] if relay == "hall"
                              else [[("rio", None)], [("rio", None)]])
         assert set(hall.hashes) == {"one", "duo"} and set(yard.hashes) == {"duo", "g.do[1]"}
+        # As the conductor given, each command within the timeout given (an upload: 30 s).
+        queries = [q for q in rig.session.queries if q.op != "heartbeat"]
+        assert {str(q.request["conductor"]) for q in queries} == {str({"id": "c1",
+                                                                       "name": "alice"})}
+        assert [(q.op, round(q.timeout)) for q in queries if q.key.endswith("hall/cmd")] == [
+            ("hello", 1), ("stage_upload", 30), ("stage_upload", 30), ("stage_open", 1)]
         assert _fields(rig.sent("hall")[-1]) == {"robots": ["dog1"], "watch": 0.02,
                                                  "telemetry": 0.5, "watchdog_ms": 5000}
         assert _fields(rig.sent("yard")[-1])["robots"] == ["rio"]
@@ -148,11 +160,20 @@ def test_open_claims_each_relay_uploads_its_parts_and_opens_its_stage(tmp_path: 
         rig.stage.close()
     assert rig.ops("hall")[-2:] == ["stage_stop", "release"]
     assert _fields(rig.sent("hall")[-2]) == {"robots": ["dog1"], "reason": "behaviour ended"}
+    stop = [q for q in rig.session.of("stage_stop") if q.key.endswith("hall/cmd")][-1]
+    assert round(stop.timeout) == 2
+
+
+def test_a_relay_alone_in_the_url_plays_the_robot_named_as_the_performer(tmp_path: Path) -> None:
+    rig = Rig(tmp_path, urls={"rex": "zenoh:hall", "ada": "zenoh:yard/rio"})
+    assert rig.stage.relays["hall"].names == {"rex": "rex"}
+    assert rig.stage.relays["yard"].names == {"ada": "rio"}
 
 
 @pytest.mark.parametrize(("change", "error"), [
-    ("missing", "rex: relay hall has no robot 'dog1' (it has dog2)"),
+    ("missing", "rex: relay hall has no robot 'dog1' (it has dog2, dog3)"),
     ("none", "rex: relay hall has no robot 'dog1' (it has none)"),
+    ("no robots", "rex: relay hall has no robot 'dog1' (it has none)"),
     ("model", "rex: dog1 on relay hall is a lite, not a mini"),
     ("refused", "relay hall: held by bob"),
     ("upload", "relay hall: no room"),
@@ -162,9 +183,12 @@ def test_a_relay_that_cannot_play_its_part_is_a_setup_error_and_is_released(
 ) -> None:
     relays = Relays()
     if change == "missing":
-        relays.robots["hall"] = [{"name": "dog2", "model": "lite"}]
+        relays.robots["hall"] = [{"name": "dog2", "model": "lite"},
+                                 {"name": "dog3", "model": "mini"}]
     elif change == "none":
         relays.robots["hall"] = []
+    elif change == "no robots":
+        relays.described["hall"] = {"relay": "hall"}
     elif change == "model":
         relays.robots["hall"] = [{"name": "dog1", "model": "lite"}]
     elif change == "refused":
@@ -191,7 +215,7 @@ def test_the_engines_actions_become_commands_to_the_relays_of_their_performers(
         _fix_offsets(rig)
         before = {n: len(rig.sent(n)) for n in ("hall", "yard")}
         rig.stage.play("duo", ("rex", "ada"), 7, 1.0, at=500.0)
-        rig.stage.play("one", ("rex", "ada"), 8, 1.0)  # yard has no part of one
+        rig.stage.play("one", ("ada", "rex"), 8, 1.0)  # yard (first) has no part of one
         rig.stage.rest(("ada",), 2.0)
         rig.stage.safe_stop(("rex", "ada"), "rule fall", 3.0)
         rig.stage.write("g.do[1]", ("ada", "rex"), 4.0)  # hall has no part of it
@@ -250,8 +274,10 @@ def test_a_refused_command_is_a_fault_of_each_performer_of_its_relay(tmp_path: P
     try:
         rig.stage.rest(("ada", "rex"), 1.0)
         wait_until(lambda: any(isinstance(e, FaultRaised) for e in list(rig.seen)), timeout=10.0)
-        faults = [(e.performer, e.reason) for e in rig.seen if isinstance(e, FaultRaised)]
-        assert faults == [("ada", "stage_rest: relay yard: not open")]
+        faults = [e for e in rig.seen if isinstance(e, FaultRaised)]
+        assert [(e.performer, e.reason) for e in faults] == [
+            ("ada", "stage_rest: relay yard: not open")]
+        assert 0.0 <= rig.stage.clock.now() - faults[0].t < 5.0  # at the answer, on this clock
     finally:
         rig.stage.close()
 
@@ -280,20 +306,22 @@ def test_heartbeat_answers_bring_the_relays_events_and_ended_plays(tmp_path: Pat
         rig.stage.close()
 
 
-def test_a_silent_relay_is_lost_its_performers_named_and_sent_nothing_more(
+def test_a_silent_relay_is_lost_after_the_watchdog_its_performers_named_and_sent_nothing(
     tmp_path: Path,
 ) -> None:
     # (only yard's side is checked: on a loaded machine hall's heartbeats may starve too)
     relays = Relays()
-    rig = Rig(tmp_path, relays, watchdog=0.3)
+    rig = Rig(tmp_path, relays, watchdog=2.0)
     rig.stage.open()
     try:
+        quiet = time.monotonic()
         relays.silent.add("yard")
-        wait_until(lambda: any(ps == ("ada",) for ps, _ in list(rig.lost)), timeout=10.0)
+        wait_until(lambda: any(ps == ("ada",) for ps, _ in list(rig.lost)), timeout=20.0)
+        assert time.monotonic() - quiet >= 2.0  # not before the watchdog's time
         why = next(why for ps, why in rig.lost if ps == ("ada",))
         assert why.startswith("relay yard lost: no answer for ")
-        assert why.endswith(" ms (watchdog 300 ms); it safe-stops its robots")
-        assert int(why.split("no answer for ")[1].split(" ms")[0]) >= 300
+        assert why.endswith(" ms (watchdog 2000 ms); it safe-stops its robots")
+        assert int(why.split("no answer for ")[1].split(" ms")[0]) >= 2000
         assert rig.stage.relays["yard"].lost == why
         sent = len(rig.sent("yard"))
         rig.stage.play("duo", ("rex", "ada"), 1, 1.0)
@@ -304,6 +332,32 @@ def test_a_silent_relay_is_lost_its_performers_named_and_sent_nothing_more(
     # Closing: the lost relay is released (sent again while it stays silent) without a stop:
     # its watchdog stopped its robots.
     assert set(rig.ops("yard")[sent:]) == {"release"}
+
+
+def test_a_lost_relay_is_said_in_milliseconds(tmp_path: Path) -> None:
+    rig = Rig(tmp_path, watchdog=0.25)
+    rig.stage._on_lost("yard", rig.stage.relays["yard"], 1.2345)
+    assert rig.lost == [(("ada",), "relay yard lost: no answer for 1234 ms (watchdog 250 ms); "
+                                  "it safe-stops its robots")]
+
+
+def test_heartbeats_go_every_fifth_of_the_watchdog_without_a_watch_interval(
+    tmp_path: Path,
+) -> None:
+    # The k-th heartbeat never goes before k periods after the first (a late one is followed
+    # by the next sooner, never earlier than its own time): 0.1 s here.
+    rig = Rig(tmp_path, watchdog=0.5, watch=None)
+    rig.stage.open()
+    try:
+        def beats() -> list[float]:
+            return [q.at for q in list(rig.session.queries)
+                    if q.op == "heartbeat" and q.key.endswith("hall/cmd")]
+
+        wait_until(lambda: len(beats()) >= 6, timeout=10.0)
+        times = beats()
+        assert all(t - times[0] >= k * 0.1 - 1e-3 for k, t in enumerate(times))
+    finally:
+        rig.stage.close()
 
 
 def test_close_releases_only_the_relays_opened_and_once(tmp_path: Path) -> None:
@@ -317,6 +371,21 @@ def test_close_releases_only_the_relays_opened_and_once(tmp_path: Path) -> None:
         stops = [_fields(r) for r in rig.sent(relay) if r["op"] == "stage_stop"]
         assert stops == [{"robots": robots, "reason": "show over"}]
         assert rig.ops(relay).count("release") == 1
+
+
+def test_close_stops_and_releases_each_relay_opened_even_when_a_stop_is_refused(
+    tmp_path: Path,
+) -> None:
+    relays = Relays()
+    relays.refuse[("yard", "stage_stop")] = "busy"
+    rig = Rig(tmp_path, relays, watch=None)
+    rig.stage.open()
+    rig.stage.relays["hall"].opened = False  # as if never opened: left alone
+    rig.stage.close()
+    assert "stage_stop" not in rig.ops("hall") and "release" not in rig.ops("hall")
+    assert rig.ops("yard")[-2:] == ["stage_stop", "release"]
+    assert not rig.stage.relays["yard"].opened
+    rig.stage.relays["hall"].client.stop_heartbeat()  # (its heartbeats: the test's to end)
 
 
 def test_requests_are_json_of_the_relay_protocol(tmp_path: Path) -> None:
