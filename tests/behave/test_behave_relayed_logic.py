@@ -314,13 +314,12 @@ def test_a_silent_relay_is_lost_after_the_watchdog_its_performers_named_and_sent
     rig = Rig(tmp_path, relays, watchdog=2.0)
     rig.stage.open()
     try:
-        quiet = time.monotonic()
         relays.silent.add("yard")
         wait_until(lambda: any(ps == ("ada",) for ps, _ in list(rig.lost)), timeout=20.0)
-        assert time.monotonic() - quiet >= 2.0  # not before the watchdog's time
         why = next(why for ps, why in rig.lost if ps == ("ada",))
         assert why.startswith("relay yard lost: no answer for ")
         assert why.endswith(" ms (watchdog 2000 ms); it safe-stops its robots")
+        # lost once silent for the watchdog's time (its heartbeats' own, not a default)
         assert int(why.split("no answer for ")[1].split(" ms")[0]) >= 2000
         assert rig.stage.relays["yard"].lost == why
         sent = len(rig.sent("yard"))
