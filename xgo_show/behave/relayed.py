@@ -24,7 +24,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
-import threading
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -113,7 +112,6 @@ class RelayedStage:
         self.watchdog = watchdog
         self.watch_interval = watch_interval
         self.telemetry_interval = telemetry_interval
-        self._lock = threading.Lock()
         self.relays: dict[str, _Relay] = {}
         for perf, url in urls.items():
             relay, robot = parse_relay_url(url, perf)
