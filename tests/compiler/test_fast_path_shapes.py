@@ -94,6 +94,26 @@ SHAPES = {
         FadeCue(1.0, o("z", 4), "led3", (0, 0, 255), 1.0),
         FadeCue(1.4, o("y", 5), "led2", (0, 200, 0), 0.2),
     )),
+    # The same move again and again: from the second on, a stretch finds the plan of every
+    # tick's change code made already (none left to make).
+    "the same move again": ("mini", (
+        MotionCue(0.0, o("a", 2), {"body_z": 110.0}, 1.0),
+        MotionCue(1.0, o("b", 3), {"body_z": 80.0}, 1.0),
+        MotionCue(2.0, o("c", 4), {"body_z": 110.0}, 1.0),
+    )),
+    # The same for a move beside a group of fades: every channel changes every tick, both
+    # ways, and the move's bytes change in the same ticks each time.
+    "the same pair again": ("rider", (
+        FadeCue(0.0, o("g", 2), "led1", (200, 200, 200), 1.0),
+        FadeCue(0.0, o("g", 2), "led2", (200, 0, 200), 1.0),
+        MotionCue(0.0, o("m", 3), {"roll": 8.0}, 1.0),
+        FadeCue(1.0, o("h", 4), "led1", (0, 0, 0), 1.0),
+        FadeCue(1.0, o("h", 4), "led2", (0, 0, 0), 1.0),
+        MotionCue(1.0, o("n", 5), {"roll": 0.0}, 1.0),
+        FadeCue(2.0, o("i", 6), "led1", (200, 200, 200), 1.0),
+        FadeCue(2.0, o("i", 6), "led2", (200, 0, 200), 1.0),
+        MotionCue(2.0, o("p", 7), {"roll": 8.0}, 1.0),
+    )),
 }
 
 
