@@ -4,9 +4,12 @@
 that change nothing, and hands ticks of Writes to the general merger
 (:mod:`~xgo_show.compiler.merge`). Ticks only moves and fades write (nearly all of a long show)
 take a faster road to the very same frames: which registers changed is a byte comparison with
-the source's previous sample, the frame plan is cached per (registers, changed registers), and
-a frame's data is mostly one slice of a sample. ``tests/compiler/test_fast_path.py`` checks the
-two roads give the same frames on random tracks (``details=True`` takes the general one).
+the source's previous sample, the frame plan is cached per (registers, changed registers) and,
+for a stretch of ticks, found by each tick's change code (:func:`~xgo_show.compiler.sources.
+change_codes`, made for the whole stretch at once), and a frame's data is mostly one slice of a
+sample. The frames go out as columns (:class:`~xgo_show.compiler.frames.PlannedFrames`), which
+pacing and the schedule read as they are. ``tests/compiler/test_fast_path.py`` checks the two
+roads give the same frames on random tracks (``details=True`` takes the general one).
 """
 
 from __future__ import annotations
