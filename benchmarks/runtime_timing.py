@@ -268,7 +268,7 @@ class Variant:
     progress: str = "none"  # the progress display: "live" (a terminal's), "lines" or "none"
     busy: bool = False  # one more process keeps a CPU busy during this row only
     early: float | None = None  # clock.EARLY: a real-time wait's last part on the CPU (s)
-    awake: bool | None = None  # realtime.KEEP_AWAKE: idle CPUs kept out of idle states
+    awake: bool = False  # idle CPUs kept out of idle states for the row (cpus_awake)
     aligned: bool | None = None  # progress published just after a grid instant (or not)
 
 
@@ -318,15 +318,13 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
         runner.events.subscribe(ProgressPrinter(out=_Terminal(), tty=False).on_event,
                                 ProgressTick)
     saved, handoff = realtime.policy(), clock_module.HANDOFF
-    early, awake, after = clock_module.EARLY, realtime.KEEP_AWAKE, show_runner.PROGRESS_AFTER
+    early, after = clock_module.EARLY, show_runner.PROGRESS_AFTER
     if variant.aligned is not None:
         show_runner.PROGRESS_AFTER = 0.001 if variant.aligned else None
     if variant.handoff is not None:
         clock_module.HANDOFF = variant.handoff
     if variant.early is not None:
         clock_module.EARLY = variant.early
-    if variant.awake is not None:
-        realtime.KEEP_AWAKE = variant.awake
     # As the commands do: the writer threads raise themselves; this thread stays normal.
     policy = realtime.configure("required" if variant.realtime else "off").summary
     if variant.nice:
@@ -340,14 +338,15 @@ def run_ours(schedule: Schedule, links: dict[str, Transport], variant: Variant) 
     before = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
     workers = RaisedWorkers() if variant.raise_workers else contextlib.nullcontext()
     try:
-        with workers, writers_only(not variant.helpers), busy_cpu(variant.busy):
+        with (workers, writers_only(not variant.helpers), busy_cpu(variant.busy),
+              cpus_awake(variant.awake)):
             result = runner.run(lead=0.3, handle_signals=False)
     finally:
         involuntary = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw - before
         gc.callbacks.remove(on_gc)
         realtime.restore(saved)
         clock_module.HANDOFF = handoff
-        clock_module.EARLY, realtime.KEEP_AWAKE, show_runner.PROGRESS_AFTER = early, awake, after
+        clock_module.EARLY, show_runner.PROGRESS_AFTER = early, after
         if live is not None:
             live.finish()
         if variant.nice:
@@ -377,6 +376,26 @@ class _Terminal(io.StringIO):
 
     def write(self, text: str) -> int:
         return len(text)
+
+
+@contextlib.contextmanager
+def cpus_awake(active: bool) -> Iterator[None]:
+    """While entered (if ``active``): Linux's PM QoS device held at 0 us, so that idle CPUs
+    poll instead of halting (on this VM: instead of leaving the CPU to the hypervisor). A
+    measurement (root only, the whole machine): the runtime does not do it (docs/realtime.md
+    says why)."""
+    if not active:
+        yield
+        return
+    try:
+        fd = os.open("/dev/cpu_dma_latency", os.O_WRONLY)
+    except OSError as exc:
+        raise SystemExit(f"cannot keep the CPUs awake: {exc}") from exc
+    try:
+        os.write(fd, (0).to_bytes(4, sys.byteorder))
+        yield
+    finally:
+        os.close(fd)
 
 
 @contextlib.contextmanager
@@ -522,8 +541,10 @@ def suspects(rows: str) -> list[Variant]:
     """``--suspects``: the README demo's situation (robots in lock-step, simulators served by
     threads of this process as dry-run serves them, its live progress table drawn 4 times a
     second, telemetry on, the collector held), then one suspect of late writes switched at a
-    time, then the same again; ``rows`` adds the candidate cuts (comma-separated: early
-    wake-up of MS ms ``early=MS``, ``awake`` or ``asleep``)."""
+    time (the collector, the progress display, telemetry, the OS with one CPU busy) and each
+    cut undone alone (the early wake-up, progress after an instant) or the CPUs kept out of
+    idle states, then the same again. ``rows`` adds rows (comma-separated: ``early=MS``,
+    ``aligned``, ``unaligned``, ``awake``); ``only:ROWS`` plays only those."""
     base = Variant("the demo's situation", progress="live")
     only = rows.startswith("only:")
     rows = rows.removeprefix("only:")
@@ -534,6 +555,9 @@ def suspects(rows: str) -> list[Variant]:
         dataclasses.replace(base, name="  no progress display", progress="none"),
         dataclasses.replace(base, name="  no telemetry", telemetry=False),
         dataclasses.replace(base, name="  one CPU busy", busy=True),
+        dataclasses.replace(base, name="  no early wake-up", early=0.0),
+        dataclasses.replace(base, name="  progress unaligned", aligned=False),
+        dataclasses.replace(base, name="  CPUs kept awake", awake=True),
     ]
     for row in filter(None, rows.split(",")):
         key, _, value = row.partition("=")
@@ -543,9 +567,8 @@ def suspects(rows: str) -> list[Variant]:
         elif key in ("aligned", "unaligned"):
             out.append(dataclasses.replace(base, name=f"  progress {key}",
                                            aligned=key == "aligned"))
-        elif key in ("awake", "asleep"):
-            what = "kept awake" if key == "awake" else "may idle"
-            out.append(dataclasses.replace(base, name=f"  CPUs {what}", awake=key == "awake"))
+        elif key == "awake":
+            out.append(dataclasses.replace(base, name="  CPUs kept awake", awake=True))
         else:
             raise SystemExit(f"--suspects: unknown row {row!r}")
     if not only:

@@ -450,26 +450,3 @@ def test_the_guard_reports_on_standard_error_by_default(
     realtime._say("a line")
     assert capsys.readouterr().err == "a line\n"
 
-
-def test_cpus_are_kept_awake_only_when_granted_and_asked(
-    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
-) -> None:
-    # Linux's PM QoS device stands in as a file: 0 us written, held open while entered.
-    device = tmp_path / "cpu_dma_latency"
-    device.write_bytes(b"")
-    monkeypatch.setattr(realtime, "CPU_LATENCY", str(device))
-    realtime.restore(RealtimePolicy("auto", True))
-    monkeypatch.setattr(realtime, "KEEP_AWAKE", False)
-    with realtime.cpus_awake() as held:
-        assert not held and device.read_bytes() == b""
-    monkeypatch.setattr(realtime, "KEEP_AWAKE", True)
-    with realtime.cpus_awake() as held:
-        assert held and device.read_bytes() == (0).to_bytes(4, sys.byteorder)
-    device.write_bytes(b"")
-    realtime.restore(RealtimePolicy("off", False))
-    with realtime.cpus_awake() as held:
-        assert not held and device.read_bytes() == b""
-    realtime.restore(RealtimePolicy("auto", True))
-    monkeypatch.setattr(realtime, "CPU_LATENCY", str(tmp_path / "absent" / "device"))
-    with realtime.cpus_awake() as held:
-        assert not held

@@ -3,10 +3,11 @@
 Every deadline the runtime waits for is ``start + offset`` from one monotonic start, never
 ``previous + interval``, so sleep errors never add up. :class:`MonotonicClock` sleeps until a
 little before a deadline and then spins, which hits the deadline to some microseconds on an
-idle machine. In a real-time (SCHED_FIFO) thread it never spins: the wait blocks in the kernel
-to the deadline (such a thread runs as soon as its timer fires), and the thread calls
-:func:`hand_off_cpu` after each write. :class:`FakeClock` jumps straight to each deadline, so
-tests and ``dry-run --fast`` run schedules without waiting.
+idle machine. In a real-time (SCHED_FIFO) thread the wait blocks in the kernel to
+:data:`EARLY` (0.2 ms) before the deadline and runs out only that on its CPU (such a thread
+runs as soon as its timer fires, but the wake-up itself takes it tens of microseconds), and
+the thread calls :func:`hand_off_cpu` after each write. :class:`FakeClock` jumps straight to
+each deadline, so tests and ``dry-run --fast`` run schedules without waiting.
 
 Waits take an optional :class:`threading.Event`: setting it wakes the waiter at once (the way a
 stop request cuts a wait short), and ``sleep_until`` then returns ``False``.
@@ -99,7 +100,10 @@ def _block_until(deadline: float, interrupt: threading.Event | None) -> bool:
 
     A SCHED_FIFO thread that spins keeps every normal thread (the kernel worker that moves
     its bytes included) off its CPU, so it blocks for all but the last :data:`EARLY`: waking
-    from the kernel takes it some tens of microseconds, more from an idle CPU.
+    from the kernel takes it some tens of microseconds, more from an idle CPU. It keeps
+    Python's lock through the last part, so the frames of other writers due at the same
+    instant are written by it (:class:`~xgo_show.runtime.executor.IssueGroup`) rather than
+    each waiting for the lock in turn.
     """
     now = time.monotonic
     early = EARLY
@@ -142,9 +146,13 @@ _TIMEOUTS_ON_MONOTONIC = _timeouts_on_monotonic()
 #: Seconds a real-time thread sleeps after a write (see :func:`hand_off_cpu`).
 HANDOFF = 50e-6
 
-#: Seconds before its deadline a real-time thread's wait stops blocking and finishes on its
-#: CPU (see :func:`_block_until`).
-EARLY = 0.0
+#: Seconds before its deadline a real-time thread's wait stops blocking and runs out the
+#: rest on its CPU (see :func:`_block_until`). Waking from the kernel took a SCHED_FIFO
+#: thread 0.05 ms (p50) to 0.11 ms (p99) past its timer on this 2-CPU VM, 0.2-1.6 ms at
+#: p99.9, more from a CPU that had halted; finishing on the CPU it is 0.00 / 0.01 / 0.17 ms
+#: (docs/realtime.md). It costs the writer up to this much CPU a wait: 1 % of a CPU at 50
+#: frames/s.
+EARLY = 0.0002
 
 
 def is_realtime() -> bool:

@@ -22,8 +22,9 @@ also raises, at :data:`HELPER_PRIORITY` while a show plays, Zenoh's receiving th
 run its trigger handlers: :func:`raise_thread`, :func:`threads_named`) and the director's
 thread. Other Zenoh threads, listeners' own threads and simulators keep normal priority.
 A FIFO thread that never blocked would keep every lower-priority thread off its CPU, so the
-design is bounded twice: the real clock's waits block in the kernel for the whole wait under
-FIFO (no spinning, see :class:`~xgo_show.runtime.clock.MonotonicClock`), and a
+design is bounded twice: the real clock's waits block in the kernel under FIFO for all but
+their last 0.2 ms (:data:`~xgo_show.runtime.clock.EARLY`, see
+:class:`~xgo_show.runtime.clock.MonotonicClock`), and a
 :class:`_Guard` thread checks the CPU time of every raised thread each :data:`GUARD_PERIOD`
 and returns one that used more than :data:`GUARD_SHARE` of a CPU to normal priority, saying
 so. The kernel's own limit on real-time CPU (``/proc/sys/kernel/sched_rt_runtime_us``, 95 %
@@ -38,7 +39,7 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -55,7 +56,6 @@ __all__ = [
     "RealtimePolicy",
     "add_realtime_arguments",
     "configure",
-    "cpus_awake",
     "decide",
     "enter_show_thread",
     "leave_show_thread",
@@ -121,14 +121,6 @@ class RealtimePolicy:
             f"give the interpreter CAP_SYS_NICE, or set RLIMIT_RTPRIO >= {PRIORITY}; "
             "--no-realtime silences this)"
         )
-
-
-#: Linux's PM QoS device: while a process holds it open with a latency of 0 us written, idle
-#: CPUs poll instead of entering an idle state that takes time to wake from.
-CPU_LATENCY = "/dev/cpu_dma_latency"
-
-#: Whether a show holds :data:`CPU_LATENCY` at 0 while it plays (where permitted).
-KEEP_AWAKE = False
 
 
 _OFF = RealtimePolicy("off", False)
@@ -200,30 +192,6 @@ def decide(mode: str | None, *, virtual: bool = False) -> RealtimePolicy:
     if decided.notice:
         print(decided.notice, file=sys.stderr, flush=True)
     return decided
-
-
-@contextlib.contextmanager
-def cpus_awake() -> Iterator[bool]:
-    """While entered, keep the CPUs out of idle states (:data:`CPU_LATENCY` held at 0) if
-    the policy grants real-time scheduling, :data:`KEEP_AWAKE` is set and the device may be
-    written (root, or a udev rule that gives a group write access); yields whether it is.
-    Closing the device (on the way out, or when the process dies) lifts it."""
-    if not (_policy.granted and KEEP_AWAKE):
-        yield False
-        return
-    try:
-        fd = os.open(CPU_LATENCY, os.O_WRONLY)
-    except OSError:  # absent (not Linux, no PM QoS) or not permitted
-        yield False
-        return
-    try:
-        try:
-            held = os.write(fd, (0).to_bytes(4, sys.byteorder)) == 4
-        except OSError:
-            held = False
-        yield held
-    finally:
-        os.close(fd)
 
 
 def _probe() -> str:

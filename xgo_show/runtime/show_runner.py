@@ -50,12 +50,7 @@ from xgo_show.runtime.events import (
 )
 from xgo_show.runtime.executor import ExecutorState, Progress, ReachFn, SafeStopResult
 from xgo_show.runtime.performer import Performer
-from xgo_show.runtime.realtime import (
-    HELPER_PRIORITY,
-    cpus_awake,
-    enter_show_thread,
-    leave_show_thread,
-)
+from xgo_show.runtime.realtime import HELPER_PRIORITY, enter_show_thread, leave_show_thread
 from xgo_show.runtime.stats import SendStats
 
 __all__ = ["FAILURE_POLICIES", "ShowProgress", "ShowResult", "ShowRunner", "default_reach"]
@@ -311,10 +306,6 @@ class ShowRunner:
             gc.collect()
             gc.freeze()
             gc.disable()
-        # An idle CPU takes longer to wake a writer: none sleeps deeply while the show plays.
-        awake = contextlib.ExitStack()
-        if not isinstance(self.clock, FakeClock):
-            awake.enter_context(cpus_awake())
         raised = False
         result = ShowResult(False, "")
         self.result = result
@@ -362,7 +353,6 @@ class ShowRunner:
             self._waker.close()
             if raised:
                 leave_show_thread()
-            awake.close()
             sys.setswitchinterval(switch)
             if self.hold_gc:
                 gc.unfreeze()
