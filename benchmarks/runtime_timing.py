@@ -33,10 +33,19 @@ more writers were late together (a stall of the whole process: the collector, th
 the process off its CPU), the collector's pauses, and the process's involuntary context
 switches (the OS taking its CPU).
 
+``--suspects`` plays the README demo's situation instead (robots in lock-step, simulators
+served by threads of this process as dry-run serves them, the live progress table drawn as on
+a terminal, telemetry on, the collector held), then each suspect switched alone (the
+collector, the progress display, telemetry, one CPU kept busy, the simulators in processes of
+their own), each of session 9's cuts undone alone (the early wake-up, progress after an
+instant) and the CPUs kept out of idle states (PM QoS, root), all in one run, with the VM's
+own CPU stalls beside (trigger_latency.py's probe).
+
 Prints figures only (no asserts). Usage::
 
     python benchmarks/runtime_timing.py [--seconds 60] [--rate 50] [--no-load | --only-load]
                                         [--sim-nice] [--diagnose] [--lockstep]
+                                        [--suspects [ROWS]]
 
 ``--lockstep`` puts every robot's frames at the same times, as a show's grid does (the README
 demo's five robots); by default they are 3.7 ms apart, which spares the writers the hand-overs
