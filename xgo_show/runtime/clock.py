@@ -151,7 +151,8 @@ HANDOFF = 50e-6
 #: thread 0.05 ms (p50) to 0.11 ms (p99) past its timer on this 2-CPU VM, 0.2-1.6 ms at
 #: p99.9, more from a CPU that had halted; finishing on the CPU it is 0.00 / 0.01 / 0.17 ms
 #: (docs/realtime.md). It costs the writer up to this much CPU a wait: 1 % of a CPU at 50
-#: frames/s.
+#: frames/s. Only ``benchmarks/runtime_timing.py --suspects`` changes it (0: the wait as it
+#: was, for its before row).
 EARLY = 0.0002
 
 

@@ -59,7 +59,9 @@ FAILURE_POLICIES = ("halt_all", "continue")
 _SWITCH_INTERVAL = 0.0005  # seconds
 
 #: Seconds after an instant of the show's grid at which progress is published (see
-#: :meth:`ShowRunner._after_instant`); None: every ``1 / progress_hz`` from whenever.
+#: :meth:`ShowRunner._after_instant`). None (every ``1 / progress_hz`` from whenever, as
+#: before) is set only by ``benchmarks/runtime_timing.py --suspects`` for its before row and
+#: by a test of the interval alone.
 PROGRESS_AFTER: float | None = 0.001
 
 
