@@ -55,6 +55,7 @@ CONFIGS: dict[str, tuple[bool, bool, bool, str | None]] = {
     "+ slewing clock": (True, False, False, None),
     "+ bookkeeping hand-off (no run log file)": (False, True, False, None),
     "+ bookkeeping, run log to a file": (False, True, False, os.devnull),
+    "+ bookkeeping, run log kept in memory": (False, True, False, ""),
     "+ test tracer": (False, False, True, None),
     "relay as shipped (clock + bookkeeping)": (True, True, False, None),
     "relay in the benchmarks (+ tracer)": (True, True, True, None),
@@ -106,7 +107,9 @@ def play(config: tuple[bool, bool, bool, str | None], schedule: Schedule
         booked = EventBus()
         booked.subscribe(booked_meter.on_frame, FrameSent)
         deferred = DeferredListeners(events, [booked.publish])
-        log = RunLog(path, keep=False)  # as `xgo-show relay` makes it (--log FILE or none)
+        # as `xgo-show relay` makes it (--log FILE or none); "": records made and kept in
+        # memory, as every relay without --log made them before 2026-11-27 (less the keeping)
+        log = RunLog(None, keep=True) if path == "" else RunLog(path, keep=False)
         sub = log.attach(booked)
         collector = EventCollector(booked)
         closers += [deferred.close, sub.close, collector.close, log.close]
