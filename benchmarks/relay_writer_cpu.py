@@ -30,6 +30,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from xgo_show.compiler.schedule import PerformerSchedule, Schedule, ScheduledFrame
 from xgo_show.net.offset import Timebase
@@ -131,15 +132,84 @@ def play(config: tuple[bool, bool, bool, str | None], schedule: Schedule
     return meter.per_frame(), booked_meter.per_frame()
 
 
+class LineCounter:
+    """Python lines the writer thread runs per frame, by function: deterministic, whatever
+    the load (``--lines``). Counted from the second frame to the last, as :class:`Meter`."""
+
+    def __init__(self) -> None:
+        self.counting = False
+        self.frames = 0
+        self.lines: dict[str, int] = {}
+
+    def on_frame(self, ev: Event) -> None:
+        if isinstance(ev, FrameSent) and ev.kind == "frame":
+            self.frames += 1
+            self.counting = self.frames >= 2
+            if self.counting:
+                self.counted = self.frames - 1
+
+    def trace(self, frame: Any, event: str, arg: object) -> Any:
+        if not threading.current_thread().name.startswith("xgo-show writer"):
+            return None
+        return self._line
+
+    def _line(self, frame: Any, event: str, arg: object) -> Any:
+        if event == "line" and self.counting:
+            code = frame.f_code
+            key = f"{os.path.basename(code.co_filename)}:{code.co_name}"
+            self.lines[key] = self.lines.get(key, 0) + 1
+        return self._line
+
+
+def count_lines(config: tuple[bool, bool, bool, str | None], schedule: Schedule
+                ) -> dict[str, float]:
+    """Python lines per frame the writer thread runs under ``config``, by function."""
+    counter = LineCounter()
+    original = EventBus.__init__
+
+    def init(bus: EventBus) -> None:  # the counter listens first on the show's bus
+        original(bus)
+        if not hasattr(count_lines, "bus"):
+            count_lines.bus = bus  # type: ignore[attr-defined]
+            bus.subscribe(counter.on_frame, FrameSent)
+
+    EventBus.__init__ = init  # type: ignore[method-assign]
+    threading.settrace(counter.trace)
+    try:
+        play(config, schedule)
+    finally:
+        threading.settrace(None)  # type: ignore[arg-type]
+        EventBus.__init__ = original  # type: ignore[method-assign]
+        del count_lines.bus  # type: ignore[attr-defined]
+    n = max(1, counter.frames - 2)
+    return {k: v / n for k, v in counter.lines.items()}
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=8)
     parser.add_argument("--frames", type=int, default=400)
     parser.add_argument("--rate", type=float, action="append",
                         help="frames per second (repeatable; default 50 and 500)")
+    parser.add_argument("--lines", action="store_true",
+                        help="instead: the Python lines the writer runs per frame, by function "
+                        "(traced: slow, but the same whatever the load), each configuration "
+                        "against the local one")
     args = parser.parse_args()
     realtime.configure("required")
     rates = args.rate or [50.0, 500.0]
+    if args.lines:
+        schedule = make_schedule(args.frames, rates[0])
+        base = count_lines(CONFIGS[next(iter(CONFIGS))], schedule)
+        print(f"Python lines the writer runs per frame: local {sum(base.values()):.1f}")
+        for name, config in list(CONFIGS.items())[1:]:
+            got = count_lines(config, schedule)
+            extra = {k: got.get(k, 0.0) - base.get(k, 0.0) for k in set(got) | set(base)}
+            print(f"  {name:<42} {sum(got.values()):7.1f}  ({sum(extra.values()):+.1f}):  "
+                  + ", ".join(f"{k} {v:+.1f}" for k, v in
+                              sorted(extra.items(), key=lambda kv: -abs(kv[1]))
+                              if abs(v) >= 0.5))
+        return
     print(f"{args.rounds} rounds of {args.frames} frames per configuration and rate, in turn; "
           f"writer SCHED_FIFO {realtime.PRIORITY}; load average {os.getloadavg()[0]:.2f}")
     for rate in rates:
