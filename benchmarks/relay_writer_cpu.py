@@ -151,6 +151,8 @@ class LineCounter:
     def trace(self, frame: Any, event: str, arg: object) -> Any:
         if not threading.current_thread().name.startswith("xgo-show writer"):
             return None
+        if self.counting:  # a Python function called (its frame made): counted as "calls"
+            self.lines["calls"] = self.lines.get("calls", 0) + 1
         return self._line
 
     def _line(self, frame: Any, event: str, arg: object) -> Any:
@@ -201,11 +203,15 @@ def main() -> None:
     if args.lines:
         schedule = make_schedule(args.frames, rates[0])
         base = count_lines(CONFIGS[next(iter(CONFIGS))], schedule)
-        print(f"Python lines the writer runs per frame: local {sum(base.values()):.1f}")
+        calls = base.pop("calls", 0.0)
+        print(f"Python lines (and function calls) the writer runs per frame: local "
+              f"{sum(base.values()):.1f} ({calls:.1f})")
         for name, config in list(CONFIGS.items())[1:]:
             got = count_lines(config, schedule)
+            more = got.pop("calls", 0.0) - calls
             extra = {k: got.get(k, 0.0) - base.get(k, 0.0) for k in set(got) | set(base)}
-            print(f"  {name:<42} {sum(got.values()):7.1f}  ({sum(extra.values()):+.1f}):  "
+            print(f"  {name:<42} {sum(got.values()):7.1f} ({sum(extra.values()):+.1f} lines, "
+                  f"{more:+.1f} calls):  "
                   + ", ".join(f"{k} {v:+.1f}" for k, v in
                               sorted(extra.items(), key=lambda kv: -abs(kv[1]))
                               if abs(v) >= 0.5))

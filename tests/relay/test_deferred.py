@@ -392,6 +392,36 @@ def test_an_alarm_fires_once_at_the_latest_time_set(kind: str) -> None:
     alarm.close()  # closing again does nothing
 
 
+@pytest.mark.parametrize("kind", ["kernel", "portable"])
+def test_a_prepared_arming_arms_its_delay_as_arm_does(kind: str) -> None:
+    if kind == "kernel" and not sys.platform.startswith("linux"):
+        pytest.skip("timerfd is Linux's")
+    alarm = Alarm()
+    if kind == "portable":
+        alarm.close()
+    arm = alarm.prepared(0.1)
+    alarm.arm(5.0)
+    t0 = time.monotonic()
+    arm()  # replaces the 5 s, as arm(0.1) would
+    alarm.wait()
+    assert 0.09 <= time.monotonic() - t0 < 4.0
+    t0 = time.monotonic()
+    arm()  # the same callable, again
+    alarm.wait()
+    assert 0.09 <= time.monotonic() - t0 < 4.0
+    alarm.close()
+
+
+def test_a_dead_bookkeeping_thread_leaves_writers_arming_the_portable_way() -> None:
+    got: list[Event] = []
+    bus = EventBus()
+    deferred = DeferredListeners(bus, [got.append], delay=0.01, realtime=False)
+    deferred.close()  # the thread ends and gives its timerfd back
+    assert deferred._alarm._kernel is None
+    assert getattr(deferred._arm_delay, "func", None) == deferred._alarm.arm  # not the fd's
+    deferred._arm_delay()  # what a late writer's event would do: no system call on a stale fd
+
+
 def test_the_portable_alarm_wakes_its_waiter_for_a_new_time() -> None:
     alarm = Alarm()
     alarm.close()

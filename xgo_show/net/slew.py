@@ -17,10 +17,11 @@ relay calls between shows) sets the mapping at once.
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
+import time
+from dataclasses import dataclass, field
 
 from xgo_show.net.offset import Timebase
-from xgo_show.runtime.clock import Clock
+from xgo_show.runtime.clock import Clock, MonotonicClock
 
 __all__ = ["DEFAULT_MAX_SLEW", "SlewingClock"]
 
@@ -36,24 +37,40 @@ _LONG_HOP = 0.25
 
 @dataclass(frozen=True, slots=True)
 class _Segment:
-    """``now = c0 + (b - b0) * slope`` until base time ``b1``, then ``target.to_conductor(b)``."""
+    """``now = c0 + (b - b0) * slope`` until base time ``b1``, then ``target.to_conductor(b)``.
+
+    ``target``'s numbers are copied into the segment (``ref``, ``offset``, ``rate`` and
+    ``div`` = 1 + rate) so a read computes the same as :meth:`Timebase.to_conductor` without
+    calling it: a relay's writer reads this clock several times a frame.
+    """
 
     b0: float
     c0: float
     slope: float
     b1: float
     target: Timebase
+    ref: float = field(init=False)
+    offset: float = field(init=False)
+    rate: float = field(init=False)
+    div: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        t = self.target
+        object.__setattr__(self, "ref", t.ref)
+        object.__setattr__(self, "offset", t.offset)
+        object.__setattr__(self, "rate", t.rate)
+        object.__setattr__(self, "div", 1.0 + t.rate)
 
     def at(self, b: float) -> float:
         if b < self.b1:
             return self.c0 + (b - self.b0) * self.slope
-        return self.target.to_conductor(b)
+        return self.ref + (b - self.ref - self.offset) / self.div  # target.to_conductor(b)
 
     def base_time(self, c: float) -> float:
         """The base time at which this segment reads ``c`` (the inverse of :meth:`at`)."""
         if self.b1 > self.b0 and c < self.c0 + (self.b1 - self.b0) * self.slope:
             return self.b0 + (c - self.c0) / self.slope
-        return self.target.to_relay(c)
+        return c + self.offset + self.rate * (c - self.ref)  # target.to_relay(c)
 
 
 _IDENTITY = Timebase(0.0, 0.0, 0.0, 0.0, 0.0)
@@ -70,6 +87,9 @@ class SlewingClock:
         if not 0 < max_slew < 0.1:
             raise ValueError("max_slew must be a small positive fraction (e.g. 500e-6)")
         self.base = base
+        # The base clock's reading itself: time.monotonic for the real clock, without the call
+        # to its now() on every read (the same value).
+        self._read = time.monotonic if type(base) is MonotonicClock else base.now
         self.max_slew = max_slew
         self._lock = threading.Lock()
         self._segment = _Segment(0.0, 0.0, 1.0, 0.0, _IDENTITY)
@@ -83,8 +103,13 @@ class SlewingClock:
 
     def now(self) -> float:
         # No lock: the segment is immutable and replaced whole (one attribute read). A writer
-        # reads this clock several times per frame, some of them right after its write.
-        return self._segment.at(self.base.now())
+        # reads this clock several times per frame, some of them right after its write: its
+        # at() inlined here (the same sums).
+        seg = self._segment
+        b = self._read()
+        if b < seg.b1:
+            return seg.c0 + (b - seg.b0) * seg.slope
+        return seg.ref + (b - seg.ref - seg.offset) / seg.div
 
     def mapping(self) -> _Segment:
         """The mapping in force now, as a value: its ``base_time(t)`` is :meth:`to_base` as
@@ -133,8 +158,8 @@ class SlewingClock:
     def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
         base = self.base
         while True:
-            target = self.to_base(deadline)
-            left = target - base.now()
+            target = self._segment.base_time(deadline)  # to_base(), one call fewer a frame
+            left = target - self._read()
             if left <= _HOP:
                 return base.sleep_until(target, interrupt)
             hop = min(target - _HOP / 2, base.now() + _LONG_HOP)

@@ -29,6 +29,7 @@ landed on a CPU while the frame was being delivered (measured with
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import sys
 import threading
@@ -104,23 +105,36 @@ class Alarm:
         #: after every write
         self._specs: dict[float, Any] = {}
 
+    def _spec(self, delay: float) -> Any:
+        spec = self._specs.get(delay)
+        if spec is None:
+            ns = max(1, round(delay * 1e9))  # 0 would disarm it
+            value = _Timespec(ns // 1_000_000_000, ns % 1_000_000_000)
+            spec = ctypes.pointer(_Itimerspec(_Timespec(0, 0), value))
+            if len(self._specs) < 16:
+                self._specs[delay] = spec
+        return spec
+
     def arm(self, delay: float) -> None:
         """Fire ``delay`` seconds from now (0: at once)."""
         if self._kernel is not None:
             fd, settime = self._kernel
-            spec = self._specs.get(delay)
-            if spec is None:
-                ns = max(1, round(delay * 1e9))  # 0 would disarm it
-                value = _Timespec(ns // 1_000_000_000, ns % 1_000_000_000)
-                spec = ctypes.pointer(_Itimerspec(_Timespec(0, 0), value))
-                if len(self._specs) < 16:
-                    self._specs[delay] = spec
-            if settime(fd, 0, spec, None) == 0:
+            if settime(fd, 0, self._spec(delay), None) == 0:
                 return
             self.close()  # cannot happen with a valid fd; the portable way from here on
         with self._cond:
             self._at = time.monotonic() + delay
             self._cond.notify_all()
+
+    def prepared(self, delay: float) -> Callable[[], object]:
+        """A callable that arms ``delay`` as :meth:`arm` does, made once for a caller that
+        arms the same delay after every write: on Linux the system call itself, with its
+        arguments bound (no Python line runs). Valid until :meth:`close`: the caller that
+        closes the alarm drops it (its fd is given back)."""
+        if self._kernel is None:
+            return functools.partial(self.arm, delay)
+        fd, settime = self._kernel
+        return functools.partial(settime, fd, 0, self._spec(delay), None)
 
     def wait(self) -> None:
         """Until the timer fires."""
@@ -172,6 +186,8 @@ class DeferredListeners:
         self.listener_errors = 0
         self._cond = threading.Condition()
         self._alarm = Alarm()
+        #: arms the alarm for ``delay``: what a writer calls for the first event of a batch
+        self._arm_delay = self._alarm.prepared(delay)
         self._queue: deque[Event] = deque()
         self._queued = 0  # events ever queued, and handed on (for flush)
         self._done = 0
@@ -192,7 +208,7 @@ class DeferredListeners:
             self._queued += 1
             self._last = time.monotonic()
             if len(self._queue) == 1:
-                self._alarm.arm(self.delay)  # in the kernel: this wakes nobody now
+                self._arm_delay()  # in the kernel: this wakes nobody now
             elif len(self._queue) == BACKLOG // 2:
                 self._alarm.arm(0.0)  # hand on before the queue fills
 
@@ -232,6 +248,7 @@ class DeferredListeners:
                 leave_show_thread()
             with self._cond:  # arming happens under this lock: no arming of a closed fd
                 self._alarm.close()
+                self._arm_delay = self._alarm.prepared(self.delay)  # the portable way now
 
     def flush(self, timeout: float = 2.0) -> bool:
         """Hand on every event published so far now; False if that took over ``timeout``."""
