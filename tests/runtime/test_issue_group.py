@@ -28,12 +28,16 @@ class Noting(SimTransport):
         super().__init__(create_robot("mini"))
         self.written: list[bytes] = []
         self.fail = False
+        self.stall: tuple[FakeClock, float] | None = None  # a write that takes this long
 
     def write(self, data: bytes) -> None:
         if self.fail:
             raise TransportError("port gone")
         self.written.append(data)
         super().write(data)
+        if self.stall is not None:
+            clock, seconds = self.stall
+            clock.advance(seconds)
 
 
 def _executor(name: str, clock: FakeClock) -> tuple[PerformerExecutor, Noting]:
@@ -110,6 +114,19 @@ def test_a_peers_write_makes_the_owners_link_busy_from_its_send() -> None:
     assert a._issue_for_peer(b"x", a._ready_at - 1e-6) is None
     assert a._issue_for_peer(b"y", a._ready_at) is not None
     assert link.written == [data, b"y"]
+
+
+def test_a_peers_write_is_timed_at_its_send_and_books_the_link_until_it_returned() -> None:
+    # A write that blocks 4 ms (longer than the frame's wire time): the frame was sent when
+    # the write was issued, and the link is busy until the write returned, then the gap.
+    clock = FakeClock()
+    a, link = _executor("a", clock)
+    link.stall = (clock, 0.004)
+    now = clock.now()
+    assert a._issue_for_peer(bytes(9), now) == now
+    wire = a.schedule.link
+    assert wire.wire_time(9) < 0.004
+    assert a._ready_at == pytest.approx(now + 0.004 + wire.gap, abs=1e-12)
 
 
 @pytest.mark.parametrize("why", ["wake", "abort", "writing"])
