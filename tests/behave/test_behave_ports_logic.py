@@ -9,6 +9,7 @@ mutation run measures."""
 
 from __future__ import annotations
 
+import datetime as dt
 import threading
 from collections.abc import Iterator
 from pathlib import Path
@@ -262,3 +263,86 @@ def test_the_runner_plays_on_triggers_and_routine_ends_and_stops_safely(
     assert all(seat.executor is None for seat in runner.stage.seats.values())
     # The robots were stopped safely at the end, and the port is read by no one.
     assert not any("behave reader" in t.name for t in threading.enumerate())
+
+
+def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> None:
+    # rex on a port here, ada behind relay yard (over a recording session, no Zenoh).
+    from tests.behave.relays import AHEAD, Relays
+    from tests.relay.recording import RecordingSession
+    from xgo_show.behave.relayed import RelayAccess
+    from xgo_show.net import messages as msg
+
+    b = _behaviour(tmp_path, """\
+        - {name: g, when: [{trigger: go}], do: [{play: duo}]}
+        - {name: e, when: [{routine_ended: duo, performers: [ada]}], do: [{publish: done}]}
+        - {name: h, mode: parallel, when: [{trigger: hush}],
+           do: [{stop: [rex, ada]}, {safe_stop: [ada, rex]}, {set: {body_z: 95}}]}
+        - {name: gone, when: [{offline: 30, performers: [ada]}], do: [{publish: lost}]}
+        """, "triggers: [go, hush]\n")
+    relays = Relays()
+    session = RecordingSession(relays)
+    access = RelayAccess({"ada": "zenoh:yard/rio"}, session,  # type: ignore[arg-type]
+                         msg.Conductor("c1", "alice"), namespace="ns", watchdog=5.0,
+                         timeout=1.0)
+    bus = EventBus()
+    notes: list[str] = []
+    bus.subscribe(lambda e: notes.append(f"{e.rule} {e.kind}: {e.text}")  # type: ignore[attr-defined]
+                  if isinstance(e, BehaviourNote) else None)
+    links = _links()
+    runner = BehaviourRunner(b, {"rex": links["rex"]}, events=bus, relays=access,
+                             telemetry_interval=0.5, watch_interval=0.05)
+    frames: list[FrameSent] = []
+    bus.subscribe(frames.append, FrameSent)  # type: ignore[arg-type]
+
+    def sent(op: str) -> list[dict[str, object]]:
+        return [q.request for q in list(session.queries) if q.payload and q.op == op]
+
+    thread = threading.Thread(target=runner.run, kwargs={"duration": 60.0})
+    thread.start()
+    try:
+        wait_until(lambda: sent("stage_open") != [], timeout=10.0)
+        (opened,) = sent("stage_open")
+        assert {k: opened[k] for k in ("robots", "watch", "telemetry", "watchdog_ms")} == {
+            "robots": ["rio"], "watch": 0.05, "telemetry": 0.5, "watchdog_ms": 5000}
+        assert opened["conductor"] == {"id": "c1", "name": "alice"}
+        assert {q.key for q in session.queries} == {"ns/relay/yard/cmd"}
+        assert round(session.of("hello")[0].timeout) == 1
+        remote = runner.remote
+        assert remote is not None
+        link = remote.relays["yard"].client.link
+        link.offset, link.best_rtt = AHEAD["yard"], 0.0  # kept from now on
+        asked = runner.clock.now()
+        runner.trigger("go")
+        wait_until(lambda: sent("stage_play") != [] and any(
+            f.kind == "frame" and f.performer == "rex" for f in list(frames)), timeout=10.0)
+        (play,) = sent("stage_play")
+        first = next(f for f in frames if f.kind == "frame" and f.performer == "rex")
+        # One start for both hosts, a lead after the trigger; the relay's on its own clock.
+        assert first.planned is not None and first.planned >= asked + 0.002
+        assert play["at"] == first.planned + AHEAD["yard"]
+        assert play["robots"] == ["rio"]
+        with relays.lock:
+            relays.status["yard"] = {"stage": {"ended": [["rio", play["play"]]]}}
+        wait_until(lambda: "e published: done" in notes, timeout=10.0)
+        runner.trigger("hush")
+        wait_until(lambda: sent("stage_write") != [], timeout=10.0)
+        staged = [(r["op"], r["robots"]) for r in (q.request for q in list(session.queries))
+                  if r["op"] in ("stage_rest", "stage_stop", "stage_write")]
+        assert staged == [("stage_rest", ["rio"]), ("stage_stop", ["rio"]),
+                          ("stage_write", ["rio"])]
+        assert sent("stage_stop")[0]["reason"] == "rule h"
+        # and here: rex's seat stopped too
+        wait_until(lambda: "stop" in [f.kind for f in list(frames) if f.performer == "rex"],
+                   timeout=10.0)
+        # The relay lost (as its heartbeats' watchdog says it): its performers offline now.
+        remote._on_lost("yard", remote.relays["yard"], 5.0)
+        wait_until(lambda: "gone published: lost" in notes, timeout=10.0)
+        assert any(n.startswith("gone fired: ada offline (relay yard lost: no answer for ")
+                   for n in notes)
+        wall = runner._wall(runner.clock.now() + 60.0)
+        assert abs((wall - dt.datetime.now()).total_seconds() - 60.0) < 5.0
+    finally:
+        runner.stop()
+        thread.join(20.0)
+    assert not thread.is_alive()
+    assert sent("release") != []
