@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import datetime as dt
 import threading
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -24,7 +25,7 @@ from xgo_show.behave.loader import Behaviour
 from xgo_show.behave.ports import WATCH_INTERVAL, BehaviourRunner, PortStage
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import MonotonicClock
-from xgo_show.runtime.events import Event, EventBus, FrameSent
+from xgo_show.runtime.events import Event, EventBus, FrameSent, SafeStopped
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.sim import create_robot
 from xgo_show.transports.sim import SimTransport
@@ -54,6 +55,8 @@ class Staged:
         self.events = EventBus()
         self.seen: list[FrameSent] = []
         self.events.subscribe(self.seen.append, FrameSent)  # type: ignore[arg-type]
+        self.stopped: list[SafeStopped] = []
+        self.events.subscribe(self.stopped.append, SafeStopped)  # type: ignore[arg-type]
         self.links = _links()
         self.stage = PortStage(b.routines, b.writes, MODELS, self.links,
                                clock=MonotonicClock(), events=self.events, **options)  # type: ignore[arg-type]
@@ -164,6 +167,7 @@ def test_a_safe_stop_sends_the_stop_then_watches(staged: Staged) -> None:
     cut = next(i for i, (kind, _) in enumerate(sent) if kind != "frame")
     profile = get_profile("mini")
     assert sent[cut:] == [("stop", f.data) for f in stop_frames(profile)]
+    assert [e.result.reason for e in staged.stopped] == ["rule fall"]
 
 
 def test_writes_go_beside_what_plays_or_before_what_comes_next(staged: Staged) -> None:
@@ -179,11 +183,13 @@ def test_writes_go_beside_what_plays_or_before_what_comes_next(staged: Staged) -
     assert staged.written("ada") == []
     # Between two executors (none writing), frames wait for the next one's start.
     seat = stage.seats["rex"]
-    seat.end(rest=False)
+    seat.end(rest=True)  # the routine cut: its rest waits for the next executor
     seat.send([(data, "pace") for _, data in pace])
-    assert seat._pending == [(data, "pace") for _, data in pace]
+    assert seat._pending == [(f.data, f.label) for f in rest_frames(get_profile("mini"))] + [
+        (data, "pace") for _, data in pace]
     seat.watch()
     wait_until(lambda: staged.written("rex").count(pace[0]) == 3, timeout=10.0)
+    assert staged.written("rex")[-4:] == _rest("rex", "set") + pace
     assert seat._pending == []
 
 
@@ -277,7 +283,6 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
         - {name: e, when: [{routine_ended: duo, performers: [ada]}], do: [{publish: done}]}
         - {name: h, mode: parallel, when: [{trigger: hush}],
            do: [{stop: [rex, ada]}, {safe_stop: [ada, rex]}, {set: {body_z: 95}}]}
-        - {name: gone, when: [{offline: 30, performers: [ada]}], do: [{publish: lost}]}
         """, "triggers: [go, hush]\n")
     relays = Relays()
     session = RecordingSession(relays)
@@ -293,6 +298,8 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
                              telemetry_interval=0.5, watch_interval=0.05)
     frames: list[FrameSent] = []
     bus.subscribe(frames.append, FrameSent)  # type: ignore[arg-type]
+    stopped: list[SafeStopped] = []
+    bus.subscribe(stopped.append, SafeStopped)  # type: ignore[arg-type]
 
     def sent(op: str) -> list[dict[str, object]]:
         return [q.request for q in list(session.queries) if q.payload and q.op == op]
@@ -334,15 +341,104 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
         # and here: rex's seat stopped too
         wait_until(lambda: "stop" in [f.kind for f in list(frames) if f.performer == "rex"],
                    timeout=10.0)
-        # The relay lost (as its heartbeats' watchdog says it): its performers offline now.
-        remote._on_lost("yard", remote.relays["yard"], 5.0)
-        wait_until(lambda: "gone published: lost" in notes, timeout=10.0)
-        assert any(n.startswith("gone fired: ada offline (relay yard lost: no answer for ")
-                   for n in notes)
         wall = runner._wall(runner.clock.now() + 60.0)
         assert abs((wall - dt.datetime.now()).total_seconds() - 60.0) < 5.0
+        stops = len(sent("stage_stop"))
     finally:
         runner.stop()
         thread.join(20.0)
     assert not thread.is_alive()
+    # At the end: the relay's robots stopped and the relay released; rex stopped here.
+    assert [r["reason"] for r in sent("stage_stop")[stops:]] == ["behaviour ended"]
     assert sent("release") != []
+    assert [e.result.reason for e in stopped] == ["rule h", "behaviour ended"]
+
+
+def test_a_relay_lost_takes_its_performers_offline_at_once(tmp_path: Path) -> None:
+    from tests.behave.relays import Relays
+    from tests.relay.recording import RecordingSession
+    from xgo_show.behave.relayed import RelayAccess
+    from xgo_show.net import messages as msg
+
+    b = _behaviour(tmp_path, """\
+        - {name: gone, when: [{offline: 30, performers: [ada]}], do: [{publish: lost}]}
+        """, "")
+    session = RecordingSession(Relays())
+    access = RelayAccess({"ada": "zenoh:yard/rio"}, session,  # type: ignore[arg-type]
+                         msg.Conductor("c1", "alice"), namespace="ns", watchdog=5.0,
+                         timeout=1.0)
+    said: list[str] = []
+    runner = BehaviourRunner(b, {}, relays=access, say=lambda t, line: said.append(line))
+    thread, errors = _running(runner, 60.0)
+    try:
+        wait_until(lambda: session.of("stage_open") != [], timeout=10.0)
+        remote = runner.remote
+        assert remote is not None
+        # as the relay's heartbeats' watchdog says it
+        remote._on_lost("yard", remote.relays["yard"], 5.0)
+        wait_until(lambda: "rule gone: published: lost" in said, timeout=10.0)
+    finally:
+        runner.stop()
+        thread.join(20.0)
+    assert not thread.is_alive() and errors == []
+    assert said == ["rule gone: fired: ada offline (relay yard lost: no answer for 5000 ms "
+                    "(watchdog 5000 ms); it safe-stops its robots)", "rule gone: published: lost"]
+
+
+def _running(runner: BehaviourRunner, duration: float | None) -> tuple[threading.Thread,
+                                                                      list[BaseException]]:
+    """``runner.run(duration)`` in a thread; what it raised, if anything, collected."""
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            runner.run(duration)
+        except BaseException as exc:  # the test says what went wrong
+            errors.append(exc)
+
+    thread = threading.Thread(target=run)
+    thread.start()
+    return thread, errors
+
+
+def test_the_runner_ends_after_its_duration_acting_on_its_timers_on_the_way(
+    tmp_path: Path,
+) -> None:
+    # No port here: nothing but the engine's own timers wakes the runner.
+    b = _behaviour(tmp_path, """\
+        - {name: up, when: [{startup: true}], do: [{publish: up}]}
+        - {name: tick, mode: parallel, when: [{every: 0.1}], do: [{publish: tick}]}
+        - {name: gone, when: [{offline: 100}], do: [{publish: gone}]}
+        """, "")
+    notes: list[tuple[float, str]] = []
+    runner = BehaviourRunner(b, {}, say=lambda t, line: notes.append((t, line)))
+    begun = time.monotonic()
+    thread, errors = _running(runner, 0.5)
+    thread.join(10.0)
+    assert not thread.is_alive() and errors == []
+    assert time.monotonic() - begun >= 0.5
+    start = notes[0][0]
+    assert notes[:2] == [(start, "rule up: fired: start-up"), (start, "rule up: published: up")]
+    ticks = [t - start for t, line in notes if line == "rule tick: fired: every 0.1 s"]
+    assert ticks[:3] == pytest.approx([0.1, 0.2, 0.3], abs=1e-9)  # each at its own time
+    assert 3 <= len(ticks) <= 5
+
+
+def test_the_runner_waits_for_inputs_as_long_as_needed_and_stops_on_request(
+    tmp_path: Path,
+) -> None:
+    b = _behaviour(tmp_path, """\
+        - {name: g, mode: parallel, when: [{trigger: go}], do: [{publish: went}]}
+        """)
+    said: list[str] = []
+    runner = BehaviourRunner(b, {}, say=lambda t, line: said.append(line))
+    thread, errors = _running(runner, None)  # no deadline and no end: it waits for inputs
+    try:
+        time.sleep(0.7)
+        runner.trigger("go")
+        wait_until(lambda: "rule g: published: went" in said, timeout=10.0)
+    finally:
+        runner.stop()
+        thread.join(10.0)
+    assert not thread.is_alive() and errors == []
+    assert said == ["rule g: fired: trigger go", "rule g: published: went"]
