@@ -430,15 +430,18 @@ def test_the_runner_waits_for_inputs_as_long_as_needed_and_stops_on_request(
     b = _behaviour(tmp_path, """\
         - {name: g, mode: parallel, when: [{trigger: go}], do: [{publish: went}]}
         """)
-    said: list[str] = []
-    runner = BehaviourRunner(b, {}, say=lambda t, line: said.append(line))
+    said: list[tuple[float, str]] = []
+    runner = BehaviourRunner(b, {}, say=lambda t, line: said.append((t, line)))
     thread, errors = _running(runner, None)  # no deadline and no end: it waits for inputs
     try:
         time.sleep(0.7)
+        sent = runner.clock.now()
         runner.trigger("go")
-        wait_until(lambda: "rule g: published: went" in said, timeout=10.0)
+        wait_until(lambda: (said[-1:] or [(0, "")])[0][1] == "rule g: published: went",
+                   timeout=10.0)
     finally:
         runner.stop()
         thread.join(10.0)
     assert not thread.is_alive() and errors == []
-    assert said == ["rule g: fired: trigger go", "rule g: published: went"]
+    assert [line for _, line in said] == ["rule g: fired: trigger go", "rule g: published: went"]
+    assert said[0][0] == said[1][0] and 0.0 <= said[0][0] - sent < 5.0  # when it arrived
