@@ -316,8 +316,6 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
         assert round(session.of("hello")[0].timeout) == 1
         remote = runner.remote
         assert remote is not None
-        link = remote.relays["yard"].client.link
-        link.offset, link.best_rtt = AHEAD["yard"], 0.0  # kept from now on
         asked = runner.clock.now()
         runner.trigger("go")
         wait_until(lambda: sent("stage_play") != [] and any(
@@ -326,7 +324,8 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
         first = next(f for f in frames if f.kind == "frame" and f.performer == "rex")
         # One start for both hosts, a lead after the trigger; the relay's on its own clock.
         assert first.planned is not None and first.planned >= asked + 0.002
-        assert play["at"] == first.planned + AHEAD["yard"]
+        # (the relay's clock offset as its answers show it, to within their round trip)
+        assert play["at"] == pytest.approx(first.planned + AHEAD["yard"], abs=0.05)
         assert play["robots"] == ["rio"]
         with relays.lock:
             relays.status["yard"] = {"stage": {"ended": [["rio", play["play"]]]}}
