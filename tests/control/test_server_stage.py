@@ -71,8 +71,10 @@ def state(s: Serve) -> str:
 
 
 def ended(s: Serve) -> dict[str, Any]:
-    """The last result, once the show's thread has said it."""
-    wait_until(lambda: s.server.status()["last_result"] is not None)
+    """The last result, once the show's thread has said it: the result is in the status a
+    moment before its "ended" line is said, so both are waited for."""
+    wait_until(lambda: s.server.status()["last_result"] is not None
+               and any(line.startswith("show ") and " ended: " in line for line in s.said))
     last: dict[str, Any] = s.server.status()["last_result"]
     return last
 
