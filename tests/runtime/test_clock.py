@@ -282,3 +282,94 @@ def test_an_early_wait_is_cut_short_by_its_interrupt_while_on_the_cpu(
     t0 = time.monotonic()
     assert not clock_module._block_until(t0 + 3.0, stop)
     assert time.monotonic() - t0 < 1.0
+
+
+@pytest.mark.parametrize(("confstr", "trusted"), [
+    ("glibc 2.30", True),  # sem_clockwait: timed waits on CLOCK_MONOTONIC
+    ("glibc 2.36", True),
+    ("glibc 3.0", True),
+    ("glibc 2.29", False),  # waits on the wall clock
+    ("glibc 1.99", False),
+    ("musl 1.2", False),
+    ("musl 2.31", False),  # a version new enough, but not glibc
+    ("glibc", False),  # a version this cannot read
+    ("glibc 2", False),
+    ("glibc 2.30.1", True),  # a third part, read past
+    ("", False),
+    (None, False),
+])
+def test_which_c_libraries_wait_on_the_monotonic_clock(
+    monkeypatch: pytest.MonkeyPatch, confstr: str | None, trusted: bool
+) -> None:
+    from xgo_show.runtime import clock as clock_module
+
+    monkeypatch.setattr(clock_module.sys, "platform", "linux")
+    monkeypatch.setattr(clock_module.os, "confstr", lambda name: confstr)
+    assert clock_module._timeouts_on_monotonic() is trusted
+    monkeypatch.setattr(clock_module.sys, "platform", "darwin")
+    monkeypatch.setattr(clock_module.os, "confstr", lambda name: "glibc 2.36")
+    assert clock_module._timeouts_on_monotonic() is False
+
+
+class _SleepLog:
+    """``time`` for clock.py: the real clock, and every sleep's length noted."""
+
+    def __init__(self) -> None:
+        self.naps: list[float] = []
+        self.monotonic = time.monotonic
+
+    def sleep(self, seconds: float) -> None:
+        self.naps.append(seconds)
+        time.sleep(seconds)
+
+
+def test_an_early_wait_blocks_only_up_to_early_before_its_deadline(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from xgo_show.runtime import clock as clock_module
+
+    monkeypatch.setattr(clock_module, "EARLY", 0.005)
+    log = _SleepLog()
+    monkeypatch.setattr(clock_module, "time", log)
+    deadline = time.monotonic() + 0.03
+    assert clock_module._block_until(deadline, None) is True
+    assert time.monotonic() >= deadline
+    assert log.naps and all(0 < nap <= 0.025 for nap in log.naps)
+    naps = _NapLog()
+    deadline = time.monotonic() + 0.03
+    assert clock_module._block_until(deadline, naps) is True
+    assert naps.naps and all(n is not None and 0 < n <= 0.025 for n in naps.naps)
+
+
+def test_a_real_time_wait_is_cut_short_by_its_interrupt_while_it_blocks(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from xgo_show.runtime import clock as clock_module
+
+    monkeypatch.setattr(clock_module, "EARLY", 0.002)
+    stop = threading.Event()
+    stop.set()
+    t0 = time.monotonic()
+    assert clock_module._block_until(t0 + 3.0, stop) is False
+    assert time.monotonic() - t0 < 1.0
+
+    def work() -> tuple[bool, float]:
+        # In a SCHED_FIFO thread, through the clock: a stop request wakes the wait at once.
+        late = threading.Event()
+        threading.Timer(0.05, late.set).start()
+        start = time.monotonic()
+        woke = MonotonicClock().sleep_until(start + 5.0, late)
+        return woke, time.monotonic() - start
+
+    woke, took = _in_fifo_thread(work)["result"]  # type: ignore[misc]
+    assert woke is False and took < 2.5
+
+
+def test_without_early_a_wait_that_ran_out_ends_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    from xgo_show.runtime import clock as clock_module
+
+    monkeypatch.setattr(clock_module, "EARLY", 0.0)
+    for interrupt in (None, threading.Event()):
+        deadline = time.monotonic() + 0.01
+        assert clock_module._block_until(deadline, interrupt) is True
+        assert time.monotonic() >= deadline
