@@ -826,6 +826,9 @@ def test_progress_is_published_just_after_an_instant_of_the_grid(
     instant = -(-3.257 // step) * step
     assert when == pytest.approx(100.25 + (instant - 3.257) + after)
     assert 100.25 < when <= 100.25 + step + 0.001
+    # Off the grid on both clocks: the show time 0.2537 s later is 3.2607.
+    off = runner._after_instant(100.2648, 100.0111, 3.007)
+    assert off == pytest.approx(100.2648 + (-(-3.2607 // step) * step - 3.2607) + after)
     on_grid = runner._after_instant(100.25, 100.0, 3.0)  # already on an instant
     assert on_grid == pytest.approx(100.25 + after)
     monkeypatch.setattr(show_runner_module, "PROGRESS_AFTER", None)
