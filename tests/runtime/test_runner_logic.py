@@ -833,3 +833,27 @@ def test_progress_is_published_just_after_an_instant_of_the_grid(
     assert on_grid == pytest.approx(100.25 + after)
     monkeypatch.setattr(show_runner_module, "PROGRESS_AFTER", None)
     assert runner._after_instant(100.25, 100.0, 3.007) == 100.25
+
+
+def test_the_supervisor_wakes_for_the_next_tick_not_a_whole_interval_later(
+    schedule: Schedule, clock: FakeClock, two: dict[str, Stub]
+) -> None:
+    # Ticks every 0.5 s of clock time, moved to just after an instant: the next is due 1 ms
+    # after the interval. The supervisor waits only until it (not another whole interval).
+    runner = runner_for(schedule, two, clock, progress_hz=2.0)
+    ticks = EventRecorder(runner.events, ProgressTick)
+    result = in_thread(runner)
+    started(two)
+    wait_until(lambda: len(ticks.events) == 1)
+    clock.advance(0.5)  # the interval, not yet the instant after it
+    time.sleep(0.6)  # the supervisor's first wait (0.5 s of real time) is over
+    assert len(ticks.events) == 1
+    advanced = time.monotonic()
+    clock.advance(0.002)
+    seen = wait_until(lambda: len(ticks.events) == 2)
+    for s in two.values():
+        s.end()
+    result()
+    assert ticks.events[1].t == pytest.approx(T0 + 0.502)
+    # Waiting a whole interval again would have seen it up to 0.5 s later.
+    assert seen - advanced < 0.25
