@@ -30,7 +30,8 @@ from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.sim import create_robot
 from xgo_show.transports.sim import SimTransport
 
-ROUTINES = {"one": {"rex": 0.4}, "duo": {"rex": 0.4, "ada": 0.6}, "long": {"rex": 5.0}}
+ROUTINES = {"one": {"rex": 0.4}, "duo": {"rex": 0.4, "ada": 0.6}, "long": {"rex": 5.0},
+            "aside": {"ada": 0.6}}
 MODELS = {"rex": "mini", "ada": "rider"}
 
 
@@ -281,9 +282,11 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
     b = _behaviour(tmp_path, """\
         - {name: g, when: [{trigger: go}], do: [{play: duo}]}
         - {name: e, when: [{routine_ended: duo, performers: [ada]}], do: [{publish: done}]}
+        - {name: f, when: [{routine_ended: duo, performers: [rex]}], do: [{publish: here}]}
+        - {name: a, when: [{trigger: aside}], do: [{play: aside}]}
         - {name: h, mode: parallel, when: [{trigger: hush}],
            do: [{stop: [rex, ada]}, {safe_stop: [ada, rex]}, {set: {body_z: 95}}]}
-        """, "triggers: [go, hush]\n")
+        """, "triggers: [go, hush, aside]\n")
     relays = Relays()
     session = RecordingSession(relays)
     access = RelayAccess({"ada": "zenoh:yard/rio"}, session,  # type: ignore[arg-type]
@@ -291,8 +294,14 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
                          timeout=1.0)
     bus = EventBus()
     notes: list[str] = []
-    bus.subscribe(lambda e: notes.append(f"{e.rule} {e.kind}: {e.text}")  # type: ignore[attr-defined]
-                  if isinstance(e, BehaviourNote) else None)
+    times: list[object] = []
+
+    def note(e: Event) -> None:
+        if isinstance(e, BehaviourNote):
+            notes.append(f"{e.rule} {e.kind}: {e.text}")
+            times.append(e.t)
+
+    bus.subscribe(note)
     links = _links()
     runner = BehaviourRunner(b, {"rex": links["rex"]}, events=bus, relays=access,
                              telemetry_interval=0.5, watch_interval=0.05)
@@ -304,8 +313,7 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
     def sent(op: str) -> list[dict[str, object]]:
         return [q.request for q in list(session.queries) if q.payload and q.op == op]
 
-    thread = threading.Thread(target=runner.run, kwargs={"duration": 60.0})
-    thread.start()
+    thread, errors = _running(runner, 60.0)
     try:
         wait_until(lambda: sent("stage_open") != [], timeout=10.0)
         (opened,) = sent("stage_open")
@@ -327,11 +335,22 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
         # (the relay's clock offset as its answers show it, to within their round trip)
         assert play["at"] == pytest.approx(first.planned + AHEAD["yard"], abs=0.05)
         assert play["robots"] == ["rio"]
+        assert play["sha256"] == remote.relays["yard"].hashes["duo"]
         with relays.lock:
             relays.status["yard"] = {"stage": {"ended": [["rio", play["play"]]]}}
         wait_until(lambda: "e published: done" in notes, timeout=10.0)
+        wait_until(lambda: "f published: here" in notes, timeout=10.0)  # rex's part, here
+        # On the relay alone: one host, so no start time: it plays as the command arrives.
+        runner.trigger("aside")
+        wait_until(lambda: len(sent("stage_play")) == 2, timeout=10.0)
+        assert sent("stage_play")[1]["at"] is None
+        assert sent("stage_play")[1]["sha256"] == remote.relays["yard"].hashes["aside"]
         runner.trigger("hush")
         wait_until(lambda: sent("stage_write") != [], timeout=10.0)
+        assert sent("stage_write")[0]["sha256"] == remote.relays["yard"].hashes["h.do[2]"]
+        body_z = next(p for p in b.writes["h.do[2]"].performers if p.name == "rex").frames[0].data
+        wait_until(lambda: any(f.kind == "set" and f.performer == "rex" and f.data == body_z
+                               for f in list(frames)), timeout=10.0)
         staged = [(r["op"], r["robots"]) for r in (q.request for q in list(session.queries))
                   if r["op"] in ("stage_rest", "stage_stop", "stage_write")]
         assert staged == [("stage_rest", ["rio"]), ("stage_stop", ["rio"]),
@@ -346,7 +365,8 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
     finally:
         runner.stop()
         thread.join(20.0)
-    assert not thread.is_alive()
+    assert not thread.is_alive() and errors == []
+    assert all(isinstance(t, float) for t in times)  # every decision at a clock time
     # At the end: the relay's robots stopped and the relay released; rex stopped here.
     assert [r["reason"] for r in sent("stage_stop")[stops:]] == ["behaviour ended"]
     assert sent("release") != []
