@@ -465,3 +465,34 @@ def test_the_runner_waits_for_inputs_as_long_as_needed_and_stops_on_request(
     assert not thread.is_alive() and errors == []
     assert [line for _, line in said] == ["rule g: fired: trigger go", "rule g: published: went"]
     assert said[0][0] == said[1][0] and 0.0 <= said[0][0] - sent < 5.0  # when it arrived
+
+
+def test_a_port_that_cannot_be_read_is_a_fault_of_its_performer(tmp_path: Path) -> None:
+    from xgo_show.errors import TransportError
+    from xgo_show.runtime.events import FaultRaised
+
+    class Breaking(SimTransport):
+        broken = False
+
+        def read(self, size: int = 4096, timeout: float = 0.0) -> bytes:
+            if self.broken:
+                raise TransportError("unplugged")
+            return super().read(size, timeout)
+
+    s = Staged(_behaviour(tmp_path))
+    faults: list[FaultRaised] = []
+    s.events.subscribe(faults.append, FaultRaised)  # type: ignore[arg-type]
+    link = Breaking(create_robot("mini"), url="sim:rex")
+    link.open()
+    s.stage.seats["rex"].transport = link
+    s.stage.start()
+    try:
+        wait_until(lambda: any(e.kind == "read" and e.performer == "rex" for e in list(s.seen)),
+                   timeout=10.0)
+        link.broken = True
+        wait_until(lambda: faults != [], timeout=10.0)
+        assert [(e.performer, e.reason) for e in faults] == [("rex", "port sim:rex: unplugged")]
+        wait_until(lambda: not any(t.name == "xgo-show behave reader rex"
+                                   for t in threading.enumerate()), timeout=10.0)
+    finally:
+        s.stage.close()
