@@ -25,7 +25,7 @@ from xgo_show.behave.loader import Behaviour
 from xgo_show.behave.ports import WATCH_INTERVAL, BehaviourRunner, PortStage
 from xgo_show.profiles import get_profile
 from xgo_show.runtime.clock import MonotonicClock
-from xgo_show.runtime.events import Event, EventBus, FrameSent, SafeStopped
+from xgo_show.runtime.events import Event, EventBus, FaultRaised, FrameSent, SafeStopped
 from xgo_show.runtime.safety import rest_frames, stop_frames
 from xgo_show.sim import create_robot
 from xgo_show.transports.sim import SimTransport
@@ -243,6 +243,7 @@ def test_the_runner_plays_on_triggers_and_routine_ends_and_stops_safely(
     b = _behaviour(tmp_path, """\
         - {name: g, when: [{trigger: go}], do: [{play: duo}]}
         - {name: e, when: [{routine_ended: duo, performers: [ada]}], do: [{publish: done}]}
+        - {name: low, when: [{battery_below: 60, performers: [rex]}], do: [{publish: low}]}
         """)
     bus = EventBus()
     notes: list[str] = []
@@ -254,18 +255,26 @@ def test_the_runner_plays_on_triggers_and_routine_ends_and_stops_safely(
 
     bus.subscribe(note)
     links = _links()
+    links["rex"] = SimTransport(create_robot("mini", battery=50.0))
+    links["rex"].open()
     runner = BehaviourRunner(b, links, events=bus, say=lambda t, line: said.append(line))
     thread = threading.Thread(target=runner.run, kwargs={"duration": 20.0})
     thread.start()
     try:
         runner.trigger("go")
         wait_until(lambda: "e published: done" in notes, timeout=10.0)
+        # the robots' telemetry reaches the engine (rex's battery is at 50 %)
+        wait_until(lambda: "low published: low" in notes, timeout=10.0)
+        assert runner.stage.seats["rex"].poller.interval == 0.25  # the runner's defaults
+        assert runner.stage.seats["rex"].poller.watch == {"status": WATCH_INTERVAL,
+                                                          "attitude": WATCH_INTERVAL}
     finally:
         runner.stop()
         thread.join(10.0)
     assert not thread.is_alive()
-    assert notes == ["g fired: trigger go", "g action: rex, ada plays duo",
-                     "e fired: duo ended on ada", "e published: done"]
+    assert [n for n in notes if not n.startswith("low ")] == [
+        "g fired: trigger go", "g action: rex, ada plays duo", "e fired: duo ended on ada",
+        "e published: done"]
     assert said == [f"rule {n.split(' ', 1)[0]}: {n.split(' ', 1)[1]}" for n in notes]
     assert all(seat.executor is None for seat in runner.stage.seats.values())
     # The robots were stopped safely at the end, and the port is read by no one.
@@ -309,6 +318,8 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
     bus.subscribe(frames.append, FrameSent)  # type: ignore[arg-type]
     stopped: list[SafeStopped] = []
     bus.subscribe(stopped.append, SafeStopped)  # type: ignore[arg-type]
+    faults: list[FaultRaised] = []
+    bus.subscribe(faults.append, FaultRaised)  # type: ignore[arg-type]
 
     def sent(op: str) -> list[dict[str, object]]:
         return [q.request for q in list(session.queries) if q.payload and q.op == op]
@@ -320,6 +331,9 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
         assert {k: opened[k] for k in ("robots", "watch", "telemetry", "watchdog_ms")} == {
             "robots": ["rio"], "watch": 0.05, "telemetry": 0.5, "watchdog_ms": 5000}
         assert opened["conductor"] == {"id": "c1", "name": "alice"}
+        seat = runner.stage.seats["rex"]  # the same rates here
+        assert (seat.poller.interval, seat.poller.watch) == (
+            0.5, {"status": 0.05, "attitude": 0.05})
         assert {q.key for q in session.queries} == {"ns/relay/yard/cmd"}
         assert round(session.of("hello")[0].timeout) == 1
         remote = runner.remote
@@ -337,16 +351,24 @@ def test_the_runner_plays_here_and_behind_a_relay_together(tmp_path: Path) -> No
         assert play["robots"] == ["rio"]
         assert play["sha256"] == remote.relays["yard"].hashes["duo"]
         with relays.lock:
-            relays.status["yard"] = {"stage": {"ended": [["rio", play["play"]]]}}
+            relays.status["yard"] = {"stage": {"ended": [["rio", play["play"]]]},
+                                     "events": [["x", "rio", "fell", 1.0]]}
         wait_until(lambda: "e published: done" in notes, timeout=10.0)
         wait_until(lambda: "f published: here" in notes, timeout=10.0)  # rex's part, here
+        # the relay's events on the runner's bus, at this clock's time
+        assert [(e.performer, e.reason) for e in list(faults)] == [("ada", "fell")]
         # On the relay alone: one host, so no start time: it plays as the command arrives.
         runner.trigger("aside")
         wait_until(lambda: len(sent("stage_play")) == 2, timeout=10.0)
         assert sent("stage_play")[1]["at"] is None
         assert sent("stage_play")[1]["sha256"] == remote.relays["yard"].hashes["aside"]
+        relays.refuse[("yard", "stage_rest")] = "not now"
         runner.trigger("hush")
         wait_until(lambda: sent("stage_write") != [], timeout=10.0)
+        wait_until(lambda: len(faults) == 2, timeout=10.0)
+        assert (faults[1].performer, faults[1].reason) == (
+            "ada", "stage_rest: relay yard: not now")
+        assert 0.0 <= runner.clock.now() - faults[1].t < 10.0
         assert sent("stage_write")[0]["sha256"] == remote.relays["yard"].hashes["h.do[2]"]
         body_z = next(p for p in b.writes["h.do[2]"].performers if p.name == "rex").frames[0].data
         wait_until(lambda: any(f.kind == "set" and f.performer == "rex" and f.data == body_z
@@ -387,7 +409,9 @@ def test_a_relay_lost_takes_its_performers_offline_at_once(tmp_path: Path) -> No
                          msg.Conductor("c1", "alice"), namespace="ns", watchdog=5.0,
                          timeout=1.0)
     said: list[str] = []
-    runner = BehaviourRunner(b, {}, relays=access, say=lambda t, line: said.append(line))
+    times: list[object] = []
+    runner = BehaviourRunner(b, {}, relays=access,
+                             say=lambda t, line: (said.append(line), times.append(t)))
     thread, errors = _running(runner, 60.0)
     try:
         wait_until(lambda: session.of("stage_open") != [], timeout=10.0)
@@ -402,6 +426,7 @@ def test_a_relay_lost_takes_its_performers_offline_at_once(tmp_path: Path) -> No
     assert not thread.is_alive() and errors == []
     assert said == ["rule gone: fired: ada offline (relay yard lost: no answer for 5000 ms "
                     "(watchdog 5000 ms); it safe-stops its robots)", "rule gone: published: lost"]
+    assert all(isinstance(t, float) for t in times)
 
 
 def _running(runner: BehaviourRunner, duration: float | None) -> tuple[threading.Thread,
