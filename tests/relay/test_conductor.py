@@ -9,6 +9,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -175,6 +176,20 @@ def test_a_lost_relay_stops_the_whole_show_within_the_watchdog(
         until(lambda: bool(left.stop_times("rex")), 3)
 
 
+def logged(path: Path, event: str, timeout: float = 10.0) -> dict[str, Any]:
+    """The first ``event`` record of a relay's run log, once it is there: a relay writes its
+    trace when its own show has ended, which can be a moment after the conductor has exited."""
+    from xgo_show.runtime.runlog import read_log
+
+    deadline = time.monotonic() + timeout
+    while True:
+        found = [r for r in read_log(path) if r.get("event") == event] if path.exists() else []
+        if found or time.monotonic() > deadline:
+            assert found, f"no {event} record in {path} after {timeout} s"
+            return found[0]
+        time.sleep(0.05)
+
+
 def test_relays_with_skewed_clocks_start_together(relays, walk, tmp_path: Path) -> None:
     # Each relay's clock is seconds off this machine's and runs at another rate: only the
     # time sync (offset measured, timebase pushed) can put their first frames together.
@@ -235,8 +250,7 @@ def test_relays_with_skewed_clocks_start_together(relays, walk, tmp_path: Path) 
 
     start_at = next(r for r in read_log(tmp_path / "run.jsonl") if r.get("event") == "start")
     for relay in ("left", "right"):
-        log = read_log(tmp_path / f"{relay}.jsonl")
-        first = next(r for r in log if r.get("event") == "first_frame")
+        first = logged(tmp_path / f"{relay}.jsonl", "first_frame")
         assert first["start_at"] == pytest.approx(start_at["start_at"], abs=1e-6)
         assert abs(first["planned_host"] - start_at["start_at"]) < max(bounds) / 1e3 + 0.0005
     firsts = []
@@ -283,7 +297,7 @@ def test_eight_relays_start_together_on_a_lead_from_measured_round_trips(
     for relay, name, relay_log in zip(started, names, logs, strict=True):
         sent = [f.data for f in show.performer(name).frames]
         assert [d for d in relay.received(name) if d in sent] == sent
-        first = next(r for r in read_log(relay_log) if r.get("event") == "first_frame")
+        first = logged(relay_log, "first_frame")
         writes.append(first["actual_host"])
     # The relays wrote their first frames together: 8 relay processes with SCHED_FIFO writers
     # on a shared, busy 2-CPU machine. (Not the receive times: the simulators are threads of
