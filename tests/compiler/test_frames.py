@@ -323,3 +323,44 @@ def test_tick_times_are_each_ticks_time(rate: float, k0: int, count: int) -> Non
 
     assert tick_times(k0, k0 + count, rate) == [tick_us(k, rate)
                                                 for k in range(k0, k0 + count)]
+
+
+@given(st.binary(max_size=80), st.integers(1, 9))
+@example(b"\n", 1)  # a newline alone: the byte '.' skips without DOTALL
+@example(b"\n\n\r\n", 2)
+@example(b"ab\ncd\n", 3)
+@example(b"ab\n", 2)  # a shorter rest is no row
+def test_cut_rows_cuts_any_bytes_into_whole_rows_in_order(buf: bytes, width: int) -> None:
+    from xgo_show.compiler.frames import cut_rows
+
+    rows = [buf[i:i + width] for i in range(0, len(buf) - width + 1, width)]
+    assert cut_rows(buf, width) == rows
+    # The planner cuts a bytearray: its rows are bytes all the same.
+    cut = cut_rows(bytearray(buf), width)
+    assert cut == rows and all(type(row) is bytes for row in cut)
+
+
+def test_cut_rows_of_every_byte_value() -> None:
+    from xgo_show.compiler.frames import cut_rows
+
+    every = bytes(range(256))
+    assert cut_rows(every, 4) == [bytes((i, i + 1, i + 2, i + 3)) for i in range(0, 256, 4)]
+    assert cut_rows(every, 1) == [bytes((i,)) for i in range(256)]
+    assert cut_rows(every, 256) == [every] and cut_rows(every, 257) == []
+    assert cut_rows(b"", 3) == []
+
+
+def test_cut_rows_compiles_a_widths_pattern_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    import re
+
+    from xgo_show.compiler import frames
+
+    monkeypatch.setattr(frames, "_CUTS", {})  # the patterns made here, none from another test
+    assert frames.cut_rows(b"\n\r\n\x00\n\n", 3) == [b"\n\r\n", b"\x00\n\n"]
+    assert frames.cut_rows(b"abcd", 2) == [b"ab", b"cd"]
+    assert sorted(frames._CUTS) == [2, 3]
+    assert frames._CUTS[3].pattern == b"..." and frames._CUTS[3].flags & re.DOTALL
+    # The next call of a width takes its pattern from the cache: one put there that cuts
+    # single bytes shows it is used, not made again.
+    frames._CUTS[3] = re.compile(b".", re.DOTALL)
+    assert frames.cut_rows(b"abc", 3) == [b"a", b"b", b"c"]

@@ -914,17 +914,20 @@ def test_a_move_handing_over_beside_another_move_replaces_only_its_own_sample() 
                                       0x37: (bytes([MINI.register("pitch").to_byte(5.0)]), "n")}
 
 
-def test_rows_of_any_width_and_any_bytes_are_cut_whole() -> None:
+def test_rows_of_any_width_and_any_bytes_are_cut_whole(monkeypatch: pytest.MonkeyPatch) -> None:
+    from xgo_show.compiler import frames
     from xgo_show.compiler import planner as module
 
-    module._CUTS.clear()  # the patterns made here, not remembered from another test
+    monkeypatch.setattr(frames, "_CUTS", {})  # the patterns made here, none from another test
     columns = [[10, 13, 0, 255], [10, 10, 46, 1], [0, 10, 13, 10]]
     assert module._rows(columns, 4) == [bytes(row) for row in zip(*columns, strict=True)]
     assert module._rows(columns[:2], 4) == [bytes(row) for row in zip(*columns[:2],
                                                                         strict=True)]
     assert module._rows(columns[:1], 4) == [b"\n", b"\r", b"\x00", b"\xff"]
-    assert sorted(module._CUTS) == [2, 3]  # one byte a row needs no pattern
+    assert sorted(frames._CUTS) == [2, 3]  # one byte a row needs no pattern
     assert module._rows(columns, 4) == [bytes(row) for row in zip(*columns, strict=True)]
+    with pytest.raises(ValueError):  # a column shorter than the count
+        module._rows([[1, 2, 3, 4], [1, 2, 3]], 4)
 
 
 def test_a_move_to_an_end_interrupted_by_another_to_that_end_is_planned() -> None:

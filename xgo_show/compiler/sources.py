@@ -8,11 +8,10 @@ samples or two samples of one register meet).
 
 from __future__ import annotations
 
-import re
 from collections.abc import Sequence
 from operator import ne
 
-from xgo_show.compiler.frames import Write
+from xgo_show.compiler.frames import Write, cut_rows
 from xgo_show.diagnostics import Origin
 from xgo_show.profiles.model import Register
 
@@ -95,9 +94,7 @@ def change_codes(samples: Sequence[bytes]) -> list[bytes]:
     diff = int.from_bytes(joined[width:], "big") ^ int.from_bytes(joined[:-width], "big")
     low = int.from_bytes(b"\x7f" * size, "big")
     code = ((diff & low) + low | diff) & int.from_bytes(b"\x80" * size, "big")
-    # Cut every ``width`` bytes (a code byte is 0 or 0x80: never the newline '.' skips);
-    # re keeps the compiled pattern.
-    return re.compile(b"." * width).findall(code.to_bytes(size, "big"))
+    return cut_rows(code.to_bytes(size, "big"), width)
 
 
 def changes(src: Source, sample: bytes, prev: bytes) -> tuple[bool, ...]:
