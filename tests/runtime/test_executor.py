@@ -1401,6 +1401,34 @@ def test_a_request_while_a_late_frame_waits_for_the_link_is_acted_on_before_it(p
     assert [r.index for r in rec.sent() if r.kind == "frame"] == list(range(6))
 
 
+def test_a_frame_planned_before_a_pause_goes_out_even_when_the_link_makes_it_late_past_it(
+        perf) -> None:
+    # Frame 0 goes out 1 ms late, so frame 1 (planned 0.5 ms in) waits for the link, which is
+    # busy until after the pause time (0.7 ms in): its wait is cut to the pause time, and the
+    # frame, planned before it, still goes out when the link is free (a frame's deadline is
+    # never before its planned time, so waking at it is waking for the frame); frame 2, planned
+    # after the pause time, is held.
+    clock = HookClock()
+    schedule = perf("rex", count=4, spacing=0.0005)
+    ex = PerformerExecutor(schedule, sim_link(clock), clock=clock, profile=MINI)
+    rec = EventRecorder(ex.events)
+    start = clock.now() + 0.1
+    waits: list[float] = []
+    clock.before = waits.append
+    clock.hook = lambda deadline: deadline == start and clock.advance(0.001)
+    ex.pause(at=start + 0.0007)
+    ex.start(start)
+    _wait_state(ex, ExecutorState.PAUSED)
+    frames = [r for r in rec.sent() if r.kind == "frame"]
+    assert [r.index for r in frames] == [0, 1]
+    assert frames[0].actual == pytest.approx(start + 0.001)
+    assert frames[1].actual == pytest.approx(start + 0.001 + MIN_SPACING)
+    assert start + 0.0007 in waits  # frame 1's wait ended at the pause time
+    ex.resume()
+    assert ex.join(5) and ex.state is ExecutorState.FINISHED
+    assert [r.index for r in rec.sent() if r.kind == "frame"] == [0, 1, 2, 3]
+
+
 def test_a_seek_while_playing_at_a_time_goes_on_exactly_then(perf) -> None:
     clock = HookClock()
     schedule = perf("rex", count=10, spacing=0.1)

@@ -517,7 +517,9 @@ class PerformerExecutor:
                     index = self._hold(index)
                     continue
                 deadline = min(deadline, pause_at)  # wake up for a pause due before this frame
-            group = self._group if deadline >= planned else None
+            # The deadline is never before the frame's planned time (a pause at or before it
+            # holds above): a wait that reaches it is one for this frame, which then goes out.
+            group = self._group
             entry = group.arm(self, deadline, frame.data) if group is not None else None
             try:
                 woke = self._wait(deadline)
@@ -527,8 +529,8 @@ class PerformerExecutor:
             if by_peer is not None:
                 self._announce(frame.data, "frame", index, planned, frame, by_peer)
             else:
-                if not woke or (deadline < planned and self.clock.now() < planned):
-                    continue  # woken by a request, or for a pause: re-check the flags
+                if not woke:
+                    continue  # woken by a request: re-check the flags
                 # The wait ended at the deadline, which the link is free by unless a telemetry
                 # request sent meanwhile was late enough to hold it longer: known without a
                 # clock read (each costs a relayed writer's slewed clock some microseconds).
