@@ -170,6 +170,21 @@ def test_a_log_that_writes_nowhere_makes_no_record(monkeypatch: pytest.MonkeyPat
     assert len(made) == 1 and [r["kind"] for r in kept.records] == ["frame"]
 
 
+def test_a_closed_file_log_makes_no_record(tmp_path: Path,
+                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    import xgo_show.runtime.runlog as runlog
+
+    bus, log = EventBus(), RunLog(tmp_path / "run.jsonl")
+    log.attach(bus)
+    log.event("fault", performer="rex")
+    log.close()
+    made: list[object] = []
+    monkeypatch.setattr(runlog.json, "dumps", lambda record, **kw: made.append(record) or "{}")
+    bus.publish(FrameSent(1.0, "rex", "frame", 0, 1.0, b"\x01", "", 0.0, 0.0, None))
+    log.write("sim", performer="rex")
+    assert made == [] and log.records == []
+    assert [r["kind"] for r in read_log(tmp_path / "run.jsonl")] == ["event"]
+
 def test_events_reach_the_disk_at_once_frames_when_closed(tmp_path: Path) -> None:
     path = tmp_path / "run.jsonl"
     log = RunLog(path)

@@ -69,10 +69,16 @@ class RunLog(Closing):
             except OSError as exc:
                 raise FileAccessError(f"cannot write the run log {self.path}: {exc}") from exc
 
+    @property
+    def _nowhere(self) -> bool:
+        """Whether a record would go nowhere: no file (none given, or closed) and none kept. A
+        log that writes nowhere (a relay or run without --log) makes no record at all."""
+        return self._file is None and not self._keep
+
     def write(self, kind: str, *, flush: bool = False, **fields: Any) -> None:
         """Append one record."""
-        if self._file is None and not self._keep:
-            return  # it would go nowhere: not even made (see on_event)
+        if self._nowhere:
+            return
         record: dict[str, Any] = {"kind": kind, "mono": round(time.monotonic(), 6), **fields}
         line = json.dumps(record, default=str)
         with self._lock:
@@ -93,9 +99,9 @@ class RunLog(Closing):
 
     def on_event(self, ev: Event) -> None:
         """One runtime event -> one record (progress ticks are not logged)."""
-        if self._file is None and not self._keep:
-            # A log that writes nowhere (a relay or run without --log) makes no record: on a
-            # relay this ran for every frame, 4 ms after its write, at real-time priority.
+        if self._nowhere:
+            # Not even the record's fields: on a relay this ran for every frame, 4 ms after its
+            # write, at real-time priority.
             return
         if isinstance(ev, FrameSent):
             self.write(
