@@ -130,6 +130,21 @@ def test_every_record_carries_the_monotonic_time_it_was_written() -> None:
     assert before - 1e-6 <= mono <= after + 1e-6 and round(mono, 6) == mono
 
 
+def test_a_records_monotonic_time_is_rounded_to_the_microsecond(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # Exact values: a real clock's reading has a seventh digit of 0 one time in ten, when any
+    # rounding from the sixth on looks the same.
+    from types import SimpleNamespace
+
+    import xgo_show.runtime.runlog as runlog
+
+    log = RunLog(None)
+    for now, mono in ((12.3456789, 12.345679), (7.0000004, 7.0), (3.1415926535, 3.141593)):
+        monkeypatch.setattr(runlog, "time", SimpleNamespace(monotonic=lambda now=now: now))
+        log.write("sim")
+        assert log.records[-1]["mono"] == mono
+
+
 def test_events_filters_the_event_records_by_name() -> None:
     log = RunLog(None)
     log.event("start", show="demo")
