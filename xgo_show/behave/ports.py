@@ -7,8 +7,8 @@ writer on a port. Between routines a seat runs a watcher (an executor with no fr
 polls telemetry; a routine's executor polls it while it plays. The seat alone reads the port
 (one reader, across executors), and the items a fall or tilt shows in are read every
 :data:`WATCH_INTERVAL` seconds, the rest in rotation. A routine pre-empted by another is
-paused first (the executor rests the robot: speeds to neutral), then ended, then the next
-one starts.
+ended, and the next executor's first frames rest the robot (speeds to neutral) and bring it to
+its default posture before the next routine's first frame.
 
 :class:`BehaviourRunner` owns the engine in one thread: every input (triggers, runtime events
 from the bus, routine ends) goes through one queue, so the engine is never entered twice.
@@ -38,7 +38,6 @@ from xgo_show.runtime.events import (
 )
 from xgo_show.runtime.executor import ExecutorState, PerformerExecutor
 from xgo_show.runtime.safety import rest_frames, stop_frames
-from xgo_show.runtime.show_runner import default_reach
 from xgo_show.runtime.telemetry import TelemetryPoller
 from xgo_show.transports.base import Transport
 
@@ -105,7 +104,8 @@ class _Seat:
             clock=st.clock,
             profile=self.profile,
             telemetry=self.poller,
-            reach=default_reach(part, self.profile),
+            # no reach: a seat's executor starts at its part's beginning and is never paused
+            # or sought (a routine cut is ended, and the next starts through the rest posture)
             linger_until=linger,
             events=st.events,
             rest_at_end=rest,
@@ -125,16 +125,23 @@ class _Seat:
         executor.start(now if at is None else max(at, now))
 
     def _read_loop(self) -> None:
-        while not self._reader_stop.is_set():
-            try:
-                chunk = self.transport.read(256, timeout=0.05)
-            except (TransportError, OSError) as exc:
-                if not self._reader_stop.is_set() and self._feed is not None:
-                    self._feed.port_failed(f"port {self.transport.url}: {exc}")
-                return
-            executor = self._feed
-            if chunk and executor is not None:
-                executor.received(chunk, self.stage.clock.now())
+        while not self._reader_stop.is_set() and self._read_once():
+            pass
+
+    def _read_once(self) -> bool:
+        """One read of the port (up to 50 ms: the stop flag is seen that often), its bytes
+        handed to the latest executor at the clock's time; False: the port failed (a fault of
+        the executor's, unless the seat is closing), so stop reading."""
+        try:
+            chunk = self.transport.read(256, timeout=0.05)
+        except (TransportError, OSError) as exc:
+            if not self._reader_stop.is_set() and self._feed is not None:
+                self._feed.port_failed(f"port {self.transport.url}: {exc}")
+            return False
+        executor = self._feed
+        if chunk and executor is not None:
+            executor.received(chunk, self.stage.clock.now())
+        return True
 
     def send(self, frames: list[tuple[bytes, str]]) -> None:
         """Write frames beside whatever plays (by the executor writing now, or the next)."""
@@ -380,11 +387,12 @@ class BehaviourRunner:
                 now = clock.now()
                 if end is not None and now >= end:
                     break
-                deadline = engine.next_deadline()
-                limits = [t for t in (deadline, end) if t is not None]
-                timeout = max(0.0, min(limits) - now) if limits else 0.5
+                # Until the engine's next deadline or the end, and at most half a second: a
+                # clock the caller gave may jump without waking the runner.
+                limits = (engine.next_deadline(), end)
+                wait = min([0.5] + [t - now for t in limits if t is not None])
                 try:
-                    kind, item = self._inbox.get(timeout=min(timeout, 0.5))
+                    kind, item = self._inbox.get(timeout=max(0.0, wait))
                 except queue.Empty:
                     engine.advance(clock.now())
                     continue
