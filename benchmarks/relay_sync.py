@@ -32,10 +32,14 @@ with the load average it was taken at:
    against the planned time), (c) delivery (the simulator's receive time against the write);
 2. skew after a long show (``--drift-seconds``, 60 by default): spread of the receive time of
    the show's first and last frame, synced with tracking, synced without tracking (offset
-   only), naive; and of every frame of its last 10 s (p50/p99/max over 200 frames), split
-   into the same parts as a start (the ``frames_host`` records): (a) the spread of the planned
-   write times (where each relay's slewing clock put the frame; with a start time, also each
-   relay's error against the true time), (b) issue lateness, (c) delivery;
+   only), naive, and the same show on the N local processes of part 1 (their own simulators;
+   ``--drift-one-process``: on the one local process too), played in turn with the synced
+   relays ``--drift-rounds`` times; and one table of every frame of its last 10 s
+   (p50/p99/p99.9/max over 200 frames a show, the load average at the show's start and end),
+   split into the same parts as a start (the relays' ``frames_host`` records, the local
+   processes' own): (a) the spread of the planned write times (where each relay's slewing
+   clock put the frame; for synced relays also each one's error against the true time),
+   (b) issue lateness, (c) delivery; and (b) over the whole show;
 3. send-time error at the robot (receive time - planned time) of a relayed robot vs the same
    schedule played by the local processes: what the relay adds;
 4. the estimator with a test-only delay on every time-sync reply (5 ms +- 2 ms, one way): its
@@ -50,10 +54,13 @@ Prints figures only (no asserts). It takes minutes: run it outside the land lock
     python benchmarks/relay_sync.py --quick     # about a minute: 5 starts, 10 s drift, no scale
 
 ``--trace-ab`` plays relays without the tracer (``XGO_SHOW_TEST_TRACE``) in turn with the traced
-ones, ``--before REV`` relays running revision REV's ``xgo_show``; for each, every frame's delivery
-and the p50 differences against the local processes, with a bootstrap interval over the start
-rounds. ``--sim-realtime`` raises the simulators (the measuring instrument) to SCHED_FIFO 20, above
-the writers, once they are ready, so their wake-ups (a robot has a CPU of its own) leave the
+ones, ``--before REV`` relays running revision REV's ``xgo_show`` (in the drift shows too); for
+each, every frame's delivery and the p50 differences against the local processes, with a
+bootstrap interval over the start rounds. ``--keep DIR`` keeps every record (simulators', relays'
+run logs) and ``--thread-names`` has each relay note its threads' kernel ids and names there
+(``relay_variants.py --threads``), to read a kernel trace of the run against them.
+``--sim-realtime`` raises the simulators (the measuring instrument) to SCHED_FIFO 20, above the
+writers, once they are ready, so their wake-ups (a robot has a CPU of its own) leave the
 figures; ``--estimates 0`` skips part 4; ``--no-realtime-too`` adds relays and a local runner
 with ``--no-realtime``.
 """
@@ -102,6 +109,8 @@ WAKE = "bare wake-up"  # the floor: processes that only wake at the start (start
 GROUPS: dict[str, tuple[str, ...]] = {"": (), " --no-realtime": ("--no-realtime",)}
 #: with --sim-realtime: the simulators' SCHED_FIFO priority, so they wake at once like robots
 SIM_PRIORITY: list[int] = []
+#: with --thread-names: relays started through relay_variants.py --threads (see start_relays)
+THREAD_NAMES: list[bool] = []
 
 
 # ---------------------------------------------------------------------------- processes
@@ -252,11 +261,14 @@ def start_relays(
         rate = rng.uniform(-100.0, 100.0) if ppm else 0.0
         port = _free_port()
         log = rig.tmp / f"{name}-run.jsonl"
+        # --thread-names: through relay_variants.py, which notes each Python thread's kernel
+        # id and name (NAME-threads.txt: a kernel trace names the threads with it)
+        names = rig.tmp / f"{name}-threads.txt"
+        via = [str(Path(__file__).with_name("relay_variants.py")), "--threads", str(names), "--"]
         proc = subprocess.Popen(
             [
                 sys.executable,
-                "-m",
-                "xgo_show",
+                *(via if THREAD_NAMES else ["-m", "xgo_show"]),
                 "relay",
                 "--name",
                 name,
@@ -426,6 +438,7 @@ class Run:
     # robot -> (planned, actual) time of its first frame's write, on this machine's clock
     writes: dict[str, tuple[float, float]] = field(default_factory=dict)
     load: float = 0.0  # the 1-minute load average when it started
+    load_end: float = 0.0  # and when it had ended
     # robot -> (planned, actual) write time of every scheduled frame, in order: on this
     # machine's clock (local processes) or on the relay's show clock, which reads the
     # conductor's time, this machine's clock here, to within its estimate's error (part (a))
@@ -546,8 +559,12 @@ DRIFT_WINDOW = 10.0
 
 def host_frames(relay: Relay, run: Run) -> dict[int, tuple[float, float]]:
     """schedule index -> (planned, actual) write time on this machine's clock of every
-    scheduled frame of ``run``: the relay's ``frames_host`` record (``XGO_SHOW_TEST_TRACE``)."""
-    assert relay.log is not None
+    scheduled frame of ``run``: the relay's ``frames_host`` record (``XGO_SHOW_TEST_TRACE``),
+    or a local process's robot's writes (no log: its process sent them back, :class:`Run`)."""
+    if relay.log is None:
+        assert run.start_at is not None
+        rows = run.frames.get(relay.name, [])
+        return {round((p - run.start_at) * RATE): (p, a) for p, a in rows}
     for line in relay.log.read_text(encoding="utf-8").splitlines():
         rec = json.loads(line)
         if rec.get("event") == "frames_host" and run.sent <= rec["start_host"] <= run.ended:
@@ -574,21 +591,21 @@ def scheduled_received(sim: Sim, run: Run, schedule: Schedule) -> dict[int, floa
     return out
 
 
-def print_drift_parts(
-    label: str, robots: Sequence[Relay], run: Run, window: float, schedule: Schedule
-) -> None:
-    """The skew of every frame in the last ``window`` seconds of a long show and its parts'
-    spreads: (a) where each relay's clock put the frame, (b) issue lateness, (c) delivery;
-    with a start time (synced), also each relay's clock error against the true planned time."""
+def drift_rows(
+    robots: Sequence[Relay], run: Run, window: float, schedule: Schedule
+) -> dict[str, list[float]] | None:
+    """Every frame of the last ``window`` seconds of a long show: its skew (the spread of
+    its receive time across the robots) and the spread of each part, (a) where each robot's
+    clock put the frame, (b) issue lateness, (c) delivery (ms; None: a relay left no
+    ``frames_host`` record); and, for synced relays, each one's planned time against the
+    true one (``error``)."""
     traced = [host_frames(r, run) for r in robots]
     got = [scheduled_received(r.sim, run, schedule) for r in robots]
     n = len(schedule.performers[0].frames)
     if not all(traced):
-        print(f"   {label:26s} (no frames_host record: not split)")
-        return
+        return None
     first = max(0, n - round(window * RATE))
-    rows: dict[str, list[float]] = {k: [] for k, _ in PARTS}
-    errors: list[float] = []
+    rows: dict[str, list[float]] = {k: [] for k in (*dict(PARTS), "error")}
     for k in range(first, n):
         if any(k not in t for t in traced) or any(k not in g for g in got):
             continue
@@ -600,17 +617,84 @@ def print_drift_parts(
         rows["late"].append(max(late) - min(late))
         rows["delivery"].append(max(delivery) - min(delivery))
         rows["total"].append((max(recv) - min(recv)) * 1000)
-        if run.start_at is not None:
-            errors += [abs(p - run.start_at - k / RATE) * 1000 for p in planned]
-    print(f"   {label}")
-    names = {
-        "clock": "(a) planned write time (the relay's clock)",
-        "total": "receive time: the skew",
-    }
-    for k, what in PARTS:
-        print(f"     {names.get(k, what)[:58]:58s} {stats(rows[k])}")
-    if errors:
-        print(f"     {'  (a) each relay: |planned - true planned time|':58s} {stats(errors)}")
+        if run.start_at is not None and robots[0].log is not None:  # relays' own clocks
+            rows["error"] += [abs(p - run.start_at - k / RATE) * 1000 for p in planned]
+    return rows
+
+
+#: the drift table's rows, in print order
+DRIFT_PARTS = (
+    ("total", "skew: spread of the receive time"),
+    ("clock", "(a) spread of the planned write time"),
+    ("error", "(a) each relay: abs(planned - true)"),
+    ("late", "(b) spread of the issue lateness"),
+    ("delivery", "(c) spread of the delivery"),
+)
+
+
+def report_drift(
+    args: argparse.Namespace,
+    runs: Sequence[Run],
+    robots_of: dict[str, list[Relay]],
+    schedule: Schedule,
+) -> None:
+    """Part 2: the first and the last frame's skew of each long show, and one table of every
+    frame of its last :data:`DRIFT_WINDOW` seconds, split into parts, with the load average
+    at the show's start and end beside each row."""
+    n = len(schedule.performers[0].frames)
+    print(
+        f"\n2. skew after {args.drift_seconds:g} s of show: spread of the first and of the last "
+        "scheduled frame's receive time across the robots (ms)"
+    )
+    seen: dict[str, int] = {}
+    labels = []
+    for r in runs:
+        seen[r.mode] = seen.get(r.mode, 0) + 1
+        many = sum(x.mode == r.mode for x in runs) > 1
+        labels.append(r.mode[6:] + (f" #{seen[r.mode]}" if many else ""))
+    for label, r in zip(labels, runs, strict=True):
+        got = [scheduled_received(x.sim, r, schedule) for x in robots_of[r.mode]]
+        ends = []
+        for k in (0, n - 1):
+            times = [g[k] for g in got if k in g]
+            ends.append((max(times) - min(times)) * 1000 if len(times) == len(got) else 0.0)
+        print(
+            f"   {label:34s} first {ends[0]:8.3f}   last {ends[1]:8.3f}   "
+            f"(load average {r.load:.2f}-{r.load_end:.2f})"
+        )
+    window = min(DRIFT_WINDOW, args.drift_seconds / 2)
+    print(
+        f"   every frame of the last {window:g} s ({round(window * RATE)} frames a show): "
+        "its skew and the spread of each part across the robots (ms)"
+    )
+    print("   | show | what | p50 | p99 | p99.9 | max | n | load average |")
+    print("   | --- | --- | --- | --- | --- | --- | --- | --- |")
+    for label, r in zip(labels, runs, strict=True):
+        rows = drift_rows(robots_of[r.mode], r, window, schedule)
+        if rows is None:
+            print(f"   | {label} | (no frames_host record: not split) | | | | | | |")
+            continue
+        for key, what in DRIFT_PARTS:
+            v = sorted(rows[key])
+            if not v:
+                continue
+            figures = " | ".join(
+                f"{x:.3f}" for x in (percentile(v, 0.5), percentile(v, 0.99),
+                                     percentile(v, 0.999), v[-1])
+            )
+            print(
+                f"   | {label} | {what} | {figures} | {len(v)} | {r.load:.2f}-{r.load_end:.2f} |"
+            )
+    print(
+        f"   issue lateness (b) over the whole {args.drift_seconds:g} s: its spread across the "
+        "robots per frame (ms), and the frames it put 0.4 ms or more apart"
+    )
+    for label, r in zip(labels, runs, strict=True):
+        rows = drift_rows(robots_of[r.mode], r, args.drift_seconds, schedule)
+        if rows is not None:
+            late = rows["late"]
+            apart = sum(x >= 0.4 for x in late)
+            print(f"   {label:34s} {stats(late)}  {apart:4d} >= 0.4 ms")
 
 
 def send_errors(relays: Sequence[Relay], run: Run, schedule: Schedule) -> list[float]:
@@ -645,7 +729,9 @@ def play(relays: Sequence[Relay], schedule: Schedule, mode: str) -> Run:
         wait_ended(relays, 10)
         return Run("failed", sent, time.monotonic(), None, load=load)
     wait_ended(relays, lead(relays) + schedule.duration + 10)
-    return Run(mode, sent, time.monotonic(), None if naive else start_at, load=load)
+    ended = time.monotonic()
+    start_time = None if naive else start_at
+    return Run(mode, sent, ended, start_time, load=load, load_end=os.getloadavg()[0])
 
 
 # ---------------------------------------------------------------------------- phases
@@ -704,11 +790,28 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
                     runs.append(play(members, short, f"start synced{group}"))
             if not args.no_naive:
                 runs.append(play(relays, short, "start naive"))
-        report_starts(args, runs, groups, locals_, short)
-        if args.drift_seconds > 0:
-            if plain:
-                runs.append(play(plain, long, "drift synced --no-realtime"))
-            runs.append(play(relays, long, "drift synced"))
+        if args.starts > 0:
+            report_starts(args, runs, groups, locals_, short)
+        # the drift show's groups of robots, by mode: the relays three ways, and the same
+        # show on the start's local processes (their own simulators), played in turn
+        drifting: dict[str, list[Relay]] = {
+            "drift synced --no-realtime": plain,
+            "drift synced": relays,
+            f"drift synced {args.before}": before,
+            **{
+                f"drift {mode}": [r for p in procs for r in p.robots]
+                for mode, procs in locals_.items()
+                if mode != WAKE and (args.drift_one_process or "one process" not in mode)
+            },
+        }
+        drifting = {k: v for k, v in drifting.items() if v}
+        for _ in range(args.drift_rounds if args.drift_seconds > 0 else 0):
+            for mode in drifting:
+                if mode.startswith("drift synced"):
+                    runs.append(play(drifting[mode], long, mode))
+                else:
+                    procs = locals_[mode[6:]]
+                    runs.append(play_local(procs, mode, lead(relays), args.drift_seconds))
             for relay in relays:
                 assert relay.client is not None and relay.tracker is not None
                 tb = relay.tracker.timebase
@@ -718,6 +821,8 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
                     f"+- {tb.rate_bound * 1e6:.3f} ppm estimated, offset bound "
                     f"{tb.bound * 1e3:.3f} ms"
                 )
+        if args.drift_seconds > 0 and not args.no_naive:
+            for relay in relays:
                 # offset only: one burst (rate unknown, taken as 0), then no tracking
                 relay.sync(session, track=False)
             runs.append(play(relays, long, "drift offset only"))
@@ -727,29 +832,12 @@ def phase_main(tmp: Path, args: argparse.Namespace, rng: random.Random) -> None:
                 relay.client.command("release")
                 claim(session, relay, sync=False)
             runs.append(play(relays, long, "drift naive"))
+            drifting |= {"drift offset only": relays, "drift naive": relays}
     finally:
         rig.close()
     if args.drift_seconds > 0:
-        loads = [r.load for r in runs if r.mode.startswith("drift")]
-        print(
-            f"\n2. skew after {args.drift_seconds:g} s of show: spread of the first and of the "
-            f"last frame (ms; load average {min(loads):.2f}-{max(loads):.2f})"
-        )
-        for r in runs:
-            if r.mode.startswith("drift"):
-                group = plain if r.mode.endswith("--no-realtime") else relays
-                first, last = skew(group, r, 0), skew(group, r, -1)
-                print(f"   {r.mode[6:]:26s} first {first or 0:8.3f}   last {last or 0:8.3f}")
-        window = min(DRIFT_WINDOW, args.drift_seconds / 2)
-        print(
-            f"   every frame of the last {window:g} s: its spread across the robots, and the "
-            "spread of each part (ms)"
-        )
-        for r in runs:
-            if r.mode.startswith("drift"):
-                group = plain if r.mode.endswith("--no-realtime") else relays
-                print_drift_parts(r.mode[6:], group, r, window, long)
-        print("   the clock tracker's drift estimates at the end of the synced show:")
+        report_drift(args, [r for r in runs if r.mode in drifting], drifting, long)
+        print("   the clock tracker's drift estimates at the end of each synced show:")
         for line in rates:
             print(f"     {line}")
 
@@ -933,9 +1021,10 @@ class LocalProcess:
     proc: subprocess.Popen[str]
     robots: list[Relay]  # stand-ins holding the simulators, for skew() and parts()
 
-    def start(self, start_at: float) -> None:
+    def start(self, start_at: float, seconds: float = SHORT) -> None:
+        """Play a show of ``seconds`` (:func:`make_schedule`) from ``start_at``."""
         assert self.proc.stdin is not None
-        self.proc.stdin.write(f"{start_at!r}\n")
+        self.proc.stdin.write(f"{start_at!r} {seconds!r}\n")
         self.proc.stdin.flush()
 
     def writes(self) -> tuple[dict[str, tuple[float, float]], dict[str, list[tuple[float, float]]]]:
@@ -970,20 +1059,23 @@ def start_local(rig: Rig, names: Sequence[str], *, rt: bool) -> LocalProcess:
     return LocalProcess(proc, robots)
 
 
-def play_local(procs: Sequence[LocalProcess], mode: str, lead_s: float) -> Run:
-    """The short show on every local process, all at one start ``lead_s`` from now."""
+def play_local(
+    procs: Sequence[LocalProcess], mode: str, lead_s: float, seconds: float = SHORT
+) -> Run:
+    """The show of ``seconds`` on every local process, all at one start ``lead_s`` from now."""
     load = os.getloadavg()[0]
     sent = time.monotonic()
     start_at = sent + lead_s
     for proc in procs:
-        proc.start(start_at)
+        proc.start(start_at, seconds)
     writes: dict[str, tuple[float, float]] = {}
     frames: dict[str, list[tuple[float, float]]] = {}
     for proc in procs:
         firsts, every = proc.writes()
         writes.update(firsts)
         frames.update(every)
-    return Run(mode, sent, time.monotonic(), start_at, writes, load, frames)
+    ended = time.monotonic()
+    return Run(mode, sent, ended, start_at, writes, load, os.getloadavg()[0], frames)
 
 
 def start_waker(rig: Rig, name: str) -> LocalProcess:
@@ -1011,7 +1103,7 @@ def wake_child(name: str) -> int:
     clock = MonotonicClock()
     print("ready", flush=True)
     for line in sys.stdin:
-        start_at = float(line)
+        start_at = float(line.split()[0])
         clock.sleep_until(start_at)
         woke = clock.now()
         hand_off_cpu()  # as a writer does after its write
@@ -1034,9 +1126,9 @@ def wake_spreads(runs: Sequence[Run]) -> tuple[list[float], list[float]]:
 def local_child(pairs: Sequence[str], rt: bool) -> int:
     """``--local-child NAME=PTY...``: see :class:`LocalProcess`."""
     names = [p.partition("=")[0] for p in pairs]
-    schedule = make_schedule(SHORT, names)
+    schedules = {SHORT: make_schedule(SHORT, names)}  # by length: the starts', the drift show's
     links = {
-        n: open_transport(p.partition("=")[2], baudrate=schedule.performers[0].link.baud)
+        n: open_transport(p.partition("=")[2], baudrate=schedules[SHORT].performers[0].link.baud)
         for n, p in zip(names, pairs, strict=True)
     }
     realtime.configure("required" if rt else "off")  # as run does: writers raise themselves
@@ -1045,7 +1137,10 @@ def local_child(pairs: Sequence[str], rt: bool) -> int:
     print("ready", flush=True)
     try:
         for line in sys.stdin:
-            start_at = float(line)
+            start_at, seconds = (float(x) for x in line.split())
+            if seconds not in schedules:
+                schedules[seconds] = make_schedule(seconds, names)
+            schedule = schedules[seconds]
             bus = EventBus()
             recorder = EventRecorder(bus, FrameSent)
             runner = local_runner(
@@ -1166,7 +1261,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         "--estimates", type=int, default=10, help="bursts per delayed relay (0: skip that part)"
     )
     parser.add_argument("--scale", type=int, default=16, help="relays in the scale test (0: skip)")
+    parser.add_argument(
+        "--drift-rounds",
+        type=int,
+        default=1,
+        help="drift shows synced and on the local processes, in turn, this many times",
+    )
+    parser.add_argument(
+        "--drift-one-process",
+        action="store_true",
+        help="the drift show on the one local process too (a minute more a round)",
+    )
+    parser.add_argument(
+        "--thread-names",
+        action="store_true",
+        help="relays note their threads' kernel ids and names (with --keep, for a kernel trace)",
+    )
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--keep", type=Path, metavar="DIR", help="keep the records in DIR (a new directory)"
+    )
     parser.add_argument(
         "--quick", action="store_true", help="5 starts, 10 s drift, 3 bursts, no scale test"
     )
@@ -1185,7 +1299,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         action="store_true",
         help="also relays without the tracer (XGO_SHOW_TEST_TRACE), in turn with the others",
     )
-    parser.add_argument("--no-naive", action="store_true", help="no naive starts (time)")
+    parser.add_argument(
+        "--no-naive",
+        action="store_true",
+        help="no naive starts, no naive or offset-only drift shows (time)",
+    )
     parser.add_argument(
         "--before",
         metavar="REV",
@@ -1201,10 +1319,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         return local_child(args.local_child, not args.no_realtime)
     if args.sim_realtime:
         SIM_PRIORITY.append(20)
+    if args.thread_names:
+        THREAD_NAMES.append(True)
     if args.quick:
         args.starts, args.drift_seconds, args.estimates, args.scale = 5, 10.0, 3, 0
     rng = random.Random(args.seed)
     with tempfile.TemporaryDirectory(prefix="relay-sync-") as tmp:
+        if args.keep:  # every record (the simulators', the relays' run logs) kept there
+            args.keep.mkdir(parents=True)
+            tmp = str(args.keep)
         phase_main(Path(tmp), args, rng)
         if args.estimates > 0:
             phase_delay(Path(tmp), args, rng)
