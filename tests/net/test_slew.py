@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import threading
+import time
+from collections.abc import Iterator
 
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from xgo_show.net.offset import Timebase
-from xgo_show.net.slew import SlewingClock
+from xgo_show.net.slew import HOLD_AFTER, SlewingClock
 from xgo_show.net.testhooks import SkewedClock
 from xgo_show.runtime.clock import FakeClock, MonotonicClock
 
@@ -293,3 +295,124 @@ def test_a_wait_of_exactly_50_ms_is_one_wait() -> None:
     clock.follow(Timebase(0.0, 0.0, 0.0))
     assert clock.sleep_until(0.05)
     assert base.waits == [0.05]
+
+
+# ---------------------------------------------------------------------------- hold_off
+
+
+class Still(FakeClock):
+    """A fake base clock whose waits return at once without moving time: a writer's wait is
+    then registered and still pending, as it is while a real writer sleeps."""
+
+    def sleep_until(self, deadline: float, interrupt: threading.Event | None = None) -> bool:
+        return True
+
+
+@pytest.fixture
+def held(monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[Still, SlewingClock, list[float]]]:
+    """A slewing clock over :class:`Still`, and the sleeps ``hold_off`` takes (each one moves
+    the fake time on by its length)."""
+    from xgo_show.net import slew
+
+    base = Still(100.0)
+    sleeps: list[float] = []
+
+    def sleep(seconds: float) -> None:
+        sleeps.append(round(seconds, 9))
+        base.advance(seconds)
+
+    monkeypatch.setattr(slew.time, "sleep", sleep)
+    yield base, SlewingClock(base), sleeps
+    while _WRITERS:
+        _WRITERS.pop().set()
+
+
+_WRITERS: list[threading.Event] = []
+
+
+def _waits_for(clock: SlewingClock, *deadlines: float) -> None:
+    """Each deadline waited for by a thread of its own (as each robot's writer does), which
+    stays alive until the test ends (a thread's id is reused once it has ended)."""
+    for deadline in deadlines:
+        registered, end = threading.Event(), threading.Event()
+        _WRITERS.append(end)
+
+        def writer(deadline: float = deadline, registered: threading.Event = registered,
+                   end: threading.Event = end) -> None:
+            clock.sleep_until(deadline)
+            registered.set()
+            end.wait(10)
+
+        threading.Thread(target=writer, daemon=True).start()
+        assert registered.wait(10)
+
+
+def test_hold_off_returns_at_once_when_no_writer_waits(held) -> None:  # type: ignore[no-untyped-def]
+    base, clock, sleeps = held
+    clock.hold_off()
+    assert sleeps == [] and base.now() == 100.0
+
+
+@pytest.mark.parametrize(
+    ("due", "slept"),
+    [
+        (0.0015, [0.002]),  # 1.5 ms ahead: until 0.5 ms past it
+        (0.00199, [0.00249]),  # just inside the 2 ms before
+        (0.002, []),  # 2 ms ahead: far enough
+        (0.003, []),
+        (-0.0003, [0.0002]),  # passed 0.3 ms ago: the writer may still be writing
+        (-0.0005, []),  # 0.5 ms ago: done
+        (-0.010, []),
+    ],
+)
+def test_hold_off_waits_from_2_ms_before_a_writers_deadline_to_half_a_ms_after(
+    held, due: float, slept: list[float]
+) -> None:  # type: ignore[no-untyped-def]
+    _, clock, sleeps = held
+    _waits_for(clock, 100.0 + due)
+    clock.hold_off()
+    assert sleeps == pytest.approx(slept, abs=1e-9)
+
+
+def test_hold_off_waits_for_every_writer_due_meanwhile_but_5_ms_at_most(held) -> None:  # type: ignore[no-untyped-def]
+    base, clock, sleeps = held
+    _waits_for(clock, 100.0015, 100.0034)  # the second is due 1.4 ms after the first hold
+    clock.hold_off()
+    assert sleeps == pytest.approx([0.002, 0.0019], abs=1e-9)
+    assert base.now() == pytest.approx(100.0039, abs=1e-9)
+    _waits_for(clock, 100.0054, 100.0073, 100.0092)  # a chain: cut at 5 ms
+    clock.hold_off()
+    assert base.now() == pytest.approx(100.0089, abs=1e-9)
+
+
+def test_a_writers_next_wait_replaces_its_last_and_a_reset_forgets_them(held) -> None:  # type: ignore[no-untyped-def]
+    _, clock, sleeps = held
+    clock.sleep_until(100.001)  # this thread: due 1 ms ahead...
+    clock.sleep_until(100.010)  # ... then its next frame, 10 ms ahead: nothing due soon
+    clock.hold_off()
+    assert sleeps == []
+    _waits_for(clock, 100.001)
+    clock.reset()  # between shows: no writer waits any more
+    clock.hold_off()
+    assert sleeps == []
+
+
+def test_hold_off_reads_deadlines_on_the_conductors_time_as_the_writers_wait_for_them(
+    held,
+) -> None:  # type: ignore[no-untyped-def]
+    _, clock, sleeps = held
+    clock.follow(Timebase(offset=-5.0, ref=100.0))  # the conductor's clock is 5 s ahead
+    _waits_for(clock, 105.0015)  # a show-clock deadline: 1.5 ms from now
+    clock.hold_off()
+    assert sleeps == pytest.approx([0.002], abs=1e-9)
+
+
+def test_on_the_real_clock_a_thread_holds_off_until_past_a_waiting_writers_deadline() -> None:
+    clock = SlewingClock(MonotonicClock())
+    deadline = time.monotonic() + 0.2
+    writer = threading.Thread(target=clock.sleep_until, args=(deadline,))
+    writer.start()
+    MonotonicClock().sleep_until(deadline - 0.001)  # 1 ms before it (or later, if busy)
+    clock.hold_off()
+    assert time.monotonic() >= deadline + HOLD_AFTER  # never earlier, however late it woke
+    writer.join()

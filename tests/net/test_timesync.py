@@ -161,3 +161,27 @@ def test_no_server_is_one_clear_error(zenoh_pair: Pair) -> None:
     _, conductor = zenoh_pair
     with pytest.raises(TimeSyncError, match=r"no answer to 2 time-sync pings within 0\.1 s"):
         measure(conductor, KEY, n=2, timeout=0.1)
+
+
+def test_a_relay_holds_off_before_each_answer_and_the_estimate_leaves_the_wait_out(
+    zenoh_pair: Pair, wait: Callable[..., None]
+) -> None:
+    relay, conductor = zenoh_pair
+    relay_clock = SkewedClock(MonotonicClock(), offset=-3.0, ppm=0.0)
+    held: list[float] = []
+
+    def hold_off() -> None:  # as a relay's clock does while a writer is due: 20 ms here
+        held.append(time.monotonic())
+        time.sleep(0.02)
+
+    server = serve_time(relay, KEY, relay_clock, hold_off=hold_off)
+    try:
+        _reachable(conductor, wait)
+        held.clear()
+        est = measure(conductor, KEY, n=5)
+    finally:
+        server.close()
+    assert len(held) == 5  # once per answer, between its two stamps:
+    assert est.samples == 5 and est.consistent
+    assert abs(est.offset - _truth(relay_clock)) <= est.bound
+    assert est.bound < 0.005  # not the 10 ms that half a held round trip would be

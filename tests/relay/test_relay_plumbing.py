@@ -22,6 +22,7 @@ import pytest
 from tests.conftest import wait_until
 from xgo_show.errors import RelayRefused
 from xgo_show.net import messages as msg
+from xgo_show.net.slew import SlewingClock
 from xgo_show.net.testhooks import DelayInjector, SkewedClock
 from xgo_show.relay import server
 from xgo_show.relay.robots import OwnedRobot, close_robots, open_robots
@@ -179,6 +180,33 @@ def test_a_heartbeat_is_answered_at_once_in_the_callers_thread(
     session.queryables[KEY["cmd"]](beat)
     assert beat.replies and beat.threads == [threading.current_thread().name]
     assert beat.answer()["seq"] == 5 and beat.answer()["show"]["state"] == "idle"
+
+
+def test_heartbeats_pings_and_listings_hold_off_while_a_writer_is_due_other_commands_do_not(
+    robots: dict[str, OwnedRobot], monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    held: list[str] = []  # the thread of each hold-off (Zenoh's callback thread, here ours)
+    monkeypatch.setattr(SlewingClock, "hold_off",
+                        lambda self: held.append(threading.current_thread().name))
+    r, session, _ = served(robots)
+    try:
+        hold(r)
+        assert held == []
+        beat = Incoming(KEY["cmd"], encoded("heartbeat", seq=5))
+        session.queryables[KEY["cmd"]](beat)
+        assert held == [threading.current_thread().name] and beat.answer()["ok"]
+        ping = json.dumps({"v": 1, "op": "ping", "seq": 3}).encode()
+        assert session.query(KEY["time"], ping, wait=5.0).replies
+        assert len(held) == 2
+        listing = Incoming("ns/relay/*/info", None)
+        session.queryables[KEY["info"]](listing)
+        assert len(held) == 3 and listing.replies
+        probe = Incoming(KEY["cmd"], encoded("probe", seq=6, performer="rex"))
+        session.queryables[KEY["cmd"]](probe)  # the worker's: a stop must not wait
+        assert probe.done.wait(10.0) and probe.answer()["ok"]
+        assert len(held) == 3
+    finally:
+        r.close()
 
 
 # --- time sync -------------------------------------------------------------------------------

@@ -129,8 +129,10 @@ class TimeServer:
         clock: Clock,
         on_timebase: Callable[[Timebase, str], object] | None,
         delay: DelayInjector | None,
+        hold_off: Callable[[], object] | None = None,
     ) -> None:
         self.key = key
+        self.hold_off = hold_off
         self.clock = clock
         self.on_timebase = on_timebase
         self.delay = delay
@@ -145,6 +147,10 @@ class TimeServer:
 
     def _on_query(self, query: zenoh.Query) -> None:
         t1 = self.clock.now()
+        if self.hold_off is not None:
+            # Not while a writer of this process needs Python's lock; between the two stamps,
+            # so the estimate leaves the wait out (Exchange.rtt).
+            self.hold_off()
         try:
             request = _decode(_payload(query))
             op = request.get("op")
@@ -201,6 +207,7 @@ def serve_time(
     *,
     on_timebase: Callable[[Timebase, str], object] | None = None,
     delay: DelayInjector | None = None,
+    hold_off: Callable[[], object] | None = None,
 ) -> TimeServer:
     """Answer time-sync pings on ``key`` with readings of ``clock`` (the relay's base clock).
 
@@ -208,9 +215,12 @@ def serve_time(
     :meth:`SlewingClock.follow <xgo_show.net.slew.SlewingClock.follow>` after checking that
     this conductor holds the relay); it raises an :class:`~xgo_show.errors.XgoShowError` to
     refuse, and may return the correction (a float) for the reply. ``delay`` (test-only) holds
-    every ping reply back after stamping it, as a slow network would.
+    every ping reply back after stamping it, as a slow network would. ``hold_off()`` is called
+    first in each answer (a relay's :meth:`SlewingClock.hold_off
+    <xgo_show.net.slew.SlewingClock.hold_off>`: the answer waits while a writer is due),
+    between the reply's two stamps, so the estimate leaves the wait out.
     """
-    return TimeServer(session, key, clock, on_timebase, delay)
+    return TimeServer(session, key, clock, on_timebase, delay, hold_off)
 
 
 # ---------------------------------------------------------------------------- conductor side

@@ -170,6 +170,7 @@ class Relay:
             self.base,
             on_timebase=self._on_timebase,
             delay=self.sync_delay,
+            hold_off=self.clock.hold_off,
         )
         self._declared = [
             s.declare_queryable(relay_key(ns, name, "cmd"), self._on_command),
@@ -256,15 +257,19 @@ class Relay:
     # ------------------------------------------------------------------ Zenoh callbacks
 
     def _on_info(self, query: zenoh.Query) -> None:
+        self.clock.hold_off()
         # On its own key, not the query's: a listing asks NS/relay/*/info, and Zenoh keeps
         # one reply per key, so relays answering on the wildcard hid each other.
         query.reply(relay_key(self.namespace, self.name, "info"), msg.encode(self.describe()))
 
     def _on_command(self, query: zenoh.Query) -> None:
-        # Heartbeats are answered here, at once; everything else by the worker, in order.
+        # Heartbeats are answered here, at once (once no writer is due: Zenoh runs this on a
+        # thread of its own, which would hold Python's lock a writer needs, see
+        # SlewingClock.hold_off); everything else by the worker, in order.
         payload = query.payload
         data = b"" if payload is None else payload.to_bytes()
         if len(data) < 1024 and b'"heartbeat"' in data:
+            self.clock.hold_off()
             self._reply(query, data)
             return
         self._work.put(query)
