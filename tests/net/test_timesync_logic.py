@@ -210,6 +210,21 @@ def test_a_delay_holds_each_ping_reply_back_after_stamping_it() -> None:
     assert not th.is_alive()
 
 
+def test_every_answer_holds_off_first_and_a_ping_between_its_two_stamps() -> None:
+    net, clock = looped(), Ticking(50.0, step=1.0)
+    held: list[float] = []  # the clock's reading when the server held off
+
+    def hold_off() -> None:  # a relay's: while one of its writers is due
+        held.append(clock.now())
+
+    serve_time(net, KEY, clock, hold_off=hold_off)  # type: ignore[arg-type]
+    q = ask(net, {"v": 1, "op": "ping", "seq": 7})
+    assert answer(q) == {"v": 1, "seq": 7, "t1": 50.0, "t2": 52.0}  # the hold read 51
+    assert held == [51.0]
+    ask(net, {"v": 1, "op": "dance"})  # a refused one too: the hold comes before reading it
+    assert len(held) == 2
+
+
 # --- the conductor's side --------------------------------------------------------------------
 
 def served(relay_start: float = 5000.0) -> RecordingSession:
