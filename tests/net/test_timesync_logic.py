@@ -307,6 +307,7 @@ def test_the_tracker_starts_with_a_burst_pushes_it_and_keeps_tracking() -> None:
     finally:
         tracker.close()
     assert not th.is_alive()
+    assert tracker.timebase == updates[-1].timebase  # the newest round's, kept
     assert net.undeclared == [("querier", KEY)]
     seqs = [json.loads(p)["seq"] for p in net_payloads(net)]
     assert seqs[:11] == list(range(1, 12))  # numbered on from burst to burst
@@ -387,6 +388,7 @@ def pushed(replies: list[Answer]) -> RecordingSession:
     ([Answer(err=b'{"v":1,"error":"not the holder"}')], "not the holder"),
     ([Answer(err=b"plain words")], "plain words"),
     ([Answer(err=b"")], "timebase refused"),
+    ([Answer()], "timebase refused"),  # neither a sample nor an error
     ([], "no answer to the timebase within 0.5 s"),
 ])
 def test_a_push_says_why_it_did_not_take(replies: list[Answer], says: str) -> None:
