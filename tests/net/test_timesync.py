@@ -170,9 +170,9 @@ def test_a_relay_holds_off_before_each_answer_and_the_estimate_leaves_the_wait_o
     relay_clock = SkewedClock(MonotonicClock(), offset=-3.0, ppm=0.0)
     held: list[float] = []
 
-    def hold_off() -> None:  # as a relay's clock does while a writer is due: 20 ms here
+    def hold_off() -> None:  # as a relay's clock does while a writer is due: 50 ms here
         held.append(time.monotonic())
-        time.sleep(0.02)
+        time.sleep(0.05)
 
     server = serve_time(relay, KEY, relay_clock, hold_off=hold_off)
     try:
@@ -184,4 +184,6 @@ def test_a_relay_holds_off_before_each_answer_and_the_estimate_leaves_the_wait_o
     assert len(held) == 5  # once per answer, between its two stamps:
     assert est.samples == 5 and est.consistent
     assert abs(est.offset - _truth(relay_clock)) <= est.bound
-    assert est.bound < 0.005  # not the 10 ms that half a held round trip would be
+    # not the 25 ms or more that half a held round trip would be (the lowest of 5 loopback
+    # round trips stays far under 40 ms even on a loaded machine)
+    assert est.bound < 0.02
