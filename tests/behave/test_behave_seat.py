@@ -42,16 +42,8 @@ from xgo_show.wire.xgo import reply_frame
 T0 = 500.0
 
 
-class Scripted(Transport):
-    """A port whose reads return the chunks a test queues (``b""`` when none are left) or
-    raise ``failure``; every read's (size, timeout) is recorded, every write kept."""
-
-    def __init__(self, url: str = "scripted:rex") -> None:
-        super().__init__(url)
-        self.chunks: list[bytes] = []
-        self.reads: list[tuple[int, float]] = []
-        self.written: list[bytes] = []
-        self.failure: Exception | None = None
+class AlwaysOpen(Transport):
+    """A port with nothing to open or close: the test ports below differ in reads and writes."""
 
     def open(self) -> None:
         pass
@@ -62,6 +54,18 @@ class Scripted(Transport):
     @property
     def is_open(self) -> bool:
         return True
+
+
+class Scripted(AlwaysOpen):
+    """A port whose reads return the chunks a test queues (``b""`` when none are left) or
+    raise ``failure``; every read's (size, timeout) is recorded, every write kept."""
+
+    def __init__(self, url: str = "scripted:rex") -> None:
+        super().__init__(url)
+        self.chunks: list[bytes] = []
+        self.reads: list[tuple[int, float]] = []
+        self.written: list[bytes] = []
+        self.failure: Exception | None = None
 
     def write(self, data: bytes) -> None:
         self.written.append(bytes(data))
@@ -267,7 +271,7 @@ def test_every_cut_hands_over_through_the_same_rest_and_posture(tmp_path: Path) 
         assert sent[i + len(handover)][0] == "frame"  # then the next routine from its start
 
 
-class Hanging(Transport):
+class Hanging(AlwaysOpen):
     """A port whose writes (``hang_writes``) or reads (``hang_reads``) block until
     ``release`` is set, whatever their timeout."""
 
@@ -276,16 +280,6 @@ class Hanging(Transport):
         self.hang_writes, self.hang_reads = hang_writes, hang_reads
         self.release = threading.Event()
         self.blocked = threading.Event()
-
-    def open(self) -> None:
-        pass
-
-    def close(self) -> None:
-        pass
-
-    @property
-    def is_open(self) -> bool:
-        return True
 
     def write(self, data: bytes) -> None:
         if self.hang_writes:
