@@ -385,6 +385,25 @@ def test_hold_off_waits_for_every_writer_due_meanwhile_but_5_ms_at_most(held) ->
     assert base.now() == pytest.approx(100.0089, abs=1e-9)
 
 
+def test_hold_off_ends_after_5_ms_of_sleep_on_a_base_clock_that_does_not_move(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from xgo_show.net import slew
+
+    base = Still(100.0)
+    clock = SlewingClock(base)
+    sleeps: list[float] = []
+    monkeypatch.setattr(slew.time, "sleep", lambda seconds: sleeps.append(round(seconds, 9)))
+    _waits_for(clock, 100.0015)  # due, and still due whatever is slept: the base stands still
+    done = threading.Thread(target=clock.hold_off, daemon=True)
+    done.start()
+    done.join(5.0)  # a hold-off bounded by the base clock's reading never ends here
+    assert not done.is_alive()
+    assert sleeps == pytest.approx([0.002, 0.002, 0.001], abs=1e-9)
+    while _WRITERS:
+        _WRITERS.pop().set()
+
+
 def test_a_writers_next_wait_replaces_its_last_and_a_reset_forgets_them(held) -> None:  # type: ignore[no-untyped-def]
     _, clock, sleeps = held
     clock.sleep_until(100.001)  # this thread: due 1 ms ahead...

@@ -177,12 +177,17 @@ class SlewingClock:
         this 2-CPU VM).
         """
         read = self._read
-        until = read() + HOLD_LONGEST
-        while (now := read()) < until:
+        # Bounded by its own sleeps, not by the base clock's reading: a base that does not move
+        # with real time (a fake one) would otherwise keep this thread here for ever.
+        left = HOLD_LONGEST
+        while left > 0:
+            now = read()
             due = [t for t in tuple(self._due.values()) if now - HOLD_AFTER < t < now + HOLD_BEFORE]
             if not due:
                 return
-            time.sleep(min(max(due) + HOLD_AFTER, until) - now)
+            pause = min(max(due) + HOLD_AFTER - now, left)
+            time.sleep(pause)
+            left -= pause
 
     def to_base(self, t: float) -> float:
         """The base clock's reading when this clock will read ``t`` (as things stand now)."""
