@@ -364,15 +364,22 @@ def _waited(alarm: Alarm) -> tuple[threading.Thread, list[float]]:
     return th, woke
 
 
-@pytest.mark.parametrize("kind", ["kernel", "portable"])
-def test_an_alarm_fires_once_at_the_latest_time_set(kind: str) -> None:
+def _alarm(kind: str) -> Alarm:
+    """An alarm on the kernel's timer (timerfd, Linux) or the portable way (closed: the
+    condition-variable way, as where there is no timerfd)."""
     if kind == "kernel" and not sys.platform.startswith("linux"):
         pytest.skip("timerfd is Linux's")
     alarm = Alarm()
     if kind == "portable":
-        alarm.close()  # the condition-variable way, as where there is no timerfd
+        alarm.close()
     else:
         assert alarm._kernel is not None
+    return alarm
+
+
+@pytest.mark.parametrize("kind", ["kernel", "portable"])
+def test_an_alarm_fires_once_at_the_latest_time_set(kind: str) -> None:
+    alarm = _alarm(kind)
     alarm.arm(5.0)
     alarm.arm(0.05)  # replaces the 5 s
     t0 = time.monotonic()
@@ -395,11 +402,7 @@ def test_an_alarm_fires_once_at_the_latest_time_set(kind: str) -> None:
 
 @pytest.mark.parametrize("kind", ["kernel", "portable"])
 def test_a_prepared_arming_arms_its_delay_as_arm_does(kind: str) -> None:
-    if kind == "kernel" and not sys.platform.startswith("linux"):
-        pytest.skip("timerfd is Linux's")
-    alarm = Alarm()
-    if kind == "portable":
-        alarm.close()
+    alarm = _alarm(kind)
     arm = alarm.prepared(0.1)
     if kind == "kernel":  # the old value's pointer is NULL: the kernel writes it nowhere
         assert isinstance(arm, functools.partial) and len(arm.args) == 4
